@@ -1,0 +1,47 @@
+"""The ``accelcal`` command.
+
+:func:`main` runs the typer application with accelcal's error policy: bad
+input (an :class:`~accelcal.errors.AccelcalError` or a usage error) prints
+one line, ``accelcal: error: ...``, on standard error and exits with
+status 2, with no traceback. Command modules import numpy-heavy code inside
+their functions so that ``accelcal --help`` starts quickly.
+"""
+
+import sys
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point of the ``accelcal`` console script."""
+    import typer
+
+    from accelcal.cli.app import app
+    from accelcal.errors import AccelcalError
+
+    command = typer.main.get_command(app)
+    try:
+        code = command.main(args=argv, prog_name="accelcal", standalone_mode=False)
+    except AccelcalError as exc:
+        _die(str(exc))
+    except (KeyboardInterrupt, typer.Abort):
+        print("accelcal: aborted", file=sys.stderr)
+        sys.exit(130)
+    except BrokenPipeError:
+        sys.exit(0)
+    except Exception as exc:
+        # Usage and parameter errors of the (possibly vendored) click layer
+        # under typer: recognised by their interface, not their class.
+        if not (hasattr(exc, "format_message") and hasattr(exc, "exit_code")):
+            raise
+        if not exc.format_message().strip():
+            # A group called without a command: its help was printed already.
+            sys.exit(exc.exit_code)
+        ctx = getattr(exc, "ctx", None)
+        hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
+        _die(exc.format_message() + hint)
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+def _die(message: str) -> None:
+    one_line = " ".join(message.split())
+    print(f"accelcal: error: {one_line}", file=sys.stderr)
+    sys.exit(2)

@@ -1,0 +1,146 @@
+"""Helpers shared by the command modules: value grids, model loading, output.
+
+Kept free of numpy at import time; numpy is imported inside the functions.
+"""
+
+import csv
+import io
+import json
+import math
+import re
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from accelcal.errors import AccelcalError
+
+FORMATS = ("table", "csv", "json")
+
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_RANGE = re.compile(rf"^\s*({_NUMBER})\s*:\s*({_NUMBER})\s*:\s*({_NUMBER})\s*$")
+
+
+def parse_number(text: str, what: str) -> float:
+    """Parse one finite number; ``what`` names the option in the error."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise AccelcalError(f"{what}: {text.strip()!r} is not a number") from None
+    if not math.isfinite(value):
+        raise AccelcalError(f"{what}: {text.strip()!r} is not finite; give a finite number")
+    return value
+
+
+def parse_grid(text: str, what: str) -> list[float]:
+    """Parse a list of values: ``1,2,4``, a range ``start:stop:step``, or both.
+
+    A range includes ``stop`` when it falls on the grid (within 1e-9 of a
+    step); values are computed as ``start + k * step`` (no accumulated
+    rounding). Items are comma separated and may mix numbers and ranges.
+
+    Raises
+    ------
+    AccelcalError
+        For an empty list, a malformed item, a zero step, a step pointing away
+        from ``stop``, or a non-finite value; the message names ``what``.
+    """
+    items = [item.strip() for item in text.split(",")]
+    if not text.strip() or any(not item for item in items):
+        raise AccelcalError(
+            f"{what}: {text!r} is empty or has an empty item; give numbers or "
+            "start:stop:step ranges separated by commas"
+        )
+    values: list[float] = []
+    for item in items:
+        if ":" not in item:
+            values.append(parse_number(item, what))
+            continue
+        match = _RANGE.match(item)
+        if not match:
+            raise AccelcalError(f"{what}: {item!r} is not a range start:stop:step (e.g. 5:10:1)")
+        start, stop, step = (float(g) for g in match.groups())
+        if step == 0.0:
+            raise AccelcalError(f"{what}: range {item!r} has a zero step")
+        span = (stop - start) / step
+        if span < -1e-9:
+            raise AccelcalError(
+                f"{what}: range {item!r} is empty (the step goes away from stop)"
+            )
+        count = math.floor(span + 1e-9) + 1
+        values.extend(start + k * step for k in range(count))
+    return values
+
+
+def load_model(path: Path | None):
+    """The model in ``path``, or the embedded default when ``path`` is None."""
+    from accelcal.defaults import default_model
+    from accelcal.io.model_file import read_model
+
+    return default_model() if path is None else read_model(path)
+
+
+def check_format(fmt: str) -> str:
+    """Validate an output format name."""
+    if fmt not in FORMATS:
+        raise AccelcalError(f"--format {fmt!r} is not one of {', '.join(FORMATS)}")
+    return fmt
+
+
+def render(
+    rows: Sequence[dict],
+    fmt: str,
+    *,
+    title: str | None = None,
+    headers: dict[str, str] | None = None,
+) -> str:
+    """Render rows (dicts with the same keys) as CSV, JSON or a readable table.
+
+    CSV and JSON keep full precision (shortest round-trip repr); the table
+    shows 7 significant digits. ``headers`` relabels columns in the table
+    only (e.g. to add units); CSV and JSON keys stay machine names.
+    """
+    check_format(fmt)
+    columns = list(rows[0]) if rows else []
+    if fmt == "json":
+        return json.dumps([{k: _plain(v) for k, v in r.items()} for r in rows], indent=2) + "\n"
+    if fmt == "csv":
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(columns)
+        for r in rows:
+            writer.writerow([_csv_cell(r[c]) for c in columns])
+        return buf.getvalue()
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=title, show_lines=False)
+    for c in columns:
+        table.add_column((headers or {}).get(c, c), justify="right")
+    for r in rows:
+        table.add_row(*[_table_cell(r[c]) for c in columns])
+    buf = io.StringIO()
+    Console(file=buf, width=200, force_terminal=False, color_system=None).print(table)
+    return buf.getvalue()
+
+
+def emit(rows: Sequence[dict], fmt: str, **kwargs) -> None:
+    """Render rows and write them to standard output."""
+    sys.stdout.write(render(rows, fmt, **kwargs))
+
+
+def _plain(value):
+    if hasattr(value, "item"):
+        return value.item()
+    return value
+
+
+def _csv_cell(value) -> str:
+    value = _plain(value)
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def _table_cell(value) -> str:
+    value = _plain(value)
+    if isinstance(value, float):
+        return f"{value:.7g}"
+    return str(value)

@@ -1,0 +1,1 @@
+"""File formats: schemas, readers with validation, writers that write atomically."""

@@ -1,0 +1,430 @@
+"""The accelerometer error model: IEEE 1293 style terms plus asymmetry.
+
+One model covers the three seed papers. With specific force components
+a_i, a_o, a_p in g along the input (IA), output (OA) and pendulum (PA) axes,
+the indicated acceleration in g is ::
+
+    E/K1 = K0 + a_i + K2 a_i^2 + K3 a_i^3 + K4 a_i^4 + Ko a_o + Kp a_p
+           + Koo a_o^2 + Kpp a_p^2 + Kio a_i a_o + Kip a_i a_p + Kop a_o a_p
+           + 1/2 sgn(a_i) (K0' + K1' a_i) + eps
+
+with sgn(0) = 0 and eps ~ N(0, sigma^2) in g; the output E is that times the
+scale factor K1 in the model's output unit per g.
+
+References
+----------
+.. [Guan2021] Guan W., Asymmetry coefficient errors of accelerometer under
+   overload-vibration environment, Metrology & Measurement Technology 41(3),
+   2021, eqs. (1)-(3).
+.. [GuanTang] Guan W., Tang L., Shaker test method of transverse sensitivity
+   of inertial accelerometers, eq. (13).
+.. [Dong2014] Dong C., Liu Q., Ren S., Test methods of four integrated
+   accelerometers on an indexing head, 2014, eq. (5).
+.. [IEEE1293] IEEE Std 1293-2018, model equation with K4.
+"""
+
+import difflib
+import numbers
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+from accelcal.units import OUTPUT_UNITS, OutputUnit
+
+
+class Term(NamedTuple):
+    """Description of one coefficient of :class:`ErrorModel`."""
+
+    unit: str
+    """Unit; ``{out}`` stands for the model's output unit."""
+    description: str
+
+
+TERMS: dict[str, Term] = {
+    "K0": Term("g", "bias"),
+    "K1": Term("{out}/g", "scale factor"),
+    "K2": Term("g/g^2", "second-order nonlinearity"),
+    "K3": Term("g/g^3", "third-order nonlinearity"),
+    "K4": Term("g/g^4", "fourth-order nonlinearity"),
+    "Ko": Term("g/g", "cross-axis sensitivity, output axis"),
+    "Kp": Term("g/g", "cross-axis sensitivity, pendulum axis"),
+    "Koo": Term("g/g^2", "cross-axis nonlinearity, output axis"),
+    "Kpp": Term("g/g^2", "cross-axis nonlinearity, pendulum axis"),
+    "Kio": Term("g/g^2", "cross-coupling, input x output axis"),
+    "Kip": Term("g/g^2", "cross-coupling, input x pendulum axis"),
+    "Kop": Term("g/g^2", "cross-coupling, output x pendulum axis"),
+    "K0_asym": Term("g", "bias asymmetry K0'"),
+    "K1_asym": Term("g/g", "scale-factor asymmetry K1'"),
+    "sigma": Term("g", "output noise standard deviation"),
+}
+"""Every coefficient of the model, in the order used in files and tables.
+These names are used everywhere: Python, files and the command line."""
+
+_GUANTANG = {
+    "k_i": "K1",
+    "k_0": "K0",
+    "k_ii": "K2",
+    "k_iii": "K3",
+    "k_o": "Ko",
+    "k_p": "Kp",
+    "k_oo": "Koo",
+    "k_pp": "Kpp",
+    "k_op": "Kop",
+    "k_io": "Kio",
+    "k_ip": "Kip",
+}
+"""GuanTang eq. (13) notation -> accelcal term names (no asymmetry terms)."""
+
+_DONG2014 = ("K_F", "K_I", "K_O", "K_IO", "K_II")
+"""Dong2014 eq. (5) coefficients, all in the output unit (volts)."""
+
+
+def unknown_term_message(name: str, valid) -> str:
+    """Message for an unknown coefficient name, with the closest valid names."""
+    valid = list(valid)
+    close = difflib.get_close_matches(name, valid, n=2)
+    hint = f" (did you mean {' or '.join(close)}?)" if close else ""
+    return f"unknown term {name!r}{hint}; valid terms are: {', '.join(valid)}"
+
+
+@dataclass(frozen=True, slots=True)
+class ErrorModel:
+    """Error model of a single-axis pendulous accelerometer.
+
+    Every coefficient is a finite float. Coefficients are in g per g^n (so the
+    model is independent of the output unit) except the scale factor ``K1``,
+    in ``output_unit`` per g, and the noise ``sigma``, in g. See
+    :data:`TERMS` for each term's unit and meaning.
+
+    Parameters
+    ----------
+    K0 : float
+        Bias, g.
+    K1 : float
+        Scale factor, output unit per g. Must be non-zero.
+    K2, K3, K4 : float
+        Second-, third- and fourth-order nonlinearity, g/g^2, g/g^3, g/g^4.
+    Ko, Kp : float
+        Cross-axis sensitivities to the output and pendulum axes, g/g.
+    Koo, Kpp : float
+        Cross-axis nonlinearities, g/g^2.
+    Kio, Kip, Kop : float
+        Cross-coupling coefficients, g/g^2.
+    K0_asym : float
+        Bias asymmetry K0', g.
+    K1_asym : float
+        Scale-factor asymmetry K1', dimensionless.
+    sigma : float
+        Standard deviation of the output noise, g. Must be >= 0.
+    output_unit : {"V", "mV", "mA", "g"}
+        Unit of the output E.
+
+    References
+    ----------
+    .. [1] Guan2021, eqs. (1)-(3); IEEE Std 1293-2018 model equation.
+
+    Examples
+    --------
+    >>> m = ErrorModel(K0=1e-4, K1=1.3, K2=1e-5)
+    >>> float(m.output(0.0))
+    0.00013
+    """
+
+    K0: float = 0.0
+    K1: float = 1.0
+    K2: float = 0.0
+    K3: float = 0.0
+    K4: float = 0.0
+    Ko: float = 0.0
+    Kp: float = 0.0
+    Koo: float = 0.0
+    Kpp: float = 0.0
+    Kio: float = 0.0
+    Kip: float = 0.0
+    Kop: float = 0.0
+    K0_asym: float = 0.0
+    K1_asym: float = 0.0
+    sigma: float = 0.0
+    output_unit: OutputUnit = "V"
+
+    def __post_init__(self) -> None:
+        for name in TERMS:
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
+                raise AccelcalError(
+                    f"ErrorModel term {name} must be a real number, "
+                    f"got {value!r} ({type(value).__name__})"
+                )
+            value = float(value)
+            if not np.isfinite(value):
+                raise AccelcalError(
+                    f"ErrorModel term {name} = {value} is not finite; give a finite number"
+                )
+            object.__setattr__(self, name, value)
+        if self.K1 == 0.0:
+            raise AccelcalError(
+                "ErrorModel term K1 (scale factor) is 0; it must be non-zero "
+                "(use K1 = 1 for an output in g)"
+            )
+        if self.sigma < 0.0:
+            raise AccelcalError(f"ErrorModel term sigma = {self.sigma} is negative; give >= 0")
+        if self.output_unit not in OUTPUT_UNITS:
+            raise AccelcalError(
+                f"ErrorModel output_unit {self.output_unit!r} is not one of "
+                f"{', '.join(OUTPUT_UNITS)}"
+            )
+
+    # ------------------------------------------------------------------ output
+    def output_g(self, a_i, a_o=0.0, a_p=0.0, *, rng: np.random.Generator | None = None):
+        """Indicated acceleration E/K1 in g.
+
+        Parameters
+        ----------
+        a_i, a_o, a_p : array_like
+            Specific force along IA, OA and PA in g. They broadcast against
+            each other with numpy rules (any leading shape).
+        rng : numpy.random.Generator, optional
+            When given and ``sigma > 0``, adds independent Gaussian noise of
+            standard deviation ``sigma`` to every output. Without it the
+            output is the noise-free model.
+
+        Returns
+        -------
+        numpy.ndarray or float
+            E/K1 in g, of the broadcast shape of the inputs.
+
+        Raises
+        ------
+        AccelcalError
+            If an input is not finite.
+
+        References
+        ----------
+        .. [1] Guan2021, eqs. (1)-(3).
+        """
+        a_i, a_o, a_p = (_finite_array(v, n) for v, n in ((a_i, "a_i"), (a_o, "a_o"), (a_p, "a_p")))
+        # Eq. (2) [Guan2021], with K4 [IEEE1293]; a_i polynomial in Horner form.
+        u = self.K0 + a_i * (1.0 + a_i * (self.K2 + a_i * (self.K3 + a_i * self.K4)))
+        u = u + a_o * (self.Ko + self.Koo * a_o + self.Kio * a_i + self.Kop * a_p)
+        u = u + a_p * (self.Kp + self.Kpp * a_p + self.Kip * a_i)
+        if self.K0_asym or self.K1_asym:
+            # Eq. (3) [Guan2021]; np.sign(0) == 0 exactly, as the paper defines sgn.
+            u = u + 0.5 * np.sign(a_i) * (self.K0_asym + self.K1_asym * a_i)
+        if rng is not None and self.sigma > 0.0:
+            u = u + rng.normal(0.0, self.sigma, size=np.shape(u))
+        return u
+
+    def output(self, a_i, a_o=0.0, a_p=0.0, *, rng: np.random.Generator | None = None):
+        """Output E in the model's output unit: ``K1 * output_g(...)``.
+
+        Parameters and noise are as in :meth:`output_g`.
+
+        References
+        ----------
+        .. [1] Guan2021, eq. (1): E = K1 U.
+        """
+        return self.K1 * self.output_g(a_i, a_o, a_p, rng=rng)
+
+    # ------------------------------------------------------------------ terms
+    def terms(self) -> dict[str, float]:
+        """Every coefficient by name, in :data:`TERMS` order."""
+        return {name: getattr(self, name) for name in TERMS}
+
+    def units(self) -> dict[str, str]:
+        """The unit of every coefficient, with the output unit filled in."""
+        return {name: term_unit(name, self.output_unit) for name in TERMS}
+
+    @classmethod
+    def from_terms(
+        cls, terms: Mapping[str, object], output_unit: OutputUnit = "V", *, base=None
+    ) -> "ErrorModel":
+        """Build a model from a mapping of term names to values.
+
+        Parameters
+        ----------
+        terms : mapping
+            Term name (see :data:`TERMS`) to value. Terms not given take the
+            value of ``base``, or zero (``K1 = 1``) without one.
+        output_unit : {"V", "mV", "mA", "g"}
+            Output unit, when ``base`` is not given.
+        base : ErrorModel, optional
+            Model whose terms and output unit fill in what ``terms`` omits.
+
+        Raises
+        ------
+        AccelcalError
+            For a name that is not a term (the message lists the valid ones)
+            or an invalid value.
+        """
+        for name in terms:
+            if name not in TERMS:
+                raise AccelcalError(unknown_term_message(name, TERMS))
+        if base is not None:
+            return cls(**{**base.terms(), **terms}, output_unit=base.output_unit)
+        return cls(**terms, output_unit=output_unit)
+
+    def replace(self, **terms) -> "ErrorModel":
+        """A copy with some terms changed, validated like the constructor.
+
+        ``output_unit`` may be given too; it relabels the unit without
+        rescaling K1.
+        """
+        unit = terms.pop("output_unit", self.output_unit)
+        return ErrorModel.from_terms({**self.terms(), **terms}, output_unit=unit)
+
+    # -------------------------------------------------------- paper notations
+    @classmethod
+    def from_guantang(cls, *, output_unit: OutputUnit = "mV", sigma=0.0, **coefficients):
+        """Model from GuanTang's notation, eq. (13).
+
+        Parameters
+        ----------
+        output_unit : {"V", "mV", "mA", "g"}
+            Unit of k_i's numerator (the paper uses mV/g).
+        sigma : float
+            Noise standard deviation in g (the paper's epsilon).
+        **coefficients
+            Any of k_i (output unit per g), k_0, k_ii, k_iii, k_o, k_p, k_oo,
+            k_pp, k_op, k_io, k_ip (g per g^n). Missing ones are zero
+            (k_i = 1).
+
+        References
+        ----------
+        .. [1] GuanTang, eq. (13); mapping in DOMAIN.md section 1.
+        """
+        mapped = {}
+        for name, value in coefficients.items():
+            if name not in _GUANTANG:
+                raise AccelcalError(unknown_term_message(name, _GUANTANG))
+            mapped[_GUANTANG[name]] = value
+        return cls.from_terms({**mapped, "sigma": sigma}, output_unit=output_unit)
+
+    def to_guantang(self) -> dict[str, float]:
+        """Coefficients in GuanTang's notation (eq. (13)).
+
+        Raises
+        ------
+        AccelcalError
+            If the model has terms GuanTang's model lacks (K4, asymmetry).
+        """
+        _require_zero(self, ("K4", "K0_asym", "K1_asym"), "GuanTang eq. (13)")
+        return {paper: getattr(self, ours) for paper, ours in _GUANTANG.items()}
+
+    @classmethod
+    def from_dong2014(
+        cls, K_F, K_I, K_O=0.0, K_IO=0.0, K_II=0.0, *, output_unit: OutputUnit = "V", sigma=0.0
+    ) -> "ErrorModel":
+        """Model from Dong2014's notation, eq. (5), all in the output unit.
+
+        ``U = K_F + K_I a_i + K_O a_o + K_IO a_i a_o + K_II a_i^2``, so
+        K1 = K_I, K0 = K_F/K_I, Ko = K_O/K_I, Kio = K_IO/K_I, K2 = K_II/K_I.
+
+        Parameters
+        ----------
+        K_F, K_I, K_O, K_IO, K_II : float
+            Bias, scale factor (per g), cross-axis, cross-coupling and
+            second-order coefficients in the output unit.
+        output_unit : {"V", "mV", "mA", "g"}
+            The unit they are given in (volts in the paper).
+        sigma : float
+            Noise standard deviation in the output unit (the paper's epsilon);
+            stored in g as ``sigma / K_I``.
+
+        References
+        ----------
+        .. [1] Dong2014, eq. (5).
+        """
+        K_I = _real("K_I", K_I)
+        if K_I == 0.0:
+            raise AccelcalError("Dong2014 scale factor K_I is 0; it must be non-zero")
+        return cls(
+            K0=_real("K_F", K_F) / K_I,
+            K1=K_I,
+            Ko=_real("K_O", K_O) / K_I,
+            Kio=_real("K_IO", K_IO) / K_I,
+            K2=_real("K_II", K_II) / K_I,
+            sigma=abs(_real("sigma", sigma) / K_I),
+            output_unit=output_unit,
+        )
+
+    def to_dong2014(self) -> dict[str, float]:
+        """Coefficients in Dong2014's notation (eq. (5)), in the output unit.
+
+        Raises
+        ------
+        AccelcalError
+            If the model has terms Dong2014's model lacks (K3, K4, PA terms,
+            Koo, Kop, asymmetry): the notation cannot carry them.
+        """
+        _require_zero(
+            self,
+            ("K3", "K4", "Kp", "Koo", "Kpp", "Kip", "Kop", "K0_asym", "K1_asym"),
+            "Dong2014 eq. (5)",
+        )
+        return {
+            "K_F": self.K1 * self.K0,
+            "K_I": self.K1,
+            "K_O": self.K1 * self.Ko,
+            "K_IO": self.K1 * self.Kio,
+            "K_II": self.K1 * self.K2,
+        }
+
+    # -------------------------------------------------------------- files
+    def to_json(self) -> str:
+        """The model as the text of a model file (see :mod:`accelcal.io.model_file`)."""
+        from accelcal.io.model_file import dumps_model
+
+        return dumps_model(self)
+
+    @classmethod
+    def from_json(cls, text: str, *, source: str = "<string>") -> "ErrorModel":
+        """Parse the text of a model file; errors name ``source``."""
+        from accelcal.io.model_file import loads_model
+
+        return loads_model(text, source=source)
+
+    def save(self, path) -> None:
+        """Write the model file atomically (nothing half-written on failure)."""
+        from accelcal.io.model_file import write_model
+
+        write_model(self, path)
+
+    @classmethod
+    def load(cls, path) -> "ErrorModel":
+        """Read and validate a model file."""
+        from accelcal.io.model_file import read_model
+
+        return read_model(path)
+
+
+def term_unit(name: str, output_unit: str) -> str:
+    """Unit of term ``name`` for a model whose output is in ``output_unit``."""
+    return TERMS[name].unit.format(out=output_unit)
+
+
+def _real(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise AccelcalError(f"{name} must be a real number, got {value!r}")
+    value = float(value)
+    if not np.isfinite(value):
+        raise AccelcalError(f"{name} = {value} is not finite; give a finite number")
+    return value
+
+
+def _finite_array(value, name: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if not np.isfinite(arr).all():
+        raise AccelcalError(f"input {name} has non-finite values (NaN or inf); give finite g values")
+    return arr
+
+
+def _require_zero(model: ErrorModel, names, notation: str) -> None:
+    extra = [n for n in names if getattr(model, n) != 0.0]
+    if extra:
+        raise AccelcalError(
+            f"{notation} has no term for {', '.join(extra)}; the model's non-zero "
+            "values there cannot be expressed in that notation"
+        )

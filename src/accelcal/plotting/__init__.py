@@ -1,0 +1,36 @@
+"""Figures (matplotlib, imported only here and lazily by callers).
+
+Every figure is written as PNG and SVG side by side by :func:`save_figure`,
+atomically, with the non-interactive Agg backend.
+"""
+
+from pathlib import Path
+
+
+def new_figure(**kwargs):
+    """A new matplotlib figure on the Agg backend (no display needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    from matplotlib.figure import Figure
+
+    return Figure(**{"figsize": (6.4, 4.4), "layout": "constrained", **kwargs})
+
+
+def save_figure(fig, directory, stem: str) -> list[Path]:
+    """Write ``fig`` to ``directory/stem.png`` and ``.svg``; return the paths.
+
+    The directory is created if needed. Each file is written to a temporary
+    name and moved into place, so a failure leaves no partial file.
+    """
+    from accelcal.io.atomic import atomic_path
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for ext, extra in (("png", {"dpi": 150}), ("svg", {})):
+        target = directory / f"{stem}.{ext}"
+        with atomic_path(target) as tmp:
+            fig.savefig(tmp, format=ext, **extra)
+        paths.append(target)
+    return paths

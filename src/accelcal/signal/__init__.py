@@ -1,0 +1,1 @@
+"""Signal processing of sampled records: whole periods, means, sine fits, phasors."""
