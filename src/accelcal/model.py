@@ -85,7 +85,8 @@ _DONG2014 = ("K_F", "K_I", "K_O", "K_IO", "K_II")
 def unknown_term_message(name: str, valid) -> str:
     """Message for an unknown coefficient name, with the closest valid names."""
     valid = list(valid)
-    close = difflib.get_close_matches(name, valid, n=2)
+    by_lower = {v.lower(): v for v in valid}
+    close = [by_lower[c] for c in difflib.get_close_matches(name.lower(), list(by_lower), n=2)]
     hint = f" (did you mean {' or '.join(close)}?)" if close else ""
     return f"unknown term {name!r}{hint}; valid terms are: {', '.join(valid)}"
 
@@ -128,9 +129,9 @@ class ErrorModel:
 
     Examples
     --------
-    >>> m = ErrorModel(K0=1e-4, K1=1.3, K2=1e-5)
-    >>> float(m.output(0.0))
-    0.00013
+    >>> m = ErrorModel(K0=1e-4, K1=1.25, K2=1e-5, K0_asym=2e-6)
+    >>> m.output([-1.0, 0.0, 1.0]).round(9)  # volts; sgn(0) = 0 drops K0' at zero
+    array([-1.24986375e+00,  1.25000000e-04,  1.25013875e+00])
     """
 
     K0: float = 0.0
@@ -417,7 +418,9 @@ def _real(name: str, value) -> float:
 def _finite_array(value, name: str) -> np.ndarray:
     arr = np.asarray(value, dtype=float)
     if not np.isfinite(arr).all():
-        raise AccelcalError(f"input {name} has non-finite values (NaN or inf); give finite g values")
+        raise AccelcalError(
+            f"input {name} has non-finite values (NaN or inf); give finite g values"
+        )
     return arr
 
 

@@ -75,7 +75,9 @@ def new(
 @app.command("eval")
 def evaluate(
     ai: str = typer.Option(
-        ..., "--ai", help="Specific force along IA, g: a number, a list 0,0.5,1 or a range -1:1:0.5."
+        ...,
+        "--ai",
+        help="Specific force along IA, g: a number, a list 0,0.5,1 or a range -1:1:0.5.",
     ),
     ao: str = typer.Option("0", "--ao", help="Specific force along OA, g (number, list or range)."),
     ap: str = typer.Option("0", "--ap", help="Specific force along PA, g (number, list or range)."),
@@ -92,8 +94,8 @@ def evaluate(
     import numpy as np
 
     model = load_model(model_file)
-    grids = {"--ai": parse_grid(ai, "--ai"), "--ao": parse_grid(ao, "--ao"),
-             "--ap": parse_grid(ap, "--ap")}
+    grids = {name: parse_grid(text, name) for name, text in
+             (("--ai", ai), ("--ao", ao), ("--ap", ap))}
     lengths = {len(v) for v in grids.values()} - {1}
     if len(lengths) > 1:
         detail = ", ".join(f"{k} has {len(v)}" for k, v in grids.items())

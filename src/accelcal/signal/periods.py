@@ -48,7 +48,9 @@ class PeriodMean:
     discarded: int
 
 
-def whole_period_samples(n_samples: int, fs: float, f: float, *, what: str = "record") -> tuple[int, int]:
+def whole_period_samples(
+    n_samples: int, fs: float, f: float, *, what: str = "record"
+) -> tuple[int, int]:
     """The longest whole-period span of a record: ``(periods, samples)``.
 
     Parameters
@@ -97,7 +99,9 @@ def whole_period_samples(n_samples: int, fs: float, f: float, *, what: str = "re
     return periods, int(np.round(periods * per_period))
 
 
-def whole_period_mean(record, fs: float, f: float, *, harmonics: int = 3, what: str = "record") -> PeriodMean:
+def whole_period_mean(
+    record, fs: float, f: float, *, harmonics: int = 3, what: str = "record"
+) -> PeriodMean:
     """Mean of a record over its longest whole-period span, with uncertainty.
 
     The record need not start at phase zero. Samples after the last whole

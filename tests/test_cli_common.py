@@ -1,0 +1,71 @@
+"""Value grids and output rendering shared by the commands."""
+
+import json
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from accelcal import AccelcalError
+from accelcal.cli.common import parse_grid, render
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("1,2,4", [1.0, 2.0, 4.0]),
+        ("5:10:1", [5.0, 6.0, 7.0, 8.0, 9.0, 10.0]),  # stop on the grid: included
+        ("0:1:0.3", [0.0, 0.3, 0.6, 0.8999999999999999]),  # stop off the grid: excluded
+        ("0:355:5", [5.0 * k for k in range(72)]),
+        ("1:0:-0.5", [1.0, 0.5, 0.0]),
+        ("-2, 0:1:1, 7", [-2.0, 0.0, 1.0, 7.0]),
+        ("3:3:1", [3.0]),
+        ("1e-3", [1e-3]),
+    ],
+)
+def test_parse_grid(text, expected):
+    assert parse_grid(text, "--x") == expected
+
+
+@given(
+    start=st.integers(-1000, 1000),
+    count=st.integers(1, 200),
+    step=st.sampled_from([0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 1e-3]),
+)
+def test_range_includes_stop_on_grid(start, count, step):
+    stop = start + (count - 1) * step
+    values = parse_grid(f"{start}:{stop!r}:{step}", "--x")
+    assert len(values) == count
+    assert values[0] == start
+    # start + k*step is computed once, so the last value is within rounding of stop.
+    assert values[-1] == pytest.approx(stop, rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("", "empty"),
+        ("1,,2", "empty item"),
+        ("abc", "'abc' is not a number"),
+        ("1:2", "not a range start:stop:step"),
+        ("1:2:x", "not a range"),
+        ("1:5:0", "zero step"),
+        ("5:1:1", "is empty"),
+        ("nan", "not finite"),
+        ("1,inf", "not finite"),
+    ],
+)
+def test_parse_grid_errors_name_the_option(text, message):
+    with pytest.raises(AccelcalError, match=message) as info:
+        parse_grid(text, "--amplitude")
+    assert str(info.value).startswith("--amplitude: ")
+
+
+def test_render_formats_keep_precision():
+    rows = [{"a": 0.1 + 0.2, "b": "x"}, {"a": 1e-300, "b": "y"}]
+    csv_text = render(rows, "csv")
+    assert csv_text.splitlines() == ["a,b", "0.30000000000000004,x", "1e-300,y"]
+    assert json.loads(render(rows, "json")) == rows
+    assert "0.3" in render(rows, "table", title="T")
+    with pytest.raises(AccelcalError, match="--format 'xml'"):
+        render(rows, "xml")
