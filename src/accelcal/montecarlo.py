@@ -1,0 +1,314 @@
+"""Monte Carlo engine: seeded blocks, bounded memory, streaming statistics.
+
+A study is a picklable callable ``simulate(rng, n) -> ndarray (n, p)`` that
+draws ``n`` trials from the generator and returns ``p`` outputs per trial
+(for instance the estimation errors of every coefficient by every method).
+The engine
+
+- splits the trials into **seed blocks** of fixed size; block ``b`` draws
+  from its own generator, ``PCG64(SeedSequence(seed, spawn_key=(b,)))``, so
+  a trial's random numbers depend only on the seed and its block;
+- reduces every block to streaming statistics (count, mean, centred second
+  moments) and merges them **in block order** (Chan et al.), so the result
+  is bit-identical whatever the number of blocks per task, the number of
+  workers or the order in which they finish;
+- keeps, when asked, a deterministic thinning of the trials (every
+  ``stride``-th trial by global index, at most ``max_kept``) for quantiles
+  and coverage intervals;
+- runs in-process, on a Dask local cluster (``workers=N``) or on an existing
+  Dask scheduler (``scheduler=ADDRESS``), with the same code path for every
+  block.
+
+Memory is bounded by one task's blocks at a time per worker:
+``blocks_per_task * block_size * (numbers drawn per trial + p) * 8`` bytes,
+plus ``max_kept * p * 8`` bytes for quantiles, whatever the trial count.
+
+References
+----------
+.. [GUM-S1] JCGM 101:2008, Evaluation of measurement data, Supplement 1:
+   Propagation of distributions using a Monte Carlo method, sec. 7.
+.. [Chan1982] Chan T. F., Golub G. H., LeVeque R. J., Updating formulae and a
+   pairwise algorithm for computing sample variances, Stanford CS-79-773, 1979.
+.. [NumPySeed] NumPy, "Parallel random number generation" (SeedSequence spawning).
+"""
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+
+DEFAULT_BLOCK_SIZE = 4096
+DEFAULT_MAX_KEPT = 2**17
+SCHEDULER_TIMEOUT_S = 10.0
+"""Seconds to wait for a Dask scheduler to answer before giving up."""
+
+
+def block_generator(seed: int, block: int) -> np.random.Generator:
+    """The generator of seed block ``block`` of a study seeded with ``seed``."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(block,))))
+
+
+@dataclass(frozen=True)
+class _Moments:
+    """Streaming moments of a set of trials (count, mean, centred M2, kept samples)."""
+
+    n: int
+    mean: np.ndarray
+    m2: np.ndarray
+    kept: np.ndarray
+
+    @classmethod
+    def of(cls, values: np.ndarray, first_index: int, stride: int) -> "_Moments":
+        mean = values.mean(axis=0)
+        centred = values - mean
+        kept = values[(-first_index) % stride :: stride].copy() if stride else values[:0]
+        return cls(len(values), mean, centred.T @ centred, kept)
+
+    def merged(self, other: "_Moments") -> "_Moments":
+        # Pairwise update of mean and M2 [Chan1982].
+        n = self.n + other.n
+        delta = other.mean - self.mean
+        mean = self.mean + delta * (other.n / n)
+        m2 = self.m2 + other.m2 + np.outer(delta, delta) * (self.n * other.n / n)
+        return _Moments(n, mean, m2, np.concatenate([self.kept, other.kept]))
+
+
+@dataclass(frozen=True)
+class MonteCarloResult:
+    """Statistics of a Monte Carlo study's outputs.
+
+    Attributes
+    ----------
+    names : tuple of str
+        Output names.
+    trials : int
+        Number of trials.
+    mean, rms, std : numpy.ndarray
+        Mean, root mean square (about zero) and standard deviation of each
+        output, shape ``(p,)``.
+    covariance : numpy.ndarray
+        Sample covariance (divisor ``trials - 1``), shape ``(p, p)``.
+    samples : numpy.ndarray
+        The kept (thinned) trials, shape ``(k, p)``, for quantiles; empty when
+        none were kept.
+    seed, block_size : int
+        What the result depends on, besides the study itself.
+    """
+
+    names: tuple[str, ...]
+    trials: int
+    mean: np.ndarray
+    rms: np.ndarray
+    std: np.ndarray
+    covariance: np.ndarray
+    samples: np.ndarray
+    seed: int
+    block_size: int
+
+    def quantiles(self, q) -> np.ndarray:
+        """Quantiles ``q`` of each output from the kept samples, shape ``(len(q), p)``."""
+        if len(self.samples) == 0:
+            raise AccelcalError("no samples were kept; run the study with keep_samples=True")
+        return np.quantile(self.samples, np.asarray(q, dtype=float), axis=0)
+
+    def coverage_interval(self, p: float = 0.95, *, shortest: bool = False) -> np.ndarray:
+        """Coverage interval of probability ``p`` for each output, shape ``(p, 2)``.
+
+        Probabilistically symmetric by default; ``shortest=True`` gives the
+        shortest interval [GUM-S1, 7.7].
+        """
+        if not 0.0 < p < 1.0:
+            raise AccelcalError(f"coverage probability {p} must be between 0 and 1")
+        if not shortest:
+            return self.quantiles([(1 - p) / 2, (1 + p) / 2]).T
+        if len(self.samples) == 0:
+            raise AccelcalError("no samples were kept; run the study with keep_samples=True")
+        x = np.sort(self.samples, axis=0)
+        m = len(x)
+        width = int(np.ceil(p * m))
+        if width >= m:
+            return np.stack([x[0], x[-1]], axis=1)
+        spans = x[width:] - x[: m - width]
+        best = np.argmin(spans, axis=0)
+        cols = np.arange(x.shape[1])
+        return np.stack([x[best, cols], x[best + width, cols]], axis=1)
+
+
+def run(
+    simulate: Callable[[np.random.Generator, int], np.ndarray],
+    trials: int,
+    *,
+    names: Sequence[str],
+    seed: int,
+    block_size: int = DEFAULT_BLOCK_SIZE,
+    blocks_per_task: int = 4,
+    keep_samples: bool = False,
+    max_kept: int = DEFAULT_MAX_KEPT,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    timeout: float = SCHEDULER_TIMEOUT_S,
+) -> MonteCarloResult:
+    """Run a Monte Carlo study.
+
+    Parameters
+    ----------
+    simulate : callable
+        ``simulate(rng, n)`` returns an array ``(n, p)``: ``p`` outputs for
+        each of ``n`` trials drawn from ``rng``. Must be picklable for Dask
+        (a module-level function or an instance of a module-level class).
+    trials : int
+        Number of trials (> 0).
+    names : sequence of str
+        Names of the ``p`` outputs.
+    seed : int
+        Root seed (>= 0). Same seed and block size, same result.
+    block_size : int
+        Trials per seed block. Part of the study's identity: changing it
+        changes which random numbers each trial gets.
+    blocks_per_task : int
+        Seed blocks evaluated per task (scheduling granularity); does not
+        change the result.
+    keep_samples : bool
+        Keep a deterministic thinning of at most ``max_kept`` trials for
+        quantiles and coverage intervals.
+    workers : int, optional
+        Start a Dask local cluster with this many worker processes.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:8786``).
+    progress : callable, optional
+        ``progress(done, total)`` called as trials complete.
+    timeout : float
+        Seconds to wait for ``scheduler`` to answer.
+
+    Returns
+    -------
+    MonteCarloResult
+
+    Raises
+    ------
+    AccelcalError
+        For a non-positive trial count or sizes, both ``workers`` and
+        ``scheduler``, an output of the wrong shape, Dask not installed, or
+        a scheduler that does not answer within ``timeout`` seconds.
+    """
+    _check_positive_int("trials", trials)
+    _check_positive_int("block_size", block_size)
+    _check_positive_int("blocks_per_task", blocks_per_task)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise AccelcalError(f"seed {seed!r} must be a non-negative integer")
+    if workers is not None and scheduler is not None:
+        raise AccelcalError("give either --workers or --scheduler, not both")
+    if workers is not None:
+        _check_positive_int("workers", workers)
+    names = tuple(names)
+    n_blocks = -(-trials // block_size)
+    stride = max(1, -(-trials // max_kept)) if keep_samples else 0
+    tasks = [
+        range(start, min(start + blocks_per_task, n_blocks))
+        for start in range(0, n_blocks, blocks_per_task)
+    ]
+    spec = _BlockSpec(simulate, int(seed), trials, block_size, len(names), stride)
+    if workers is None and scheduler is None:
+        results = _run_local(spec, tasks, progress)
+    else:
+        results = _run_dask(spec, tasks, workers, scheduler, progress, timeout)
+    moments = [m for task in sorted(results, key=lambda r: r[0]) for m in task[1]]
+    total = moments[0]
+    for m in moments[1:]:
+        total = total.merged(m)
+    var = np.diag(total.m2) / total.n
+    cov = total.m2 / (total.n - 1) if total.n > 1 else np.full_like(total.m2, np.nan)
+    return MonteCarloResult(
+        names=names,
+        trials=total.n,
+        mean=total.mean,
+        rms=np.sqrt(total.mean**2 + var),
+        std=np.sqrt(np.diag(cov)),
+        covariance=cov,
+        samples=total.kept,
+        seed=int(seed),
+        block_size=block_size,
+    )
+
+
+@dataclass(frozen=True)
+class _BlockSpec:
+    """Everything a task needs to evaluate its seed blocks (picklable)."""
+
+    simulate: Callable
+    seed: int
+    trials: int
+    block_size: int
+    p: int
+    stride: int
+
+    def __call__(self, blocks: range) -> tuple[int, list[_Moments]]:
+        out = []
+        for b in blocks:
+            first = b * self.block_size
+            n = min(self.block_size, self.trials - first)
+            values = np.asarray(self.simulate(block_generator(self.seed, b), n), dtype=float)
+            if values.shape != (n, self.p):
+                raise AccelcalError(
+                    f"the study returned shape {values.shape} for {n} trials; "
+                    f"expected ({n}, {self.p})"
+                )
+            out.append(_Moments.of(values, first, self.stride))
+        return blocks.start, out
+
+
+def _run_local(spec, tasks, progress):
+    results = []
+    done = 0
+    for blocks in tasks:
+        results.append(spec(blocks))
+        done += sum(m.n for m in results[-1][1])
+        if progress is not None:
+            progress(done, spec.trials)
+    return results
+
+
+def _run_dask(spec, tasks, workers, scheduler, progress, timeout):
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise AccelcalError(
+            "running on several workers needs Dask: pip install 'accelcal[dask]'"
+        ) from None
+    cluster = None
+    try:
+        if scheduler is not None:
+            try:
+                client = Client(scheduler, timeout=f"{timeout}s")
+            except (OSError, TimeoutError) as exc:
+                raise AccelcalError(
+                    f"the Dask scheduler at {scheduler} did not answer within "
+                    f"{timeout:g} s ({type(exc).__name__}); check the address "
+                    "and that 'dask scheduler' is running there"
+                ) from None
+        else:
+            cluster = LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+            )
+            client = Client(cluster)
+        with client:
+            futures = client.map(spec, tasks, pure=False)
+            results = []
+            done = 0
+            for future in as_completed(futures):
+                results.append(future.result())
+                done += sum(m.n for m in results[-1][1])
+                if progress is not None:
+                    progress(done, spec.trials)
+            return results
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+def _check_positive_int(name: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
+        raise AccelcalError(f"{name} must be a positive integer, got {value!r}")
