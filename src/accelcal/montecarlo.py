@@ -214,7 +214,9 @@ def run(
     if workers is None and scheduler is None:
         results = _run_local(spec, tasks, progress)
     else:
-        results = _run_dask(spec, tasks, workers, scheduler, progress, timeout)
+        results = _run_dask(
+            spec, tasks, workers=workers, scheduler=scheduler, progress=progress, timeout=timeout
+        )
     moments = [m for task in sorted(results, key=lambda r: r[0]) for m in task[1]]
     total = moments[0]
     for m in moments[1:]:
@@ -271,7 +273,7 @@ def _run_local(spec, tasks, progress):
     return results
 
 
-def _run_dask(spec, tasks, workers, scheduler, progress, timeout):
+def _run_dask(spec, tasks, *, workers, scheduler, progress, timeout):
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError:
