@@ -1,0 +1,99 @@
+"""``accelcal records``: the store of calibration records."""
+
+from pathlib import Path
+
+import typer
+
+from accelcal.cli.common import emit
+
+app = typer.Typer(
+    help=(
+        "Store calibration records and follow each serial number: history, "
+        "repeatability and drift. Default store: an SQLite file in the user data "
+        "directory ($ACCELCAL_DB overrides it)."
+    ),
+    no_args_is_help=True,
+)
+
+_DB_HELP = (
+    "Store: an SQLite file path or a database URL (e.g. postgresql+psycopg://user@host/db). "
+    "Default: $ACCELCAL_DB, else ~/.local/share/accelcal/records.sqlite."
+)
+
+
+def _store(db: str | None):
+    from accelcal.store import Store
+
+    return Store(db)
+
+
+@app.command("add")
+def add(
+    records: list[Path] = typer.Argument(..., help="Calibration record files (JSON)."),
+    db: str | None = typer.Option(None, "--db", help=_DB_HELP),
+) -> None:
+    """Add calibration records to the store (each in its own transaction).
+
+    Every file is read and validated before anything is written.
+    """
+    from accelcal.io.calibration_record import CalibrationRecord
+
+    loaded = [CalibrationRecord.load(path) for path in records]
+    with _store(db) as store:
+        for path, record in zip(records, loaded, strict=True):
+            row_id = store.add(record)
+            typer.echo(f"added {path} as record {row_id} (serial {record.serial})")
+
+
+@app.command("list")
+def list_(
+    serial: str | None = typer.Option(None, "--serial", help="Only this serial number."),
+    db: str | None = typer.Option(None, "--db", help=_DB_HELP),
+    fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+) -> None:
+    """List stored calibrations, oldest first."""
+    with _store(db) as store:
+        rows = store.calibrations(serial)
+    if not rows and fmt == "table":
+        typer.echo("the store holds no calibration" + (f" of {serial}" if serial else ""))
+        return
+    emit(rows, fmt, title="Calibrations")
+
+
+@app.command("history")
+def history(
+    serial: str = typer.Argument(..., help="Serial number."),
+    db: str | None = typer.Option(None, "--db", help=_DB_HELP),
+    fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+    plot: Path | None = typer.Option(
+        None, "--plot", help="Directory for the history figure (PNG and SVG)."
+    ),
+) -> None:
+    """Every coefficient of every calibration of SERIAL (estimate and standard uncertainty)."""
+    with _store(db) as store:
+        rows = store.history(serial)
+    emit(rows, fmt, title=f"Coefficient history of {serial}")
+    if plot is not None:
+        from accelcal.plotting import save_figure
+        from accelcal.plotting.records import history_figure
+
+        paths = save_figure(history_figure(rows, serial), plot, f"history-{_safe(serial)}")
+        typer.echo("wrote " + ", ".join(map(str, paths)), err=True)
+
+
+@app.command("stats")
+def stats(
+    serial: str = typer.Argument(..., help="Serial number."),
+    db: str | None = typer.Option(None, "--db", help=_DB_HELP),
+    fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+) -> None:
+    """Repeatability (run-to-run SD) and drift (slope per year) of each coefficient."""
+    from dataclasses import asdict
+
+    with _store(db) as store:
+        rows = [asdict(s) for s in store.stats(serial)]
+    emit(rows, fmt, title=f"Repeatability and drift of {serial}")
+
+
+def _safe(text: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in text)

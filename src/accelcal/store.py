@@ -1,0 +1,349 @@
+"""The records store: every calibration of every serial number, in a database.
+
+An SQLite file by default (embedded, nothing to start); PostgreSQL (or any
+SQLAlchemy URL) with ``--db postgresql+psycopg://user@host/db``. Each
+:meth:`Store.add` is one transaction, so concurrent writers lose nothing and a
+killed writer leaves no partial record. The schema carries a version in the
+``schema_info`` table; opening a store applies the migrations it lacks, and
+refuses a store written by a newer accelcal.
+
+Tables (schema version 1):
+
+- ``calibrations``: one row per record: ``uid`` (SHA-256 of the record's
+  JSON, unique, so the same record is stored once), ``serial``, ``method``,
+  ``date``, ``software``, ``record_json``.
+- ``coefficients``: one row per coefficient of a record: ``calibration_id``,
+  ``name``, ``unit``, ``estimate``, ``std``.
+
+References
+----------
+.. [IEEE1293] IEEE Std 1293-2018, definitions of repeatability (run-to-run
+   spread under the same conditions) and of drift.
+"""
+
+import hashlib
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+from accelcal.io.calibration_record import CalibrationRecord
+
+SCHEMA_VERSION = 1
+DEFAULT_DB_ENV = "ACCELCAL_DB"
+
+
+def default_url() -> str:
+    """The default store: ``$ACCELCAL_DB``, else an SQLite file in the user data directory.
+
+    The data directory is ``$XDG_DATA_HOME/accelcal`` (``~/.local/share/accelcal``
+    when unset).
+    """
+    if os.environ.get(DEFAULT_DB_ENV):
+        return os.environ[DEFAULT_DB_ENV]
+    base = Path(os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share")
+    return f"sqlite:///{base / 'accelcal' / 'records.sqlite'}"
+
+
+def _url(db: str | os.PathLike | None) -> str:
+    if db is None:
+        return default_url()
+    text = os.fspath(db)
+    return text if "://" in text else f"sqlite:///{Path(text).resolve()}"
+
+
+@dataclass(frozen=True)
+class CoefficientStats:
+    """Repeatability and drift of one coefficient across calibrations.
+
+    Attributes
+    ----------
+    name, unit : str
+    n : int
+        Calibrations.
+    mean : float
+    repeatability : float
+        Sample standard deviation across calibrations (run-to-run).
+    mean_std : float
+        Mean of the calibrations' own standard uncertainties; a repeatability
+        well above it means the coefficient moves more than each calibration
+        claims.
+    drift_per_year : float
+        Slope of a straight-line fit against the calibration dates.
+    drift_std : float
+        Standard uncertainty of the slope (NaN with fewer than 3 dates).
+    """
+
+    name: str
+    unit: str
+    n: int
+    mean: float
+    repeatability: float
+    mean_std: float
+    drift_per_year: float
+    drift_std: float
+
+
+class Store:
+    """A records store at a database URL or SQLite path.
+
+    Parameters
+    ----------
+    db : str or path-like, optional
+        SQLAlchemy URL, or a path to an SQLite file; default :func:`default_url`.
+    """
+
+    def __init__(self, db=None) -> None:
+        import sqlalchemy as sa
+
+        self.url = _url(db)
+        # No connection pool: a command opens the store for a few statements,
+        # and every connection is closed as soon as it is released.
+        if self.url.startswith("sqlite:///"):
+            Path(self.url.removeprefix("sqlite:///")).parent.mkdir(parents=True, exist_ok=True)
+            self.engine = sa.create_engine(
+                self.url, connect_args={"timeout": 60}, poolclass=sa.pool.NullPool
+            )
+            sa.event.listen(self.engine, "connect", _sqlite_on_connect)
+            sa.event.listen(self.engine, "begin", _sqlite_on_begin)
+        else:
+            self.engine = sa.create_engine(self.url, poolclass=sa.pool.NullPool)
+        self._tables = _tables(sa)
+        try:
+            self._migrate()
+        except sa.exc.OperationalError as exc:
+            raise AccelcalError(
+                f"cannot open the records store {self._shown_url()}: {exc.orig}"
+            ) from None
+
+    def close(self) -> None:
+        """Release the database engine."""
+        self.engine.dispose()
+
+    def __enter__(self) -> "Store":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _shown_url(self) -> str:
+        import sqlalchemy as sa
+
+        return sa.make_url(self.url).render_as_string(hide_password=True)
+
+    def _migrate(self) -> None:
+        import sqlalchemy as sa
+
+        meta, info = self._tables["metadata"], self._tables["schema_info"]
+        with self.engine.begin() as conn:
+            if conn.dialect.name == "postgresql":
+                # Serialise concurrent first opens of the same database.
+                conn.execute(sa.text("SELECT pg_advisory_xact_lock(1293836)"))
+            if not sa.inspect(conn).has_table("schema_info"):
+                version = 0
+            else:
+                version = conn.execute(sa.select(info.c.version)).scalar_one_or_none() or 0
+            if version > SCHEMA_VERSION:
+                raise AccelcalError(
+                    f"the records store {self._shown_url()} has schema version {version}, "
+                    f"newer than this accelcal ({SCHEMA_VERSION}); upgrade accelcal"
+                )
+            for target in range(version + 1, SCHEMA_VERSION + 1):
+                _MIGRATIONS[target](conn, meta)
+                conn.execute(sa.delete(info))
+                conn.execute(sa.insert(info).values(version=target))
+
+    @property
+    def schema_version(self) -> int:
+        """The store's schema version."""
+        import sqlalchemy as sa
+
+        with self.engine.connect() as conn:
+            return conn.execute(sa.select(self._tables["schema_info"].c.version)).scalar_one()
+
+    def add(self, record: CalibrationRecord) -> int:
+        """Add a record in one transaction; return its id.
+
+        Raises
+        ------
+        AccelcalError
+            If the same record (same content) is already stored.
+        """
+        import sqlalchemy as sa
+
+        text = record.to_json()
+        uid = hashlib.sha256(text.encode()).hexdigest()
+        cal, coef = self._tables["calibrations"], self._tables["coefficients"]
+        try:
+            with self.engine.begin() as conn:
+                row_id = conn.execute(
+                    sa.insert(cal).values(
+                        uid=uid, serial=record.serial, method=record.method,
+                        date=_utc(record.date),
+                        software=record.software, record_json=text,
+                    ).returning(cal.c.id)
+                ).scalar_one()
+                conn.execute(sa.insert(coef), [
+                    {"calibration_id": row_id, "name": n, "unit": record.units.get(n, ""),
+                     "estimate": float(v), "std": None if math.isnan(s) else float(s)}
+                    for n, v, s in zip(record.names, record.estimates, record.std, strict=True)
+                ])
+        except sa.exc.IntegrityError:
+            raise AccelcalError(
+                f"this record (serial {record.serial}, {record.date}) is already in the store"
+            ) from None
+        return int(row_id)
+
+    def calibrations(self, serial: str | None = None) -> list[dict]:
+        """Stored calibrations, oldest first: id, serial, method, date, software."""
+        import sqlalchemy as sa
+
+        cal = self._tables["calibrations"]
+        query = sa.select(cal.c.id, cal.c.serial, cal.c.method, cal.c.date, cal.c.software)
+        if serial is not None:
+            query = query.where(cal.c.serial == serial)
+        with self.engine.connect() as conn:
+            rows = conn.execute(query.order_by(cal.c.date, cal.c.id)).mappings().all()
+        return [dict(r) for r in rows]
+
+    def record(self, record_id: int) -> CalibrationRecord:
+        """The full record with id ``record_id``."""
+        import sqlalchemy as sa
+
+        cal = self._tables["calibrations"]
+        with self.engine.connect() as conn:
+            text = conn.execute(
+                sa.select(cal.c.record_json).where(cal.c.id == record_id)
+            ).scalar_one_or_none()
+        if text is None:
+            raise AccelcalError(f"no record with id {record_id} in the store")
+        return CalibrationRecord.from_json(text, source=f"store record {record_id}")
+
+    def history(self, serial: str) -> list[dict]:
+        """Every coefficient of every calibration of ``serial``, oldest first.
+
+        Raises
+        ------
+        AccelcalError
+            If the store has no calibration of ``serial``.
+        """
+        import sqlalchemy as sa
+
+        cal, coef = self._tables["calibrations"], self._tables["coefficients"]
+        query = (
+            sa.select(cal.c.id, cal.c.date, cal.c.method, coef.c.name, coef.c.unit,
+                      coef.c.estimate, coef.c.std)
+            .join(coef, coef.c.calibration_id == cal.c.id)
+            .where(cal.c.serial == serial)
+            .order_by(cal.c.date, cal.c.id, coef.c.id)
+        )
+        with self.engine.connect() as conn:
+            rows = [dict(r) for r in conn.execute(query).mappings().all()]
+        if not rows:
+            raise AccelcalError(
+                f"no calibration of serial {serial!r} in the store; see 'accelcal records list'"
+            )
+        for r in rows:
+            r["std"] = math.nan if r["std"] is None else r["std"]
+        return rows
+
+    def stats(self, serial: str) -> list[CoefficientStats]:
+        """Repeatability and drift of each coefficient of ``serial``."""
+        import datetime as dt
+
+        by_name: dict[str, list[dict]] = {}
+        for r in self.history(serial):
+            by_name.setdefault(r["name"], []).append(r)
+        out = []
+        for name, rows in by_name.items():
+            x = np.array([r["estimate"] for r in rows])
+            s = np.array([r["std"] for r in rows])
+            t = np.array([dt.datetime.fromisoformat(r["date"]).timestamp() for r in rows])
+            years = (t - t.min()) / (365.25 * 86400.0)
+            slope, slope_std = _drift(years, x)
+            out.append(CoefficientStats(
+                name=name, unit=rows[0]["unit"], n=len(x), mean=float(x.mean()),
+                repeatability=float(x.std(ddof=1)) if len(x) > 1 else math.nan,
+                mean_std=float(np.nanmean(s)) if np.isfinite(s).any() else math.nan,
+                drift_per_year=slope, drift_std=slope_std,
+            ))
+        return out
+
+
+def _utc(date: str) -> str:
+    """ISO 8601 in UTC, so that string order is time order (naive dates are taken as UTC)."""
+    import datetime as dt
+
+    moment = dt.datetime.fromisoformat(date)
+    if moment.tzinfo is None:
+        moment = moment.replace(tzinfo=dt.UTC)
+    return moment.astimezone(dt.UTC).isoformat(timespec="microseconds")
+
+
+def _drift(years: np.ndarray, x: np.ndarray) -> tuple[float, float]:
+    """Least-squares slope of x against time and its standard uncertainty."""
+    if len(x) < 2 or np.ptp(years) == 0:
+        return math.nan, math.nan
+    A = np.column_stack([np.ones_like(years), years])
+    coef, *_ = np.linalg.lstsq(A, x, rcond=None)
+    if len(x) < 3:
+        return float(coef[1]), math.nan
+    resid = x - A @ coef
+    cov = np.linalg.inv(A.T @ A) * (resid @ resid) / (len(x) - 2)
+    return float(coef[1]), float(np.sqrt(cov[1, 1]))
+
+
+def _tables(sa) -> dict:
+    meta = sa.MetaData()
+    return {
+        "metadata": meta,
+        "schema_info": sa.Table(
+            "schema_info", meta, sa.Column("version", sa.Integer, nullable=False)
+        ),
+        "calibrations": sa.Table(
+            "calibrations", meta,
+            sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
+            sa.Column("uid", sa.String(64), nullable=False, unique=True),
+            sa.Column("serial", sa.String(200), nullable=False, index=True),
+            sa.Column("method", sa.String(200), nullable=False),
+            sa.Column("date", sa.String(40), nullable=False),
+            sa.Column("software", sa.String(100), nullable=False),
+            sa.Column("record_json", sa.Text, nullable=False),
+        ),
+        "coefficients": sa.Table(
+            "coefficients", meta,
+            sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
+            sa.Column("calibration_id", sa.Integer, sa.ForeignKey("calibrations.id"),
+                      nullable=False, index=True),
+            sa.Column("name", sa.String(100), nullable=False),
+            sa.Column("unit", sa.String(40), nullable=False),
+            sa.Column("estimate", sa.Float, nullable=False),
+            sa.Column("std", sa.Float, nullable=True),
+        ),
+    }
+
+
+def _migrate_to_1(conn, meta) -> None:
+    """Schema 1: schema_info, calibrations, coefficients."""
+    meta.create_all(conn)
+
+
+_MIGRATIONS = {1: _migrate_to_1}
+"""Schema version -> function bringing the previous version to it."""
+
+
+def _sqlite_on_connect(dbapi_conn, _record) -> None:
+    # Let SQLAlchemy emit BEGIN itself (pysqlite's implicit transactions are
+    # off), and use write-ahead logging so readers never block the writer.
+    dbapi_conn.isolation_level = None
+    dbapi_conn.execute("PRAGMA journal_mode=WAL")
+    dbapi_conn.execute("PRAGMA foreign_keys=ON")
+
+
+def _sqlite_on_begin(conn) -> None:
+    # Take the write lock at the start of every transaction, so concurrent
+    # writers queue (busy timeout) instead of failing on lock upgrade.
+    conn.exec_driver_sql("BEGIN IMMEDIATE")

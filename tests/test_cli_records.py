@@ -1,0 +1,60 @@
+"""`accelcal records`: add, list, history (with plot), stats; errors."""
+
+import json
+
+import pytest
+
+from accelcal.cli import main
+from test_store import make_record
+
+
+def run(capsys, *args):
+    with pytest.raises(SystemExit) as info:
+        main(list(args))
+    out, err = capsys.readouterr()
+    return info.value.code, out, err
+
+
+def test_records_workflow(capsys, tmp_path):
+    db = str(tmp_path / "store.sqlite")
+    files = []
+    for month in (1, 2, 3):
+        path = tmp_path / f"rec{month}.json"
+        make_record(date=f"2026-{month:02d}-01T00:00:00+00:00", shift=month * 1e-6).save(path)
+        files.append(str(path))
+    code, out, _ = run(capsys, "records", "add", *files, "--db", db)
+    assert code == 0
+    assert out.count("added") == 3
+    code, out, _ = run(capsys, "records", "list", "--db", db, "--format", "json")
+    assert [r["serial"] for r in json.loads(out)] == ["SN-1"] * 3
+    code, out, _ = run(capsys, "records", "history", "SN-1", "--db", db, "--format", "csv",
+                         "--plot", str(tmp_path / "fig"))
+    assert code == 0
+    assert out.splitlines()[0] == "id,date,method,name,unit,estimate,std"
+    assert len(out.splitlines()) == 1 + 9
+    assert (tmp_path / "fig" / "history-SN-1.png").stat().st_size > 1000
+    assert (tmp_path / "fig" / "history-SN-1.svg").exists()
+    code, out, _ = run(capsys, "records", "stats", "SN-1", "--db", db, "--format", "json")
+    stats = {s["name"]: s for s in json.loads(out)}
+    assert stats["K_I"]["n"] == 3
+    assert stats["K_I"]["repeatability"] == pytest.approx(1e-6, rel=1e-9)
+
+
+def test_records_errors_exit_2(capsys, tmp_path):
+    db = str(tmp_path / "store.sqlite")
+    good = tmp_path / "good.json"
+    make_record().save(good)
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    code, _, err = run(capsys, "records", "add", str(good), str(bad), "--db", db)
+    assert code == 2
+    assert "bad.json: missing key(s)" in err
+    code, out, _ = run(capsys, "records", "list", "--db", db)
+    assert "no calibration" in out  # validation happens before any write
+    code, _, err = run(capsys, "records", "history", "NOPE", "--db", db)
+    assert code == 2
+    assert "no calibration of serial 'NOPE'" in err
+    run(capsys, "records", "add", str(good), "--db", db)
+    code, _, err = run(capsys, "records", "add", str(good), "--db", db)
+    assert code == 2
+    assert "already in the store" in err
