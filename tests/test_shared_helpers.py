@@ -110,8 +110,9 @@ def test_whole_period_errors():
     assert whole_period_samples(1000, 1000.0, 30.0) == (30, 1000)
 
 
-def test_record_round_trip_and_validation(tmp_path):
-    path = tmp_path / "r.csv"
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_record_round_trip_and_validation(tmp_path, suffix):
+    path = tmp_path / f"r{suffix}"
     cols = {"t": np.arange(5) / 3.0, "u": np.array([0.1, -2e-300, 1.0, 3.5, 1 / 7])}
     write_record(path, "demo", {"units": {"t": "s", "u": "V"}, "fs": 3.0}, cols)
     meta, back = read_record(path, "demo", required_metadata=["fs"], required_columns=["u"])
@@ -125,6 +126,12 @@ def test_record_round_trip_and_validation(tmp_path):
         read_record(path, "demo", required_metadata=["f"])
     with pytest.raises(AccelcalError, match="missing column\\(s\\) ref"):
         read_record(path, "demo", required_columns=["ref"])
+
+
+def test_csv_record_cell_errors_name_line_and_column(tmp_path):
+    path = tmp_path / "r.csv"
+    cols = {"t": np.arange(5) / 3.0, "u": np.array([0.1, -2e-300, 1.0, 3.5, 1 / 7])}
+    write_record(path, "demo", {"units": {"t": "s", "u": "V"}}, cols)
     lines = path.read_text().splitlines()
     lines[5] = lines[5].split(",")[0] + ",abc"
     path.write_text("\n".join(lines))
@@ -137,3 +144,48 @@ def test_record_round_trip_and_validation(tmp_path):
     with pytest.raises(AccelcalError, match="no unit for column"):
         write_record(tmp_path / "x.csv", "demo", {"units": {}}, {"t": [1.0]})
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_parquet_record_errors(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    bare = tmp_path / "bare.parquet"
+    pq.write_table(pa.table({"u": [1.0]}), bare)
+    with pytest.raises(AccelcalError, match="no 'accelcal' metadata"):
+        read_record(bare, "demo")
+    meta = {"accelcal": '{"format_version": 1, "kind": "demo", "units": {"u": "V"}}'}
+    nan = tmp_path / "nan.parquet"
+    pq.write_table(pa.table({"u": [1.0, float("nan")]}).replace_schema_metadata(meta), nan)
+    with pytest.raises(AccelcalError, match="row 1, column u: value is not finite"):
+        read_record(nan, "demo")
+    text = tmp_path / "text.parquet"
+    pq.write_table(pa.table({"u": ["a"]}).replace_schema_metadata(meta), text)
+    with pytest.raises(AccelcalError, match="column u has type string"):
+        read_record(text, "demo")
+    junk = tmp_path / "junk.parquet"
+    junk.write_bytes(b"PAR1 not really")
+    with pytest.raises(AccelcalError, match="cannot read Parquet record"):
+        read_record(junk, "demo")
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.binary(max_size=400), cut=st.integers(0, 400), text=st.text(max_size=60))
+def test_fuzzed_csv_records_fail_only_with_the_documented_error(tmp_path_factory, data, cut, text):
+    # Start from a valid file and damage it: truncate, splice bytes or text in.
+    path = tmp_path_factory.mktemp("fuzz") / "r.csv"
+    write_record(path, "demo", {"units": {"t": "s", "u": "V"}},
+                 {"t": np.arange(4.0), "u": np.ones(4)})
+    raw = path.read_bytes()
+    damaged = raw[:cut] + data + text.encode("utf-8", "replace") + raw[cut:]
+    path.write_bytes(damaged)
+    error = None
+    try:
+        meta, cols = read_record(path, "demo", required_columns=["u"])
+    except AccelcalError as exc:  # the documented error, naming the file
+        error = str(exc)
+    if error is not None:
+        assert str(path) in error
+    else:
+        assert meta["kind"] == "demo"
+        assert all(np.isfinite(c).all() for c in cols.values())

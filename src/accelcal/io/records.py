@@ -1,6 +1,6 @@
-"""Record files: columns of numbers with JSON metadata, in one CSV file.
+"""Record files: columns of numbers with JSON metadata, in one CSV or Parquet file.
 
-Layout (``format_version`` 1)::
+CSV layout (``format_version`` 1)::
 
     # accelcal record
     # {"format_version": 1, "kind": "vibrafuge", "units": {"t": "s", ...}, ...}
@@ -13,6 +13,10 @@ JSON after ``# ``; then a CSV header and the rows. ``kind`` names the test
 (``vibrafuge``, ``shaker``, ``dividing-head``, ...); each method documents
 the other metadata fields and the columns it needs. ``units`` gives the unit
 of every column.
+
+A file whose name ends in ``.parquet`` is written and read as Apache Parquet
+instead: the same columns (float64), and the same metadata JSON stored
+under the key ``accelcal`` of the file's schema metadata.
 
 Readers check the marker, the JSON, ``format_version``, ``kind``, the
 required metadata fields and columns, and that every value is a finite
@@ -62,6 +66,9 @@ def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray]
     if missing:
         raise AccelcalError(f"record metadata gives no unit for column(s) {', '.join(missing)}")
     header = {"format_version": FORMAT_VERSION, "kind": kind, **metadata}
+    if _is_parquet(path):
+        _write_parquet(path, header, dict(zip(names, arrays, strict=True)))
+        return
     table = np.column_stack(arrays) if arrays else np.empty((0, 0))
     with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(MARKER + "\n")
@@ -99,6 +106,30 @@ def read_record(
         Naming the file and what is wrong.
     """
     path = Path(path)
+    if _is_parquet(path):
+        meta, names, data = _read_parquet(path)
+    else:
+        meta, names, data = _read_csv(path)
+    version = meta.get("format_version")
+    if version != FORMAT_VERSION:
+        raise AccelcalError(
+            f"{path}: format_version {version!r} is not supported (expected {FORMAT_VERSION})"
+        )
+    if meta.get("kind") != kind:
+        raise AccelcalError(f"{path}: kind is {meta.get('kind')!r}, expected {kind!r}")
+    missing = [k for k in required_metadata if k not in meta]
+    if missing:
+        raise AccelcalError(f"{path}: metadata lacks {', '.join(missing)}")
+    missing = [c for c in required_columns if c not in names]
+    if missing:
+        raise AccelcalError(
+            f"{path}: missing column(s) {', '.join(missing)}; found {', '.join(names) or 'none'}"
+        )
+    return meta, {n: data[:, i].copy() for i, n in enumerate(names)}
+
+
+def _read_csv(path: Path) -> tuple[dict, list[str], np.ndarray]:
+    """Metadata, column names and data of a CSV record (structure checks only)."""
     try:
         with open(path, encoding="utf-8") as fh:
             marker = fh.readline().rstrip("\r\n")
@@ -113,30 +144,9 @@ def read_record(
         raise AccelcalError(f"{path}: line 1 should be {MARKER!r}; is this an accelcal record?")
     if not meta_line.startswith("# "):
         raise AccelcalError(f"{path}: line 2 should be '# ' followed by the JSON metadata")
-    try:
-        meta = json.loads(meta_line[2:], parse_constant=_no_constant)
-    except ValueError as exc:
-        raise AccelcalError(f"{path}: line 2 metadata is not valid JSON ({exc})") from None
-    if not isinstance(meta, dict):
-        raise AccelcalError(f"{path}: line 2 metadata must be a JSON object")
-    version = meta.get("format_version")
-    if version != FORMAT_VERSION:
-        raise AccelcalError(
-            f"{path}: format_version {version!r} is not supported (expected {FORMAT_VERSION})"
-        )
-    if meta.get("kind") != kind:
-        raise AccelcalError(f"{path}: kind is {meta.get('kind')!r}, expected {kind!r}")
-    missing = [k for k in required_metadata if k not in meta]
-    if missing:
-        raise AccelcalError(f"{path}: metadata lacks {', '.join(missing)}")
+    meta = _parse_meta(meta_line[2:], f"{path}: line 2 metadata")
     names = [n.strip() for n in header_line.split(",")] if header_line.strip() else []
-    if len(set(names)) != len(names) or any(not n for n in names):
-        raise AccelcalError(f"{path}: line 3 column names {header_line!r} are empty or repeated")
-    missing = [c for c in required_columns if c not in names]
-    if missing:
-        raise AccelcalError(
-            f"{path}: missing column(s) {', '.join(missing)}; found {', '.join(names) or 'none'}"
-        )
+    _check_names(names, f"{path}: line 3 column names {header_line!r}")
     rows = [line for line in body.splitlines() if line.strip()]
     if not rows:
         raise AccelcalError(f"{path}: the record has no data rows")
@@ -147,7 +157,70 @@ def read_record(
         ok = False
     if not ok:
         _raise_first_bad_cell(path, rows, names)
-    return meta, {n: data[:, i].copy() for i, n in enumerate(names)}
+    return meta, names, data
+
+
+def _read_parquet(path: Path) -> tuple[dict, list[str], np.ndarray]:
+    """Metadata, column names and data of a Parquet record."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        table = pq.read_table(path)
+    except FileNotFoundError:
+        raise AccelcalError(f"record file {path} not found") from None
+    except (OSError, pa.ArrowException) as exc:
+        raise AccelcalError(f"cannot read Parquet record {path}: {exc}") from None
+    raw = (table.schema.metadata or {}).get(b"accelcal")
+    if raw is None:
+        raise AccelcalError(f"{path}: no 'accelcal' metadata in the Parquet schema")
+    meta = _parse_meta(raw.decode("utf-8", "replace"), f"{path}: Parquet metadata")
+    names = list(table.column_names)
+    _check_names(names, f"{path}: column names {names!r}")
+    if table.num_rows == 0:
+        raise AccelcalError(f"{path}: the record has no data rows")
+    data = np.empty((table.num_rows, len(names)))
+    for i, name in enumerate(names):
+        column = table.column(i)
+        if not (pa.types.is_floating(column.type) or pa.types.is_integer(column.type)):
+            raise AccelcalError(f"{path}: column {name} has type {column.type}, expected numbers")
+        if column.null_count:
+            raise AccelcalError(f"{path}: column {name} has {column.null_count} missing values")
+        data[:, i] = column.to_numpy()
+        bad = np.flatnonzero(~np.isfinite(data[:, i]))
+        if bad.size:
+            raise AccelcalError(f"{path}: row {bad[0]}, column {name}: value is not finite")
+    return meta, names, data
+
+
+def _write_parquet(path, header: dict, columns: dict[str, np.ndarray]) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.table(columns).replace_schema_metadata(
+        {"accelcal": json.dumps(header, allow_nan=False)}
+    )
+    with atomic_path(path) as tmp:
+        pq.write_table(table, tmp)
+
+
+def _is_parquet(path) -> bool:
+    return Path(path).suffix.lower() == ".parquet"
+
+
+def _parse_meta(text: str, where: str) -> dict:
+    try:
+        meta = json.loads(text, parse_constant=_no_constant)
+    except ValueError as exc:
+        raise AccelcalError(f"{where} is not valid JSON ({exc})") from None
+    if not isinstance(meta, dict):
+        raise AccelcalError(f"{where} must be a JSON object")
+    return meta
+
+
+def _check_names(names: list[str], where: str) -> None:
+    if len(set(names)) != len(names) or any(not n for n in names):
+        raise AccelcalError(f"{where} are empty or repeated")
 
 
 def _raise_first_bad_cell(path, rows, names) -> None:
