@@ -1,0 +1,156 @@
+"""Self-contained HTML calibration reports.
+
+A report is built from structured results, never from printed text: one
+:class:`Section` per calibration or study, each with its calibration record
+(coefficients with standard and expanded uncertainties, covariance as
+correlations), notes (identifiability, assumptions), errata notes where a
+paper's method was corrected, and figures embedded as inline SVG. The page
+has no script and no external resource, so it reads offline and prints as
+it shows. Every string that came from a user (serial, operator, file names,
+notes) is HTML-escaped by the template engine (jinja2 autoescaping).
+"""
+
+import datetime as dt
+import io
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from accelcal.io.atomic import write_text_atomic
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A figure for the report: inline SVG text and a caption."""
+
+    title: str
+    svg: str
+    caption: str = ""
+
+
+@dataclass(frozen=True)
+class Section:
+    """One part of a report.
+
+    Parameters
+    ----------
+    title : str
+        Heading.
+    record : CalibrationRecord, optional
+        The calibration it reports: coefficients table and correlations.
+    summary : str
+        A sentence or two on the method and the set-up.
+    rows : list of dict, optional
+        An extra table (e.g. a study's RMS errors), rendered as given.
+    notes : tuple of str
+        Identifiability, assumptions and caveats.
+    errata : tuple of str
+        Where the implemented method departs from the paper it comes from.
+    figures : tuple of Figure
+    """
+
+    title: str
+    record: object | None = None
+    summary: str = ""
+    rows: list[dict] | None = None
+    notes: tuple[str, ...] = ()
+    errata: tuple[str, ...] = ()
+    figures: tuple[Figure, ...] = field(default_factory=tuple)
+
+
+def figure_svg(fig) -> str:
+    """A matplotlib figure as SVG text for inline embedding (no XML prologue)."""
+    buf = io.StringIO()
+    fig.savefig(buf, format="svg")
+    text = buf.getvalue()
+    return text[text.index("<svg"):]
+
+
+def format_value(value: float, std: float | None = None) -> str:
+    """A value with as many digits as its uncertainty supports (two on the uncertainty)."""
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    if std is None or not math.isfinite(std) or std <= 0:
+        return f"{value:.7g}"
+    magnitude = math.floor(math.log10(abs(value))) if value != 0 else math.floor(math.log10(std))
+    digits = max(2, magnitude - math.floor(math.log10(std)) + 2)
+    return f"{value:#.{digits}g}".rstrip(".")  # '#': keep significant trailing zeros
+
+
+def format_std(std: float) -> str:
+    """An uncertainty with two significant digits."""
+    if std is None or not math.isfinite(std):
+        return "not identified"
+    return f"{std:#.2g}".rstrip(".")
+
+
+def render_report(sections, *, title: str, subtitle: str = "", generated: str | None = None) -> str:
+    """The report as one HTML document.
+
+    Parameters
+    ----------
+    sections : sequence of Section
+    title, subtitle : str
+        Heading of the page (escaped).
+    generated : str, optional
+        Date shown as the generation time; defaults to now (UTC).
+    """
+    import jinja2
+
+    from accelcal import __version__
+
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("accelcal.report", "templates"),
+        autoescape=True,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+    env.filters["value"] = format_value
+    env.filters["std"] = format_std
+    template = env.get_template("report.html.j2")
+    return template.render(
+        title=title,
+        subtitle=subtitle,
+        generated=generated or dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        version=__version__,
+        sections=[_view(s, i) for i, s in enumerate(sections, 1)],
+    )
+
+
+def write_report(path, sections, **kwargs) -> None:
+    """Render the report and write it atomically to ``path``."""
+    write_text_atomic(path, render_report(sections, **kwargs))
+
+
+def _view(section: Section, number: int) -> dict:
+    """What the template needs of a section (plain values only)."""
+    view = {
+        "number": number, "anchor": f"s{number}", "title": section.title,
+        "summary": section.summary, "rows": section.rows or [],
+        "columns": list(section.rows[0]) if section.rows else [],
+        "notes": list(section.notes), "errata": list(section.errata),
+        "figures": [{"title": f.title, "svg": f.svg, "caption": f.caption}
+                    for f in section.figures],
+        "record": None,
+    }
+    rec = section.record
+    if rec is not None:
+        std = rec.std
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = rec.covariance / np.outer(std, std)
+        view["record"] = {
+            "serial": rec.serial, "method": rec.method, "date": rec.date,
+            "operator": rec.operator, "software": rec.software,
+            "coverage_factor": rec.coverage_factor, "inputs": dict(rec.inputs),
+            "notes": list(rec.notes),
+            "coefficients": [
+                {"name": n, "unit": rec.units.get(n, ""), "estimate": float(v),
+                 "std": float(s), "expanded": float(u)}
+                for n, v, s, u in zip(rec.names, rec.estimates, std, rec.expanded, strict=True)
+            ],
+            "correlation": corr.tolist() if len(rec.names) <= 10 else None,
+            "names": list(rec.names),
+        }
+    return view
