@@ -1,0 +1,219 @@
+"""``accelcal tumble``: multipoint tumble identifiability, simulation and reduction."""
+
+from pathlib import Path
+
+import typer
+
+from accelcal.cli.common import check_format, emit, load_model, parse_grid
+from accelcal.errors import AccelcalError
+
+app = typer.Typer(
+    help=(
+        "Multipoint tumble (IEEE 1293 style): what a position set identifies, "
+        "simulated records, and the Fourier / least-squares reduction."
+    ),
+    no_args_is_help=True,
+)
+
+KIND = "tumble"
+"""Record kind of tumble files (see docs/tumble.md)."""
+
+_AXIS_HELP = (
+    "Rotation axis: OA (a_i = cos theta, a_p = sin theta) or PA "
+    "(a_i = sin theta, a_o = cos theta, the indexing head)."
+)
+_TERMS_HELP = (
+    "Comma-separated model terms (K0,K1,K2,K3,K4, Kp,Kpp,Kip about OA or Ko,Koo,Kio about "
+    "PA, K0_asym,K1_asym); coefficients in g/g^n, K1 in output unit per g."
+)
+
+
+def _angles_deg(points: int | None, angles: str | None, start: float) -> list[float]:
+    if (points is None) == (angles is None):
+        raise AccelcalError("give either --points N or --angles LIST (degrees), not both")
+    if angles is not None:
+        return parse_grid(angles, "--angles")
+    if points < 1:
+        raise AccelcalError(f"--points {points} must be at least 1")
+    return [start + 360.0 * j / points for j in range(points)]
+
+
+def _terms(text: str | None):
+    if text is None:
+        return None
+    items = [t.strip() for t in text.split(",")]
+    if not all(items):
+        raise AccelcalError(f"--terms {text!r} has an empty item; give names separated by commas")
+    return tuple(items)
+
+
+def _finite(x: float):
+    import math
+
+    return x if math.isfinite(x) else None
+
+
+@app.command("identify")
+def identify(
+    *,
+    points: int | None = typer.Option(
+        None, "--points", help="Number of equally spaced positions (starting at --start)."
+    ),
+    angles: str | None = typer.Option(
+        None, "--angles", help="Positions in degrees: a list 0,90,180 or a range 0:330:30."
+    ),
+    start: float = typer.Option(0.0, "--start", help="First position with --points, degrees."),
+    axis: str = typer.Option("OA", "--axis", help=_AXIS_HELP),
+    terms: str | None = typer.Option(
+        None, "--terms", help=_TERMS_HELP + " Default: every term the axis excites."
+    ),
+    fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+) -> None:
+    """Print which coefficients a position set can separate (rank, condition number)."""
+    import json
+
+    import numpy as np
+
+    from accelcal.methods.tumble import identifiability
+
+    check_format(fmt)
+    deg = _angles_deg(points, angles, start)
+    report = identifiability(np.radians(deg), axis, terms=_terms(terms))
+    if fmt == "json":
+        doc = {
+            "rotation_axis": report.rotation_axis,
+            "positions_deg": deg,
+            "rank": report.rank,
+            "unknowns": len(report.terms),
+            "condition_number": _finite(report.condition_number),
+            "condition_number_identifiable": _finite(report.condition_number_identifiable),
+            "terms": report.rows(),
+            "combinations": [c.label for c in report.combinations],
+            "suggested_terms": list(report.suggested_terms),
+        }
+        typer.echo(json.dumps(doc, indent=2))
+        return
+    if fmt == "table":
+        typer.echo(report.summary())
+        typer.echo("suggested terms: " + ",".join(report.suggested_terms))
+    emit(report.rows(), fmt, title="Identifiability")
+
+
+@app.command("simulate")
+def simulate(
+    *,
+    out: Path = typer.Option(..., "--out", help="Record file to write (CSV, kind tumble)."),
+    points: int = typer.Option(24, "--points", help="Number of equally spaced positions."),
+    start: float = typer.Option(0.0, "--start", help="First position, degrees."),
+    axis: str = typer.Option("OA", "--axis", help=_AXIS_HELP),
+    model_file: Path | None = typer.Option(
+        None, "--model", help="Model file; default: the embedded default accelerometer."
+    ),
+    noise: float | None = typer.Option(
+        None,
+        "--noise",
+        help="Noise SD of one reading, in the model's output unit (default: the model's sigma).",
+    ),
+    repeats: int = typer.Option(1, "--repeats", help="Readings per position (averaged)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the random generator."),
+) -> None:
+    """Write a simulated tumble record (true model and noise in its metadata)."""
+    import numpy as np
+
+    from accelcal.io.records import write_record
+    from accelcal.methods.tumble import specific_force
+
+    model = load_model(model_file)
+    if points < 1 or repeats < 1:
+        raise AccelcalError("--points and --repeats must be at least 1")
+    if noise is None:
+        noise = model.sigma * abs(model.K1)
+    if not np.isfinite(noise) or noise < 0:
+        raise AccelcalError(f"--noise {noise} must be a finite SD >= 0 (output unit)")
+    model = model.replace(sigma=noise / abs(model.K1))
+    deg = np.repeat(start + 360.0 * np.arange(points) / points, repeats)
+    a_i, a_o, a_p = specific_force(np.radians(deg), axis)
+    output = model.output(a_i, a_o, a_p, rng=np.random.default_rng(seed))
+    unit = model.output_unit
+    meta = {
+        "units": {"angle": "deg", "output": unit},
+        "rotation_axis": axis,
+        "output_unit": unit,
+        "noise_sd": noise,
+        "seed": seed,
+        "true_model": model.terms(),
+    }
+    write_record(out, KIND, meta, {"angle": deg, "output": output})
+    typer.echo(f"wrote {out}")
+
+
+@app.command("reduce")
+def reduce(
+    file: Path = typer.Argument(..., help="Tumble record file (CSV, kind tumble)."),
+    terms: str | None = typer.Option(
+        None,
+        "--terms",
+        help=_TERMS_HELP + " Default: K0,K1,K2,K3,K4 and the axis's cross-axis and "
+        "cross-coupling terms.",
+    ),
+    route: str = typer.Option(
+        "auto", "--route", help="auto, fourier (IEEE relations, uniform N >= 8) or lsq."
+    ),
+    sigma: float | None = typer.Option(
+        None,
+        "--sigma",
+        help="Known noise SD of one reading, output unit (default: from the residuals).",
+    ),
+    fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+) -> None:
+    """Reduce a tumble record: estimate and standard uncertainty of each coefficient."""
+    import sys
+
+    import numpy as np
+
+    from accelcal.io.records import read_record
+    from accelcal.methods.tumble import reduce_tumble
+
+    check_format(fmt)
+    meta, cols = read_record(
+        file,
+        KIND,
+        required_metadata=("rotation_axis", "output_unit"),
+        required_columns=("angle", "output"),
+    )
+    angles, repeats, outputs = _group(file, cols["angle"], cols["output"])
+    result = reduce_tumble(
+        np.radians(angles),
+        outputs if repeats > 1 else outputs[:, 0],
+        rotation_axis=meta["rotation_axis"],
+        output_unit=meta["output_unit"],
+        terms=_terms(terms),
+        route=route,
+        sigma=sigma,
+        repeats=repeats > 1,
+    )
+    est = result.estimate
+    emit(est.rows(), fmt, title=f"Tumble reduction ({result.route}), {file}")
+    lines = [
+        f"combination {c.combination.label} = {float(c.value):.10g} +- {float(c.std):.3g} "
+        f"{meta['output_unit']}"
+        for c in result.combinations
+    ]
+    lines += [f"note: {n}" for n in est.notes]
+    stream = sys.stdout if fmt == "table" else sys.stderr
+    for line in lines:
+        print(line, file=stream)
+
+
+def _group(path, angle_deg, output):
+    """Rows with the same angle are repeated readings: (angles, R, outputs (N, R))."""
+    import numpy as np
+
+    angles, inverse, counts = np.unique(angle_deg, return_inverse=True, return_counts=True)
+    if counts.min() != counts.max():
+        raise AccelcalError(
+            f"{path}: positions have different numbers of repeated readings "
+            f"({counts.min()} to {counts.max()}); give the same number at every angle"
+        )
+    order = np.argsort(inverse, kind="stable")
+    return angles, int(counts[0]), output[order].reshape(angles.size, int(counts[0]))
