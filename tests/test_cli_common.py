@@ -69,3 +69,10 @@ def test_render_formats_keep_precision():
     assert "0.3" in render(rows, "table", title="T")
     with pytest.raises(AccelcalError, match="--format 'xml'"):
         render(rows, "xml")
+
+
+def test_render_writes_undetermined_values_validly():
+    rows = [{"a": float("nan"), "b": 1.0}]
+    assert json.loads(render(rows, "json")) == [{"a": None, "b": 1.0}]
+    assert render(rows, "csv").splitlines()[1] == "nan,1.0"
+    assert "n/a" in render(rows, "table")

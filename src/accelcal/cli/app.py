@@ -3,7 +3,13 @@
 import typer
 
 from accelcal import __version__
+from accelcal.cli import dividing_head as dividing_head_cmd
 from accelcal.cli import model as model_cmd
+from accelcal.cli import records as records_cmd
+from accelcal.cli import report as report_cmd
+from accelcal.cli import transverse as transverse_cmd
+from accelcal.cli import tumble as tumble_cmd
+from accelcal.cli import vre as vre_cmd
 
 app = typer.Typer(
     name="accelcal",
@@ -17,6 +23,12 @@ app = typer.Typer(
     context_settings={"help_option_names": ["-h", "--help"]},
 )
 app.add_typer(model_cmd.app, name="model")
+app.add_typer(dividing_head_cmd.app, name="dividing-head")
+app.add_typer(records_cmd.app, name="records")
+app.command("report")(report_cmd.report)
+app.add_typer(transverse_cmd.app, name="transverse")
+app.add_typer(tumble_cmd.app, name="tumble")
+app.add_typer(vre_cmd.app, name="vre")
 
 
 def _version(value: bool) -> None:

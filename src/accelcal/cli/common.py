@@ -96,13 +96,16 @@ def render(
     """Render rows (dicts with the same keys) as CSV, JSON or a readable table.
 
     CSV and JSON keep full precision (shortest round-trip repr); the table
-    shows 7 significant digits. ``headers`` relabels columns in the table
-    only (e.g. to add units); CSV and JSON keys stay machine names.
+    shows 7 significant digits. A NaN (a quantity that could not be
+    determined) is ``null`` in JSON, ``nan`` in CSV and ``n/a`` in the table.
+    ``headers`` relabels columns in the table only (e.g. to add units); CSV
+    and JSON keys stay machine names.
     """
     check_format(fmt)
     columns = list(rows[0]) if rows else []
     if fmt == "json":
-        return json.dumps([{k: _plain(v) for k, v in r.items()} for r in rows], indent=2) + "\n"
+        rows_json = [{k: _plain(v) for k, v in r.items()} for r in rows]
+        return json.dumps(rows_json, indent=2, allow_nan=False) + "\n"
     if fmt == "csv":
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
@@ -130,17 +133,23 @@ def emit(rows: Sequence[dict], fmt: str, **kwargs) -> None:
 
 def _plain(value):
     if hasattr(value, "item"):
-        return value.item()
+        value = value.item()
+    if isinstance(value, float) and math.isnan(value):
+        return None
     return value
 
 
 def _csv_cell(value) -> str:
     value = _plain(value)
+    if value is None:
+        return "nan"
     return repr(value) if isinstance(value, float) else str(value)
 
 
 def _table_cell(value) -> str:
     value = _plain(value)
+    if value is None:
+        return "n/a"
     if isinstance(value, float):
         return f"{value:.7g}"
     return str(value)

@@ -22,11 +22,20 @@ def save_figure(fig, directory, stem: str) -> list[Path]:
 
     The directory is created if needed. Each file is written to a temporary
     name and moved into place, so a failure leaves no partial file.
+
+    Raises
+    ------
+    AccelcalError
+        If the directory cannot be created.
     """
+    from accelcal.errors import AccelcalError
     from accelcal.io.atomic import atomic_path
 
     directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise AccelcalError(f"cannot create the figure directory {directory}: {exc}") from None
     paths = []
     for ext, extra in (("png", {"dpi": 150}), ("svg", {})):
         target = directory / f"{stem}.{ext}"

@@ -1,0 +1,287 @@
+"""Record files of indexing-head tests (kind ``dividing-head``).
+
+A record file (see :mod:`accelcal.io.records`) with columns
+
+* ``angle_deg``: nominal head angle, degrees;
+* ``repeat`` (optional): reading index 0, 1, ... when positions are read
+  more than once; every repeat covers the same angles;
+* one column per sensor (names in ``sensors``): output in ``output_unit``.
+
+and metadata
+
+* ``sensors``: the sensor column names, in mount order;
+* ``mount_phases_deg``: each sensor's mount phase, degrees;
+* ``nominal_scale_factors``: each sensor's nominal scale factor, output unit per g;
+* ``output_unit``: ``V``, ``mV``, ``mA`` or ``g``;
+* ``units``: unit of every column;
+* optional ``autocollimator_arcsec`` (one reading of the head error per
+  angle, in the order of the first repeat) with ``autocollimator_sd_arcsec``;
+* optional ``first_harmonic_rad`` ``[d1c, d1s]`` with ``first_harmonic_sd_rad``;
+* optional ``simulation`` (simulated files): ``models`` (model-file
+  objects), ``eta_rad``, ``angle_error_rad`` (applied head errors), ``seed``
+  and a ``description``.
+
+References
+----------
+.. [Dong2014] Dong C., Liu Q., Ren S., Test methods of four integrated
+   accelerometers on an indexing head, 2014.
+"""
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+from accelcal.io.records import read_record, write_record
+from accelcal.rigs.dividing_head import check_positions
+from accelcal.units import ARCSEC, DEG, OUTPUT_UNITS
+
+KIND = "dividing-head"
+
+_KNOWN = {
+    "format_version", "kind", "units", "sensors", "mount_phases_deg", "nominal_scale_factors",
+    "output_unit", "autocollimator_arcsec", "autocollimator_sd_arcsec", "first_harmonic_rad",
+    "first_harmonic_sd_rad", "simulation",
+}
+
+
+@dataclass(frozen=True)
+class HeadRecord:
+    """Contents of a ``dividing-head`` record file.
+
+    Attributes
+    ----------
+    positions : numpy.ndarray
+        Nominal head angles, rad, shape ``(n,)``.
+    outputs : numpy.ndarray
+        Outputs, shape ``(R, K, n)`` (R repeats).
+    mounts : numpy.ndarray
+        Mount phases, rad, ``(K,)``.
+    sensors : tuple of str
+        Sensor column names.
+    output_unit : str
+        Unit of the outputs.
+    nominal_scale_factors : numpy.ndarray
+        Output unit per g, ``(K,)``.
+    autocollimator : numpy.ndarray or None
+        Head error readings, rad, ``(n,)``.
+    autocollimator_sd : float or None
+        Their standard uncertainty, rad.
+    first_harmonic : numpy.ndarray or None
+        Measured (d1c, d1s), rad.
+    first_harmonic_sd : float
+        Its standard uncertainty, rad.
+    simulation : dict or None
+        Truth of a simulated file.
+    """
+
+    positions: np.ndarray
+    outputs: np.ndarray
+    mounts: np.ndarray
+    sensors: tuple
+    output_unit: str
+    nominal_scale_factors: np.ndarray
+    autocollimator: np.ndarray | None = None
+    autocollimator_sd: float | None = None
+    first_harmonic: np.ndarray | None = None
+    first_harmonic_sd: float = 0.0
+    simulation: dict | None = None
+
+    def data(self):
+        """The outputs as validated :class:`~accelcal.methods.dividing_head.HeadData`."""
+        from accelcal.methods.dividing_head import HeadData
+
+        return HeadData.build(self.positions, self.outputs, self.mounts, self.output_unit)
+
+    def true_models(self):
+        """The simulated truth as ErrorModels (None for measured files)."""
+        if not self.simulation:
+            return None
+        from accelcal.model import ErrorModel
+
+        return tuple(ErrorModel.from_json(json.dumps(m), source="record simulation.models")
+                     for m in self.simulation["models"])
+
+
+def write_head_record(
+    path,
+    positions,
+    outputs,
+    mounts,
+    *,
+    sensors=None,
+    output_unit: str = "V",
+    nominal_scale_factors=None,
+    autocollimator=None,
+    autocollimator_sd=None,
+    first_harmonic=None,
+    first_harmonic_sd: float = 0.0,
+    simulation: dict | None = None,
+) -> None:
+    """Write a ``dividing-head`` record atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        File to write.
+    positions : array_like
+        Nominal head angles, rad, ``(n,)``.
+    outputs : array_like
+        ``(K, n)`` or ``(R, K, n)`` outputs in ``output_unit``.
+    mounts : array_like
+        Mount phases, rad, ``(K,)``.
+    sensors : sequence of str, optional
+        Column names (default U1, U2, ...).
+    output_unit : str
+        Unit of the outputs.
+    nominal_scale_factors : array_like, optional
+        Output unit per g (default 1 each).
+    autocollimator, autocollimator_sd : array_like, float, optional
+        Head error readings at each position and their uncertainty, rad.
+    first_harmonic, first_harmonic_sd : (float, float), float, optional
+        Measured first harmonic of the head error and its uncertainty, rad.
+    simulation : dict, optional
+        Truth of a simulated run (JSON-serialisable).
+    """
+    alpha = np.asarray(positions, dtype=float).reshape(-1)
+    check_positions(alpha)
+    u = np.asarray(outputs, dtype=float)
+    u = u[None] if u.ndim == 2 else u
+    if u.ndim != 3 or u.shape[-1] != alpha.size:
+        raise AccelcalError(f"outputs of shape {u.shape} do not match {alpha.size} positions")
+    r, k, n = u.shape
+    names = list(sensors) if sensors is not None else [f"U{i + 1}" for i in range(k)]
+    phi = np.asarray(mounts, dtype=float).reshape(-1)
+    if len(names) != k or phi.size != k:
+        raise AccelcalError(f"{k} sensor columns need {k} names and {k} mount phases")
+    if output_unit not in OUTPUT_UNITS:
+        raise AccelcalError(f"output unit {output_unit!r} is not one of {', '.join(OUTPUT_UNITS)}")
+    ksf = np.ones(k) if nominal_scale_factors is None else \
+        np.asarray(nominal_scale_factors, dtype=float).reshape(-1)
+    columns = {"angle_deg": np.tile(alpha / DEG, r)}
+    units = {"angle_deg": "deg"}
+    if r > 1:
+        columns["repeat"] = np.repeat(np.arange(r), n)
+        units["repeat"] = "1"
+    for i, name in enumerate(names):
+        columns[name] = u[:, i, :].reshape(-1)
+        units[name] = output_unit
+    meta = {
+        "units": units,
+        "sensors": names,
+        "mount_phases_deg": (phi / DEG).tolist(),
+        "nominal_scale_factors": ksf.tolist(),
+        "output_unit": output_unit,
+    }
+    if autocollimator is not None:
+        meta["autocollimator_arcsec"] = (np.asarray(autocollimator, float) / ARCSEC).tolist()
+        meta["autocollimator_sd_arcsec"] = float(autocollimator_sd) / ARCSEC
+    if first_harmonic is not None:
+        meta["first_harmonic_rad"] = [float(v) for v in first_harmonic]
+        meta["first_harmonic_sd_rad"] = float(first_harmonic_sd)
+    if simulation is not None:
+        meta["simulation"] = simulation
+    write_record(path, KIND, meta, columns)
+
+
+def read_head_record(path) -> HeadRecord:
+    """Read and validate a ``dividing-head`` record.
+
+    Raises
+    ------
+    AccelcalError
+        Naming the file and the problem: unknown metadata keys, sensor names
+        that do not match the columns, a wrong number of mount phases or
+        scale factors, duplicated angles, incomplete repeats, NaN readings.
+    """
+    meta, cols = read_record(
+        path, KIND, required_metadata=("sensors", "mount_phases_deg", "output_unit"),
+        required_columns=("angle_deg",),
+    )
+    unknown = sorted(set(meta) - _KNOWN)
+    if unknown:
+        raise AccelcalError(f"{path}: unknown metadata field(s) {', '.join(unknown)}")
+    sensors = meta["sensors"]
+    if not isinstance(sensors, list) or not sensors or not all(isinstance(s, str) for s in sensors):
+        raise AccelcalError(f"{path}: metadata 'sensors' must be a non-empty list of column names")
+    missing = [s for s in sensors if s not in cols]
+    extra = [c for c in cols if c not in ("angle_deg", "repeat", *sensors)]
+    if missing or extra:
+        raise AccelcalError(
+            f"{path}: sensor columns do not match metadata 'sensors' "
+            f"(missing {missing or 'none'}, unexpected {extra or 'none'})"
+        )
+    k = len(sensors)
+    phases = _number_list(meta["mount_phases_deg"], path, "mount_phases_deg")
+    if len(phases) != k:
+        raise AccelcalError(
+            f"{path}: {len(phases)} mount phases for {k} sensor columns ({', '.join(sensors)}); "
+            "give one mount phase per sensor column"
+        )
+    ksf = _number_list(meta.get("nominal_scale_factors", [1.0] * k), path,
+                       "nominal_scale_factors")
+    if len(ksf) != k:
+        raise AccelcalError(f"{path}: {len(ksf)} nominal scale factors for {k} sensors")
+    unit = meta["output_unit"]
+    if unit not in OUTPUT_UNITS:
+        raise AccelcalError(f"{path}: output_unit {unit!r} is not one of {', '.join(OUTPUT_UNITS)}")
+    angle = cols["angle_deg"] * DEG
+    rep = cols.get("repeat", np.zeros(angle.size))
+    if not np.array_equal(rep, np.round(rep)) or rep.min() < 0:
+        raise AccelcalError(f"{path}: column 'repeat' must hold integers 0, 1, 2, ...")
+    reps = np.unique(rep)
+    if not np.array_equal(reps, np.arange(reps.size)):
+        raise AccelcalError(f"{path}: repeats must be numbered 0, 1, ... without gaps")
+    first = angle[rep == 0]
+    try:
+        check_positions(first, what=f"angles of {path}")
+    except AccelcalError as exc:
+        raise AccelcalError(str(exc)) from None
+    n = first.size
+    outputs = np.empty((reps.size, k, n))
+    order0 = np.argsort(np.mod(first, 2 * np.pi))
+    for r in reps.astype(int):
+        sel = rep == r
+        ang = angle[sel]
+        if ang.size != n or not np.allclose(np.sort(np.mod(ang, 2 * np.pi)),
+                                            np.mod(first, 2 * np.pi)[order0], atol=1e-9):
+            raise AccelcalError(
+                f"{path}: repeat {r} does not cover the same {n} angles as repeat 0"
+            )
+        check_positions(ang, what=f"angles of repeat {r} in {path}")
+        # map repeat r's rows onto repeat 0's order
+        idx = np.argsort(np.mod(ang, 2 * np.pi))[np.argsort(order0)]
+        for i, s in enumerate(sensors):
+            outputs[r, i] = cols[s][sel][idx]
+    ac = ac_sd = None
+    if "autocollimator_arcsec" in meta:
+        ac = np.asarray(_number_list(meta["autocollimator_arcsec"], path,
+                                     "autocollimator_arcsec")) * ARCSEC
+        if ac.size != n:
+            raise AccelcalError(f"{path}: {ac.size} autocollimator readings for {n} positions")
+        if "autocollimator_sd_arcsec" not in meta:
+            raise AccelcalError(f"{path}: autocollimator readings need autocollimator_sd_arcsec")
+        ac_sd = float(_number_list([meta["autocollimator_sd_arcsec"]], path,
+                                   "autocollimator_sd_arcsec")[0]) * ARCSEC
+    h1 = None
+    h1_sd = 0.0
+    if "first_harmonic_rad" in meta:
+        h1 = np.asarray(_number_list(meta["first_harmonic_rad"], path, "first_harmonic_rad"))
+        if h1.size != 2:
+            raise AccelcalError(f"{path}: first_harmonic_rad must be [d1c, d1s]")
+        h1_sd = float(_number_list([meta.get("first_harmonic_sd_rad", 0.0)], path,
+                                   "first_harmonic_sd_rad")[0])
+    sim = meta.get("simulation")
+    if sim is not None and (not isinstance(sim, dict) or "models" not in sim):
+        raise AccelcalError(f"{path}: metadata 'simulation' must be an object with 'models'")
+    return HeadRecord(first, outputs, np.asarray(phases) * DEG, tuple(sensors), unit,
+                      np.asarray(ksf), ac, ac_sd, h1, h1_sd, sim)
+
+
+def _number_list(value, path, field) -> list[float]:
+    if not isinstance(value, list) or not all(
+        isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) for v in value
+    ):
+        raise AccelcalError(f"{path}: metadata '{field}' must be a list of finite numbers")
+    return [float(v) for v in value]

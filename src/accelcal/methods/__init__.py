@@ -1,0 +1,1 @@
+"""Test methods: simulate, reduce and identify, one module per method."""

@@ -1,0 +1,1 @@
+"""Test rigs: what the accelerometer feels (inputs, sampling, noise)."""
