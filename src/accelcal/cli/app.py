@@ -23,12 +23,12 @@ app = typer.Typer(
     context_settings={"help_option_names": ["-h", "--help"]},
 )
 app.add_typer(model_cmd.app, name="model")
+app.add_typer(vre_cmd.app, name="vre")
+app.add_typer(transverse_cmd.app, name="transverse")
 app.add_typer(dividing_head_cmd.app, name="dividing-head")
+app.add_typer(tumble_cmd.app, name="tumble")
 app.add_typer(records_cmd.app, name="records")
 app.command("report")(report_cmd.report)
-app.add_typer(transverse_cmd.app, name="transverse")
-app.add_typer(tumble_cmd.app, name="tumble")
-app.add_typer(vre_cmd.app, name="vre")
 
 
 def _version(value: bool) -> None:
