@@ -48,6 +48,36 @@ class PeriodMean:
     discarded: int
 
 
+def check_sampling(
+    samples: int, fs: float, f: float, *, harmonics: int = 1, what: str = "record"
+) -> None:
+    """Check that a record can carry ``harmonics`` of ``f``: rates, Nyquist, one period.
+
+    Raises
+    ------
+    AccelcalError
+        For a non-positive or non-finite sample rate or frequency, a
+        harmonic at or above the Nyquist frequency, or fewer samples than one
+        period; the message says how to fix it.
+    """
+    if not (np.isfinite(fs) and fs > 0):
+        raise AccelcalError(f"{what}: sample rate {fs} Hz must be positive and finite")
+    if not (np.isfinite(f) and f > 0):
+        raise AccelcalError(f"{what}: frequency {f} Hz must be positive and finite")
+    if 2 * harmonics * f >= fs:
+        which = f"harmonic {harmonics} of {f} Hz" if harmonics > 1 else f"frequency {f} Hz"
+        raise AccelcalError(
+            f"{what}: {which} is not below the Nyquist frequency {fs / 2} Hz; "
+            "raise the sample rate"
+        )
+    per_period = fs / f
+    if samples < per_period * (1 - 1e-9):
+        raise AccelcalError(
+            f"{what}: {samples} samples is shorter than one period of {f} Hz at {fs} Hz "
+            f"({per_period:g} samples); record at least one whole period"
+        )
+
+
 def whole_period_samples(
     n_samples: int, fs: float, f: float, *, what: str = "record"
 ) -> tuple[int, int]:
@@ -71,21 +101,9 @@ def whole_period_samples(
         periods within it is a whole number of samples (``fs / f`` is not a
         ratio of small integers); the message says how to fix it.
     """
-    if not (np.isfinite(fs) and fs > 0):
-        raise AccelcalError(f"{what}: sample rate {fs} Hz must be positive and finite")
-    if not (np.isfinite(f) and f > 0):
-        raise AccelcalError(f"{what}: frequency {f} Hz must be positive and finite")
-    if 2 * f >= fs:
-        raise AccelcalError(
-            f"{what}: frequency {f} Hz is not below the Nyquist frequency {fs / 2} Hz"
-        )
+    check_sampling(n_samples, fs, f, what=what)
     per_period = fs / f
-    max_periods = int(np.floor(n_samples / per_period + 1e-9))
-    if max_periods < 1:
-        raise AccelcalError(
-            f"{what}: {n_samples} samples is shorter than one period of {f} Hz at {fs} Hz "
-            f"({per_period:g} samples); record at least one whole period"
-        )
+    max_periods = max(1, int(np.floor(n_samples / per_period + 1e-9)))
     k = np.arange(max_periods, 0, -1)
     span = k * per_period
     ok = np.abs(span - np.round(span)) <= RATIO_TOL

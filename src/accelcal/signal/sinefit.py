@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.signal.periods import check_sampling
 
 
 @dataclass(frozen=True)
@@ -150,7 +151,7 @@ class HarmonicFit:
     ) -> None:
         samples = int(samples)
         harmonics = int(harmonics)
-        _check_rates(samples, fs, f, harmonics, what)
+        check_sampling(samples, fs, f, harmonics=harmonics, what=what)
         self.samples, self.fs, self.f, self.harmonics = samples, float(fs), float(f), harmonics
         t = float(t0) + np.arange(samples) / self.fs
         self.design = _design(t, self.f, harmonics)  # Sec. 4.1.3.1 [IEEE1057]
@@ -264,7 +265,7 @@ def sine_fit4(
     if f0 is None:
         f0 = _dft_peak(y, fs)
     f = np.broadcast_to(np.asarray(f0, dtype=float), y.shape[:-1]).copy()
-    _check_rates(n, fs, float(np.max(f)), 1, "record")
+    check_sampling(n, fs, float(np.max(f)), what="record")
     t = t0 + np.arange(n) / fs
     for _ in range(max_iter):
         x, d4, _ = _four_parameter_step(y, t, f)
@@ -310,24 +311,6 @@ def _design(t, f, harmonics):
         wt = 2 * np.pi * k * f * t
         cols += [np.cos(wt), np.sin(wt)]
     return np.stack(cols, axis=-1)
-
-
-def _check_rates(samples, fs, f, harmonics, what):
-    if not (np.isfinite(fs) and fs > 0):
-        raise AccelcalError(f"{what}: sample rate {fs} Hz must be positive and finite")
-    if not (np.isfinite(f) and f > 0):
-        raise AccelcalError(f"{what}: frequency {f} Hz must be positive and finite")
-    if 2 * harmonics * f >= fs:
-        raise AccelcalError(
-            f"{what}: harmonic {harmonics} of {f} Hz is not below the Nyquist frequency "
-            f"{fs / 2} Hz; raise the sample rate"
-        )
-    per_period = fs / f
-    if samples < per_period * (1 - 1e-9):
-        raise AccelcalError(
-            f"{what}: {samples} samples is shorter than one period of {f} Hz at {fs} Hz "
-            f"({per_period:g} samples); record at least one whole period"
-        )
 
 
 def _dft_peak(y, fs):
