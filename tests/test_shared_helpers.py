@@ -98,6 +98,21 @@ def test_whole_period_mean_uncertainty_matches_noise():
     assert np.mean(r.std) == pytest.approx(1e-3 / np.sqrt(n), rel=0.02)
 
 
+def test_whole_period_uncertainty_ignores_a_periodic_signal_of_any_order():
+    # A square wave (sgn of a sine: harmonics of every odd order) plus white
+    # noise: synchronous averaging removes all of the wave, so the stated
+    # uncertainty is the noise's; a fit of a few harmonics would leave most
+    # of the wave's higher harmonics in the "noise" (here ~50x too large).
+    rng = np.random.default_rng(6)
+    fs, f, n = 1000.0, 10.0, 10_000
+    t = np.arange(n) / fs
+    x = 1e-3 * np.sign(np.sin(2 * np.pi * f * t + 0.3)) + rng.normal(0, 1e-6, (300, n))
+    r = whole_period_mean(x, fs, f)
+    # 300 records: relative SE of the mean stated SD is tiny; 3 % tolerance.
+    assert np.mean(r.std) == pytest.approx(1e-6 / np.sqrt(n), rel=0.03)
+    assert np.std(r.mean) == pytest.approx(1e-6 / np.sqrt(n), rel=0.15)
+
+
 def test_whole_period_errors():
     with pytest.raises(AccelcalError, match="shorter than one period"):
         whole_period_samples(50, 1000.0, 10.0, what="vib")

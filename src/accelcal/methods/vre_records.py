@@ -16,7 +16,9 @@ Metadata fields: ``sample_rate_hz``, ``frequency_hz`` (vibration),
 ``output_unit``, ``direction`` ([IA, OA, PA], the vibration direction),
 ``points`` (a list with one object per point: ``overload_g`` as
 [IA, OA, PA] and ``amplitude_g``), and the informative ``phase_rad``,
-``sampling``, ``noise_g``, ``quantum`` (output unit).
+``sampling``, ``noise_g``, ``quantum`` (output unit), and the optional
+laboratory fields ``serial``, ``operator``, ``date``, ``local_gravity``
+(:mod:`accelcal.io.lab_metadata`; pass them in ``provenance`` to write them).
 
 The VRE of a point is ``(mean_vibrating - mean_static) / scale_factor``,
 both means over whole periods of the vibration (the record need not start
@@ -24,8 +26,8 @@ at phase zero; the partial period at the end is left out), with standard
 uncertainty ``sqrt(u_v^2 + u_s^2) / |scale_factor|`` from each record's
 residual noise after removing the periodic signal by synchronous averaging
 (all harmonics, which the asymmetry term has), or after removing harmonics
-0..8 (:func:`accelcal.signal.periods.whole_period_mean`) when the span holds
-fewer than two repeats of the sampled phases.
+0..8 when the span holds fewer than two repeats of the sampled phases
+(:func:`accelcal.signal.periods.whole_period_mean`).
 
 References
 ----------
@@ -41,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.lab_metadata import check_lab_metadata
 from accelcal.io.records import read_record, write_record
 from accelcal.rigs.vibrafuge import VibrafugeRun
 from accelcal.signal.periods import whole_period_mean
@@ -132,36 +135,12 @@ def reduce_run(run: VibrafugeRun, *, harmonics: int = HARMONICS) -> VreMeasureme
     sta = whole_period_mean(run.static, fs, f, harmonics=harmonics, what="static record")
     k1 = run.scale_factor
     vre = (np.atleast_1d(vib.mean) - np.atleast_1d(sta.mean)) / k1  # Eq. (9)/(21) [Guan2021]
-    u_vib = _synchronous_std(run.vibrating, vib)
-    u_sta = _synchronous_std(run.static, sta)
-    u = np.hypot(u_vib, u_sta) / abs(k1)
+    u = np.hypot(np.atleast_1d(vib.std), np.atleast_1d(sta.std)) / abs(k1)
     return VreMeasurement(
         overload=run.overload, amplitude=run.amplitude, direction=run.direction, vre=vre,
         uncertainty=u, static_mean=np.atleast_1d(sta.mean), vibrating_mean=np.atleast_1d(vib.mean),
         periods=vib.periods, samples=vib.samples, discarded=vib.discarded,
     )
-
-
-def _synchronous_std(record, pm) -> np.ndarray:
-    """Standard uncertainty of a whole-period mean from the synchronous residual.
-
-    Over the whole-period span the sampled phases repeat every ``q`` samples
-    (``q = samples / gcd(samples, periods)``). Subtracting the mean of each
-    phase across its ``R = samples / q`` repeats removes the periodic signal
-    of every harmonic order (the asymmetry term has all of them), leaving the
-    noise with ``samples - q`` degrees of freedom. With fewer than two
-    repeats, the harmonic-fit estimate of ``whole_period_mean`` is used.
-    """
-    m = pm.samples
-    q = m // math.gcd(m, pm.periods)
-    repeats = m // q
-    if repeats < 2:
-        return np.atleast_1d(pm.std)
-    x = np.asarray(record, dtype=float)[..., :m]
-    x = x.reshape(*x.shape[:-1], repeats, q)
-    resid = x - x.mean(axis=-2, keepdims=True)
-    s2 = (resid**2).sum(axis=(-2, -1)) / (m - q)
-    return np.atleast_1d(np.sqrt(s2 / m))
 
 
 def write_vibrafuge(path, run: VibrafugeRun, *, provenance: dict | None = None) -> None:
@@ -242,6 +221,7 @@ def read_vibrafuge(path) -> VibrafugeRun:
                            "direction", "points"),
         required_columns=("point", "t", "static", "vibrating"),
     )
+    check_lab_metadata(meta, path)
     fs = _number(meta, "sample_rate_hz", path, positive=True)
     f = _number(meta, "frequency_hz", path, positive=True)
     k1 = _number(meta, "scale_factor", path, nonzero=True)

@@ -12,6 +12,7 @@ References
    Recorders, sec. 4.1 (record length, coherent sampling).
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,8 +32,11 @@ class PeriodMean:
     mean : float or numpy.ndarray
         Mean over the whole periods used (one per leading index).
     std : float or numpy.ndarray
-        Standard uncertainty of the mean for white noise: residual standard
-        deviation after removing harmonics 0..H of ``f``, over sqrt(M).
+        Standard uncertainty of the mean for white noise: the residual
+        standard deviation after removing the periodic signal, over sqrt(M).
+        When the sampled phases repeat within the span (``fs / f`` rational),
+        the periodic signal of every harmonic order is removed by synchronous
+        averaging; otherwise harmonics 0..H of ``f`` are removed by a fit.
     periods : int
         Whole periods used.
     samples : int
@@ -132,8 +136,9 @@ def whole_period_mean(
     fs, f : float
         Sample rate and vibration frequency, Hz.
     harmonics : int
-        Harmonics of ``f`` removed before estimating the noise level (the
-        mean is unaffected by this choice).
+        Harmonics of ``f`` removed before estimating the noise level when the
+        sampled phases do not repeat within the span (the mean is unaffected
+        by this choice).
     what : str
         Name of the record for error messages.
 
@@ -155,6 +160,37 @@ def whole_period_mean(
     periods, m = whole_period_samples(x.shape[-1], fs, f, what=what)
     used = x[..., :m]
     mean = used.mean(axis=-1)
+    s = _synchronous_residual_std(used, periods)
+    if s is None:
+        s = _harmonic_residual_std(used, fs, f, harmonics, what)
+    std = s / np.sqrt(m)
+    if x.ndim == 1:
+        mean, std = float(mean), float(std)
+    return PeriodMean(mean=mean, std=std, periods=periods, samples=m, discarded=x.shape[-1] - m)
+
+
+def _synchronous_residual_std(used: np.ndarray, periods: int) -> np.ndarray | None:
+    """Noise SD after subtracting the mean of each sampled phase across its repeats.
+
+    Over a span of ``m`` samples and ``k`` periods the sampled phases repeat
+    every ``q = m / gcd(m, k)`` samples. Subtracting each phase's mean over
+    its ``R = m / q`` repeats removes the periodic signal of every harmonic
+    order (a sign term has all of them), leaving the noise with ``m - q``
+    degrees of freedom. None when the phases do not repeat (``R < 2``).
+    """
+    m = used.shape[-1]
+    q = m // math.gcd(m, periods)
+    repeats = m // q
+    if repeats < 2:
+        return None
+    folded = used.reshape(*used.shape[:-1], repeats, q)
+    resid = folded - folded.mean(axis=-2, keepdims=True)
+    return np.sqrt((resid**2).sum(axis=(-2, -1)) / (m - q))
+
+
+def _harmonic_residual_std(used, fs, f, harmonics, what) -> np.ndarray:
+    """Noise SD after a least-squares fit of harmonics 0..H of ``f``."""
+    m = used.shape[-1]
     h = max(0, min(int(harmonics), (m - 2) // 2))
     t = np.arange(m) / fs
     cols = [np.ones(m)]
@@ -166,8 +202,4 @@ def whole_period_mean(
         raise AccelcalError(f"{what}: {m} samples are too few to estimate the noise level")
     coef, *_ = np.linalg.lstsq(design, used.reshape(-1, m).T, rcond=None)
     resid = used.reshape(-1, m).T - design @ coef
-    s = np.sqrt((resid**2).sum(axis=0) / dof).reshape(x.shape[:-1])
-    std = s / np.sqrt(m)
-    if x.ndim == 1:
-        mean, std = float(mean), float(std)
-    return PeriodMean(mean=mean, std=std, periods=periods, samples=m, discarded=x.shape[-1] - m)
+    return np.sqrt((resid**2).sum(axis=0) / dof).reshape(used.shape[:-1])
