@@ -134,3 +134,24 @@ def test_unreachable_scheduler_fails_within_timeout():
         mc.run(LinearFit(), 10, names=NAMES, seed=1, scheduler="tcp://127.0.0.1:9",
                timeout=1.0)
     assert time.monotonic() - start < 15  # the stated timeout, plus cluster teardown slack
+
+
+def test_variances_only_match_the_full_covariance():
+    study = LinearFit()
+    full = mc.run(study, 3000, names=NAMES, seed=2, block_size=400)
+    diag = mc.run(study, 3000, names=NAMES, seed=2, block_size=400, covariance=False)
+    np.testing.assert_array_equal(diag.mean, full.mean)
+    # Diagonal by einsum vs by matrix product: the same sums, rounding apart.
+    np.testing.assert_allclose(diag.rms, full.rms, rtol=1e-13)
+    np.testing.assert_allclose(diag.std, full.std, rtol=1e-13)
+    assert np.isnan(diag.covariance[0, 1])
+    np.testing.assert_allclose(np.diag(diag.covariance), np.diag(full.covariance), rtol=1e-13)
+
+
+def test_moments_hold_no_view_of_a_blocks_outputs():
+    # A zero-length view would keep every block's whole output array alive.
+    values = np.ones((1000, 3))
+    for stride in (0, 7):
+        kept = mc._Moments.of(values, 0, stride, True).kept
+        assert kept.base is None or kept.base is not values
+        assert not np.shares_memory(kept, values)

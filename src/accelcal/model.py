@@ -294,7 +294,7 @@ class ErrorModel:
 
         References
         ----------
-        .. [1] GuanTang, eq. (13); mapping in DOMAIN.md section 1.
+        .. [1] GuanTang, eq. (13); mapping in docs/domain.md section 1.
         """
         mapped = {}
         for name, value in coefficients.items():

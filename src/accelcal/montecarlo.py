@@ -9,9 +9,10 @@ The engine
   from its own generator, ``PCG64(SeedSequence(seed, spawn_key=(b,)))``, so
   a trial's random numbers depend only on the seed and its block;
 - reduces every block to streaming statistics (count, mean, centred second
-  moments) and merges them **in block order** (Chan et al.), so the result
-  is bit-identical whatever the number of blocks per task, the number of
-  workers or the order in which they finish;
+  moments: the full covariance, or only the variances when
+  ``covariance=False``) and merges them **in block order** (Chan et al.) as
+  they arrive, so the result is bit-identical whatever the number of blocks
+  per task, the number of workers or the order in which they finish;
 - keeps, when asked, a deterministic thinning of the trials (every
   ``stride``-th trial by global index, at most ``max_kept``) for quantiles
   and coverage intervals;
@@ -21,7 +22,11 @@ The engine
 
 Memory is bounded by one task's blocks at a time per worker:
 ``blocks_per_task * block_size * (numbers drawn per trial + p) * 8`` bytes,
-plus ``max_kept * p * 8`` bytes for quantiles, whatever the trial count.
+plus ``max_kept * p * 8`` bytes for quantiles, plus the moments of the tasks
+finished out of order (``p * p * 8`` bytes each, at most one per task in
+flight), whatever the trial count. Each task runs with ``blas_threads`` BLAS
+threads (one by default: a study's matrix products are small, and BLAS
+threads would only compete with the workers for the cores).
 
 References
 ----------
@@ -52,7 +57,13 @@ def block_generator(seed: int, block: int) -> np.random.Generator:
 
 @dataclass(frozen=True)
 class _Moments:
-    """Streaming moments of a set of trials (count, mean, centred M2, kept samples)."""
+    """Streaming moments of a set of trials.
+
+    ``m2`` is the centred second-moment matrix ``(p, p)``, or only its
+    diagonal ``(p,)`` when the covariance is not wanted. ``kept`` holds the
+    thinned samples (a fresh array, never a view of a block's outputs, so a
+    block's memory is released once its moments are taken).
+    """
 
     n: int
     mean: np.ndarray
@@ -60,19 +71,25 @@ class _Moments:
     kept: np.ndarray
 
     @classmethod
-    def of(cls, values: np.ndarray, first_index: int, stride: int) -> "_Moments":
+    def of(cls, values: np.ndarray, first_index: int, stride: int, full: bool) -> "_Moments":
         mean = values.mean(axis=0)
         centred = values - mean
-        kept = values[(-first_index) % stride :: stride].copy() if stride else values[:0]
-        return cls(len(values), mean, centred.T @ centred, kept)
+        m2 = centred.T @ centred if full else np.einsum("ij,ij->j", centred, centred)
+        if stride:
+            kept = values[(-first_index) % stride :: stride].copy()
+        else:
+            kept = np.empty((0, values.shape[1]))
+        return cls(len(values), mean, m2, kept)
 
     def merged(self, other: "_Moments") -> "_Moments":
         # Pairwise update of mean and M2 [Chan1982].
         n = self.n + other.n
         delta = other.mean - self.mean
         mean = self.mean + delta * (other.n / n)
-        m2 = self.m2 + other.m2 + np.outer(delta, delta) * (self.n * other.n / n)
-        return _Moments(n, mean, m2, np.concatenate([self.kept, other.kept]))
+        cross = np.outer(delta, delta) if self.m2.ndim == 2 else delta * delta
+        m2 = self.m2 + other.m2 + cross * (self.n * other.n / n)
+        kept = np.concatenate([self.kept, other.kept]) if len(other.kept) else self.kept
+        return _Moments(n, mean, m2, kept)
 
 
 @dataclass(frozen=True)
@@ -89,7 +106,9 @@ class MonteCarloResult:
         Mean, root mean square (about zero) and standard deviation of each
         output, shape ``(p,)``.
     covariance : numpy.ndarray
-        Sample covariance (divisor ``trials - 1``), shape ``(p, p)``.
+        Sample covariance (divisor ``trials - 1``), shape ``(p, p)``; only
+        the diagonal when the study ran with ``covariance=False`` (the
+        off-diagonal entries are then NaN: not computed).
     samples : numpy.ndarray
         The kept (thinned) trials, shape ``(k, p)``, for quantiles; empty when
         none were kept.
@@ -146,6 +165,8 @@ def run(
     blocks_per_task: int = 4,
     keep_samples: bool = False,
     max_kept: int = DEFAULT_MAX_KEPT,
+    covariance: bool = True,
+    blas_threads: int | None = 1,
     workers: int | None = None,
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
@@ -174,6 +195,14 @@ def run(
     keep_samples : bool
         Keep a deterministic thinning of at most ``max_kept`` trials for
         quantiles and coverage intervals.
+    max_kept : int
+        Most trials kept when ``keep_samples``.
+    covariance : bool
+        Accumulate the full covariance of the outputs (``p * p`` work per
+        trial); with False only the variances (enough for mean, RMS and
+        standard deviation).
+    blas_threads : int or None
+        BLAS threads while a task evaluates its blocks (None: leave as is).
     workers : int, optional
         Start a Dask local cluster with this many worker processes.
     scheduler : str, optional
@@ -210,25 +239,33 @@ def run(
         range(start, min(start + blocks_per_task, n_blocks))
         for start in range(0, n_blocks, blocks_per_task)
     ]
-    spec = _BlockSpec(simulate, int(seed), trials, block_size, len(names), stride)
+    spec = _BlockSpec(
+        simulate, int(seed), trials, block_size, len(names), stride, covariance, blas_threads
+    )
+    merger = _InOrder(len(tasks), progress, trials)
     if workers is None and scheduler is None:
-        results = _run_local(spec, tasks, progress)
+        for index, blocks in enumerate(tasks):
+            merger.add(index, spec(blocks))
     else:
-        results = _run_dask(
-            spec, tasks, workers=workers, scheduler=scheduler, progress=progress, timeout=timeout
+        _run_dask(
+            spec, tasks, merger, workers=workers, scheduler=scheduler, timeout=timeout
         )
-    moments = [m for task in sorted(results, key=lambda r: r[0]) for m in task[1]]
-    total = moments[0]
-    for m in moments[1:]:
-        total = total.merged(m)
-    var = np.diag(total.m2) / total.n
-    cov = total.m2 / (total.n - 1) if total.n > 1 else np.full_like(total.m2, np.nan)
+    total = merger.total
+    diag = np.diag(total.m2) if total.m2.ndim == 2 else total.m2
+    var = diag / total.n
+    if total.n < 2:
+        cov = np.full((len(names), len(names)), np.nan)
+    elif total.m2.ndim == 2:
+        cov = total.m2 / (total.n - 1)
+    else:
+        cov = np.full((len(names), len(names)), np.nan)
+        np.fill_diagonal(cov, diag / (total.n - 1))
     return MonteCarloResult(
         names=names,
         trials=total.n,
         mean=total.mean,
         rms=np.sqrt(total.mean**2 + var),
-        std=np.sqrt(np.diag(cov)),
+        std=np.sqrt(np.diag(cov)) if total.n > 1 else np.full(len(names), np.nan),
         covariance=cov,
         samples=total.kept,
         seed=int(seed),
@@ -246,8 +283,18 @@ class _BlockSpec:
     block_size: int
     p: int
     stride: int
+    full_covariance: bool
+    blas_threads: int | None
 
-    def __call__(self, blocks: range) -> tuple[int, list[_Moments]]:
+    def __call__(self, blocks: range) -> list[_Moments]:
+        if self.blas_threads is None:
+            return self._evaluate(blocks)
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(limits=self.blas_threads, user_api="blas"):
+            return self._evaluate(blocks)
+
+    def _evaluate(self, blocks: range) -> list[_Moments]:
         out = []
         for b in blocks:
             first = b * self.block_size
@@ -258,22 +305,39 @@ class _BlockSpec:
                     f"the study returned shape {values.shape} for {n} trials; "
                     f"expected ({n}, {self.p})"
                 )
-            out.append(_Moments.of(values, first, self.stride))
-        return blocks.start, out
+            out.append(_Moments.of(values, first, self.stride, self.full_covariance))
+        return out
 
 
-def _run_local(spec, tasks, progress):
-    results = []
-    done = 0
-    for blocks in tasks:
-        results.append(spec(blocks))
-        done += sum(m.n for m in results[-1][1])
-        if progress is not None:
-            progress(done, spec.trials)
-    return results
+class _InOrder:
+    """Merge task results in task (hence block) order as they arrive.
+
+    Results that arrive early wait in ``pending`` until their predecessors
+    are merged, so memory holds only the out-of-order window, and the merge
+    order (hence every bit of the result) never depends on arrival order.
+    """
+
+    def __init__(self, n_tasks: int, progress, trials: int) -> None:
+        self.pending: dict[int, list[_Moments]] = {}
+        self.next = 0
+        self.n_tasks = n_tasks
+        self.total: _Moments | None = None
+        self.done = 0
+        self.progress = progress
+        self.trials = trials
+
+    def add(self, index: int, moments: list[_Moments]) -> None:
+        self.pending[index] = moments
+        self.done += sum(m.n for m in moments)
+        while self.next in self.pending:
+            for m in self.pending.pop(self.next):
+                self.total = m if self.total is None else self.total.merged(m)
+            self.next += 1
+        if self.progress is not None:
+            self.progress(self.done, self.trials)
 
 
-def _run_dask(spec, tasks, *, workers, scheduler, progress, timeout):
+def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError:
@@ -298,14 +362,10 @@ def _run_dask(spec, tasks, *, workers, scheduler, progress, timeout):
             client = Client(cluster)
         with client:
             futures = client.map(spec, tasks, pure=False)
-            results = []
-            done = 0
+            index = {future.key: i for i, future in enumerate(futures)}
             for future in as_completed(futures):
-                results.append(future.result())
-                done += sum(m.n for m in results[-1][1])
-                if progress is not None:
-                    progress(done, spec.trials)
-            return results
+                merger.add(index[future.key], future.result())
+                future.release()
     finally:
         if cluster is not None:
             cluster.close()

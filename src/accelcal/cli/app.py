@@ -3,6 +3,7 @@
 import typer
 
 from accelcal import __version__
+from accelcal.cli import demo as demo_cmd
 from accelcal.cli import dividing_head as dividing_head_cmd
 from accelcal.cli import model as model_cmd
 from accelcal.cli import records as records_cmd
@@ -27,6 +28,7 @@ app.add_typer(vre_cmd.app, name="vre")
 app.add_typer(transverse_cmd.app, name="transverse")
 app.add_typer(dividing_head_cmd.app, name="dividing-head")
 app.add_typer(tumble_cmd.app, name="tumble")
+app.command("demo")(demo_cmd.demo)
 app.add_typer(records_cmd.app, name="records")
 app.command("report")(report_cmd.report)
 

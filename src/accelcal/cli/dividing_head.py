@@ -5,6 +5,7 @@ from pathlib import Path
 
 import typer
 
+from accelcal.cli import uncertainty_options
 from accelcal.cli.common import check_format, emit, parse_grid, parse_number
 from accelcal.errors import AccelcalError
 
@@ -215,16 +216,49 @@ def reduce_cmd(
     plot: Path | None = typer.Option(
         None, "--plot", help="Directory for figures (residuals, separated head error; PNG+SVG)."
     ),
+    record_out: Path | None = typer.Option(
+        None, "--record", help="Write one calibration record (JSON) per sensor: FILE with -1, "
+        "-2, ... inserted before the suffix, in sensor column order (one sensor: FILE).",
+    ),
+    serial: str | None = typer.Option(
+        None, "--serial", help="Serial numbers for --record, one per sensor column, comma "
+        "separated (default: the file's 'serial' metadata).",
+    ),
+    operator: str | None = typer.Option(
+        None, "--operator", help="Operator for --record (default: the file's 'operator')."
+    ),
+    uncertainty: str = uncertainty_options.UNCERTAINTY,
+    trials: int = uncertainty_options.TRIALS,
+    seed: int = uncertainty_options.SEED,
+    angle_error_level: str | None = typer.Option(
+        None, "--angle-error-level",
+        help="--uncertainty mc: bound of the head's angle error at each position (rectangular "
+             "Type-B input), arcsec or with a unit suffix (e.g. 2arcsec, 10urad).",
+    ),
 ) -> None:
     """Reduce a record: estimate and standard uncertainty of each coefficient (volts)."""
     from accelcal.io.dividing_head import read_head_record
     from accelcal.methods.dividing_head import reduce
 
     check_format(fmt)
+    monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
+    level = 0.0 if angle_error_level is None else _angle(
+        angle_error_level, "--angle-error-level", "arcsec")
+    if angle_error_level is not None and not (monte_carlo and level >= 0):
+        raise AccelcalError("--angle-error-level is a bound >= 0 used with --uncertainty mc")
+    if monte_carlo and method == "tumble":
+        raise AccelcalError("--uncertainty mc is available for methods single, four and joint")
     if method not in _METHODS:
         raise AccelcalError(f"--method {method!r} is unknown; choose one of {', '.join(_METHODS)}")
     record = read_head_record(file)
     data = record.data()
+    info = None
+    if record_out is not None:
+        from accelcal.calibration import lab_info
+
+        info = lab_info([file], sensors=len(record.sensors), serial=serial, operator=operator)
+    elif serial is not None or operator is not None:
+        raise AccelcalError("--serial and --operator go with --record FILE")
     h1 = _pair(first_harmonic, "--first-harmonic") if first_harmonic is not None else (
         None if record.first_harmonic is None else tuple(record.first_harmonic))
     sd = first_harmonic_sd if first_harmonic_sd is not None else (
@@ -242,12 +276,30 @@ def reduce_cmd(
     elif gauss_newton:
         raise AccelcalError("--gauss-newton applies to --method joint only")
     result = reduce(data, method, **options)
+    rows = result.rows(list(record.sensors))
+    if monte_carlo:
+        from accelcal.methods.dividing_head_mc import head_uncertainty
+
+        with uncertainty_options.progress_bar() as progress:
+            mc = head_uncertainty(
+                data, result, trials=trials, seed=seed, angle_error_level=level,
+                first_harmonic=options.get("first_harmonic"),
+                first_harmonic_sd=options.get("first_harmonic_sd", 0.0),
+                autocollimator_sd=options.get("autocollimator_sd"),
+                sensor_names=list(record.sensors), progress=progress)
+        rows = uncertainty_options.merge(rows, mc)
     if plot is not None:
         from accelcal.plotting.dividing_head import plot_reduction
 
         plot_reduction(result, plot, sensor_names=record.sensors,
                        positions=record.positions, truth=_true_angle_error(record))
-    emit(result.rows(list(record.sensors)), fmt,
+    if info is not None:
+        from accelcal.calibration import head_records, save_records
+
+        cal = head_records(result, info, sensor_names=record.sensors, input_files=[file])
+        for p in save_records(cal, record_out):
+            typer.echo(f"wrote {p}", err=True)
+    emit(rows, fmt,
          title=f"{file}: method {method} (coefficients in {record.output_unit}, "
                f"{record.output_unit}/g, {record.output_unit}/g^2)")
 
@@ -263,7 +315,7 @@ def _true_angle_error(record):
 @app.command("study")
 def study_cmd(
     *,
-    trials: int = typer.Option(..., "--trials", help="Number of Monte Carlo trials."),
+    trials: int = typer.Option(..., "--trials", help="Number of Monte Carlo trials (>= 2)."),
     positions: int = _POSITIONS,
     mounts: str = _MOUNTS,
     angle_error: str = _ANGLE_ERROR,
@@ -279,19 +331,51 @@ def study_cmd(
              "(Dong2014: 5e-7).",
     ),
     per_sensor: bool = typer.Option(False, "--per-sensor", help="One row per sensor too."),
-    chunk: int = typer.Option(8192, "--chunk", help="Trials per vectorised chunk (memory)."),
+    chunk: int | None = typer.Option(
+        None, "--chunk",
+        help="Trials per task (rounded up to whole seed blocks of 32768 trials; default one "
+             "block): scheduling granularity only, the result does not change.",
+    ),
+    workers: int | None = typer.Option(
+        None, "--workers",
+        help="Run on a local Dask cluster of this many worker processes (needs the dask "
+             "extra of accelcal).",
+    ),
+    scheduler: str | None = typer.Option(
+        None, "--scheduler",
+        help="Run on an existing Dask scheduler, e.g. tcp://host:8786 (needs the dask "
+             "extra of accelcal).",
+    ),
+    timeout: float = typer.Option(
+        10.0, "--timeout", help="Seconds to wait for --scheduler to answer before giving up, s."
+    ),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
 ) -> None:
-    """Monte Carlo: RMS actual error and mean formal SD per method and coefficient (volts)."""
+    """Monte Carlo: RMS actual error and mean formal SD per method and coefficient (volts).
+
+    The result depends only on the options describing the study and --seed: it is
+    bit-identical with or without --workers or --scheduler and for any --chunk.
+    """
+    from accelcal.cli.progress import DelayedProgress
     from accelcal.methods.dividing_head_study import run_study
 
     check_format(fmt)
+    if trials < 2:
+        raise AccelcalError(f"--trials {trials}: give at least 2 trials")
+    if chunk is not None and chunk < 1:
+        raise AccelcalError(f"--chunk {chunk} must be a positive number of trials")
+    if workers is not None and workers < 1:
+        raise AccelcalError(f"--workers {workers} must be a positive number of processes")
+    if workers is not None and scheduler is not None:
+        raise AccelcalError("give either --workers or --scheduler, not both")
+    if not timeout > 0:
+        raise AccelcalError(f"--timeout {timeout} must be a positive number of seconds")
     rig = _rig(positions=positions, mounts=mounts, angle_error=angle_error,
                first_harmonic=first_harmonic, noise=noise, eta=eta, models=model,
                repeats=repeats)
-    if chunk < 1:
-        raise AccelcalError(f"--chunk {chunk} must be >= 1")
-    result = run_study(rig, trials, seed, h1_sd=h1_sd, chunk=chunk)
+    with DelayedProgress("Monte Carlo trials") as progress:
+        result = run_study(rig, trials, seed, h1_sd=h1_sd, chunk=chunk, workers=workers,
+                           scheduler=scheduler, timeout=timeout, progress=progress)
     for note in result.notes:
         typer.echo(f"accelcal: note: {note}", err=True)
     emit(result.rows(per_sensor=per_sensor), fmt,

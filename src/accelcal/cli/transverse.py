@@ -5,6 +5,7 @@ from pathlib import Path
 
 import typer
 
+from accelcal.cli import uncertainty_options
 from accelcal.cli.common import check_format, emit, load_model, parse_grid
 from accelcal.errors import AccelcalError
 
@@ -279,15 +280,44 @@ def fit_cmd(
         False, "--fit-frequency", help="Fit the vibration frequency (Hz) to the reference "
         "channel (IEEE 1057 four-parameter fit) instead of trusting frequency_hz."),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+    record_out: Path | None = typer.Option(
+        None, "--record", help="Write the calibration record (JSON, coefficients in g/g^n): one "
+        "per amplitude; with several amplitudes FILE with -1, -2, ... inserted before the "
+        "suffix, in increasing amplitude."),
+    serial: str | None = typer.Option(
+        None, "--serial", help="Serial number for --record (default: the records' 'serial')."),
+    operator: str | None = typer.Option(
+        None, "--operator", help="Operator for --record (default: the records' 'operator')."),
+    uncertainty: str = uncertainty_options.UNCERTAINTY,
+    trials: int = uncertainty_options.TRIALS,
+    seed: int = uncertainty_options.SEED,
+    reference_uncertainty: float = typer.Option(
+        0.0, "--reference-uncertainty",
+        help="--uncertainty mc: relative standard uncertainty of the reference accelerometer's "
+             "sensitivity, % (Gaussian, common to all angles and reference channels).",
+    ),
 ) -> None:
     """Identify k_o, k_p, k_oo, k_pp, k_op (g/g^n) with standard uncertainties."""
     from accelcal.io.model_file import read_model
     from accelcal.methods.transverse import identify, with_fitted_frequency
 
     check_format(fmt)
+    monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
+    reference_sd = uncertainty_options.relative(
+        reference_uncertainty, "--reference-uncertainty", monte_carlo)
     names = [t.strip() for t in terms.split(",") if t.strip()]
     base = read_model(model_file) if model_file is not None else None
+    info = None
+    if record_out is not None:
+        from accelcal.calibration import lab_info, shaker_files
+
+        inputs = shaker_files(data)
+        info = lab_info([f for group in inputs.values() for f in group], serial=serial,
+                        operator=operator)
+    elif serial is not None or operator is not None:
+        raise AccelcalError("--serial and --operator go with --record FILE")
     rows = []
+    cal = []
     for rec in _read(data):
         if fit_frequency:
             rec = with_fitted_frequency(rec)  # noqa: PLW2901
@@ -296,5 +326,25 @@ def fit_cmd(
                 f"{data}: {rec.theta.size} angle(s) at {rec.amplitude:g} g; a fit needs at "
                 "least 3 distinct direction angles")
         est = identify(rec, route=route, terms=names, base=base, scale_factor=scale_factor)
-        rows += [{"amplitude_g": rec.amplitude, **r, "method": est.method} for r in est.rows()]
+        est_rows = [{"amplitude_g": rec.amplitude, **r, "method": est.method}
+                    for r in est.rows()]
+        if monte_carlo:
+            from accelcal.methods.transverse_mc import transverse_uncertainty
+
+            with uncertainty_options.progress_bar() as progress:
+                mc = transverse_uncertainty(
+                    rec, est, route=route, base=base, scale_factor=scale_factor, trials=trials,
+                    seed=seed, reference_sd=reference_sd, progress=progress)
+            est_rows = uncertainty_options.merge(est_rows, mc)
+        rows += est_rows
+        if info is not None:
+            from accelcal.calibration import transverse_record
+
+            cal.append(transverse_record(est, info, amplitude=rec.amplitude,
+                                         input_files=inputs[rec.amplitude]))
+    if info is not None:
+        from accelcal.calibration import save_records
+
+        for p in save_records(cal, record_out):
+            print(f"wrote {p}", file=sys.stderr)
     emit(rows, fmt, title="Cross-axis coefficients from the shaker test")

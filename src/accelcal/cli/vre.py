@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from accelcal.cli import uncertainty_options
 from accelcal.cli.common import check_format, emit, load_model, parse_grid, parse_number
 from accelcal.errors import AccelcalError
 
@@ -197,6 +198,7 @@ def reduce(
 @app.command("fit")
 def fit(
     files: list[Path] = typer.Argument(..., help="Vibrafuge record files (CSV)."),
+    *,
     terms: str = typer.Option(
         "K2,K3,K0_asym,K1_asym", "--terms",
         help="Coefficients to fit (comma separated), from K2, K3, K4, Koo, Kpp, Kio, Kip, "
@@ -207,6 +209,26 @@ def fit(
         help="Hold a coefficient at a known value (repeatable), same units as --terms.",
     ),
     fmt: str = typer.Option("table", "--format", help=_FORMAT_HELP),
+    record_out: Path | None = typer.Option(
+        None, "--record", help="Write the calibration record (JSON) of the fitted coefficients "
+        "(g/g^n) to this file."),
+    serial: str | None = typer.Option(
+        None, "--serial", help="Serial number for --record (default: the files' 'serial')."),
+    operator: str | None = typer.Option(
+        None, "--operator", help="Operator for --record (default: the files' 'operator')."),
+    uncertainty: str = uncertainty_options.UNCERTAINTY,
+    trials: int = uncertainty_options.TRIALS,
+    seed: int = uncertainty_options.SEED,
+    amplitude_uncertainty: float = typer.Option(
+        0.0, "--amplitude-uncertainty",
+        help="--uncertainty mc: relative standard uncertainty of the amplitude calibration, "
+             "% (Gaussian, common to all points).",
+    ),
+    overload_uncertainty: float = typer.Option(
+        0.0, "--overload-uncertainty",
+        help="--uncertainty mc: relative standard uncertainty of the overload calibration, "
+             "% (Gaussian, common to all points).",
+    ),
 ) -> None:
     """Identify VRE coefficients by weighted least squares, with covariance.
 
@@ -218,6 +240,11 @@ def fit(
     from accelcal.methods.vre import identify
 
     check_format(fmt)
+    monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
+    amplitude_sd = uncertainty_options.relative(
+        amplitude_uncertainty, "--amplitude-uncertainty", monte_carlo)
+    overload_sd = uncertainty_options.relative(
+        overload_uncertainty, "--overload-uncertainty", monte_carlo)
     names = [t.strip() for t in terms.split(",")]
     if any(not t for t in names):
         raise AccelcalError(f"--terms {terms!r} has an empty name; e.g. K2,K3,K0_asym,K1_asym")
@@ -227,11 +254,36 @@ def fit(
         if not sep or not name.strip():
             raise AccelcalError(f"--fix {item!r} is not NAME=VALUE (e.g. --fix K4=0)")
         fixed[name.strip()] = parse_number(value, f"--fix {name.strip()}")
+    info = None
+    if record_out is not None:
+        from accelcal.calibration import lab_info
+
+        info = lab_info(files, serial=serial, operator=operator)
+    elif serial is not None or operator is not None:
+        raise AccelcalError("--serial and --operator go with --record FILE")
     _, m = _read_measurements(files)
     result = identify(m["overload"], m["amplitude"], m["vre"], m["uncertainty"],
                       direction=m["direction"], terms=names, fixed=fixed,
                       provenance={"files": [str(f) for f in files]})
     rows = result.rows()
+    if monte_carlo:
+        from accelcal.methods.vre_mc import vre_uncertainty
+
+        with uncertainty_options.progress_bar() as progress:
+            mc = vre_uncertainty(
+                result, m["overload"], m["amplitude"], m["vre"], m["uncertainty"],
+                direction=m["direction"], trials=trials, seed=seed,
+                amplitude_sd=amplitude_sd, overload_sd=overload_sd,
+                progress=progress)
+        p = len(mc.names)
+        rows = [*uncertainty_options.merge(rows[:p], mc),
+                *({**r, "mc_std": 0.0, "ci95_low": r["estimate"], "ci95_high": r["estimate"]}
+                  for r in rows[p:])]
+    if info is not None:
+        from accelcal.calibration import save_records, vre_record
+
+        for p in save_records([vre_record(result, info, input_files=files)], record_out):
+            print(f"wrote {p}", file=sys.stderr)
     if fmt == "json":
         clean = [{k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()}
                  for r in rows]

@@ -17,6 +17,8 @@ and metadata
 * optional ``autocollimator_arcsec`` (one reading of the head error per
   angle, in the order of the first repeat) with ``autocollimator_sd_arcsec``;
 * optional ``first_harmonic_rad`` ``[d1c, d1s]`` with ``first_harmonic_sd_rad``;
+* optional ``serial`` (one per sensor column), ``operator``, ``date`` and
+  ``local_gravity`` (:mod:`accelcal.io.lab_metadata`);
 * optional ``simulation`` (simulated files): ``models`` (model-file
   objects), ``eta_rad``, ``angle_error_rad`` (applied head errors), ``seed``
   and a ``description``.
@@ -33,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.lab_metadata import check_lab_metadata
 from accelcal.io.records import read_record, write_record
 from accelcal.rigs.dividing_head import check_positions
 from accelcal.units import ARCSEC, DEG, OUTPUT_UNITS
@@ -42,7 +45,7 @@ KIND = "dividing-head"
 _KNOWN = {
     "format_version", "kind", "units", "sensors", "mount_phases_deg", "nominal_scale_factors",
     "output_unit", "autocollimator_arcsec", "autocollimator_sd_arcsec", "first_harmonic_rad",
-    "first_harmonic_sd_rad", "simulation",
+    "first_harmonic_sd_rad", "simulation", "serial", "operator", "date", "local_gravity",
 }
 
 
@@ -118,6 +121,7 @@ def write_head_record(
     first_harmonic=None,
     first_harmonic_sd: float = 0.0,
     simulation: dict | None = None,
+    lab: dict | None = None,
 ) -> None:
     """Write a ``dividing-head`` record atomically.
 
@@ -143,6 +147,9 @@ def write_head_record(
         Measured first harmonic of the head error and its uncertainty, rad.
     simulation : dict, optional
         Truth of a simulated run (JSON-serialisable).
+    lab : dict, optional
+        Laboratory metadata (``serial`` list, ``operator``, ``date``,
+        ``local_gravity``; :mod:`accelcal.io.lab_metadata`).
     """
     alpha = np.asarray(positions, dtype=float).reshape(-1)
     check_positions(alpha)
@@ -182,6 +189,9 @@ def write_head_record(
         meta["first_harmonic_sd_rad"] = float(first_harmonic_sd)
     if simulation is not None:
         meta["simulation"] = simulation
+    if lab:
+        check_lab_metadata(lab, path, k)
+        meta.update(lab)
     write_record(path, KIND, meta, columns)
 
 
@@ -213,6 +223,7 @@ def read_head_record(path) -> HeadRecord:
             f"(missing {missing or 'none'}, unexpected {extra or 'none'})"
         )
     k = len(sensors)
+    check_lab_metadata(meta, path, k)
     phases = _number_list(meta["mount_phases_deg"], path, "mount_phases_deg")
     if len(phases) != k:
         raise AccelcalError(

@@ -144,7 +144,7 @@ def _read_csv(path: Path) -> tuple[dict, list[str], np.ndarray]:
         raise AccelcalError(f"{path}: line 1 should be {MARKER!r}; is this an accelcal record?")
     if not meta_line.startswith("# "):
         raise AccelcalError(f"{path}: line 2 should be '# ' followed by the JSON metadata")
-    meta = _parse_meta(meta_line[2:], f"{path}: line 2 metadata")
+    meta = parse_metadata(meta_line[2:], f"{path}: line 2 metadata")
     names = [n.strip() for n in header_line.split(",")] if header_line.strip() else []
     _check_names(names, f"{path}: line 3 column names {header_line!r}")
     rows = [line for line in body.splitlines() if line.strip()]
@@ -174,7 +174,7 @@ def _read_parquet(path: Path) -> tuple[dict, list[str], np.ndarray]:
     raw = (table.schema.metadata or {}).get(b"accelcal")
     if raw is None:
         raise AccelcalError(f"{path}: no 'accelcal' metadata in the Parquet schema")
-    meta = _parse_meta(raw.decode("utf-8", "replace"), f"{path}: Parquet metadata")
+    meta = parse_metadata(raw.decode("utf-8", "replace"), f"{path}: Parquet metadata")
     names = list(table.column_names)
     _check_names(names, f"{path}: column names {names!r}")
     if table.num_rows == 0:
@@ -208,7 +208,8 @@ def _is_parquet(path) -> bool:
     return Path(path).suffix.lower() == ".parquet"
 
 
-def _parse_meta(text: str, where: str) -> dict:
+def parse_metadata(text: str, where: str) -> dict:
+    """Parse a record's metadata JSON (a JSON object); errors name ``where``."""
     try:
         meta = json.loads(text, parse_constant=_no_constant)
     except ValueError as exc:

@@ -51,7 +51,8 @@ METHODS = ("single", "four", "joint")
 
 _FIRST_ORDER_NOTE = (
     "K_O is K_O* = K_O + K_I (eta + d0): misalignment and the mean head error "
-    "cannot be separated from K_O [DOMAIN step 6]"
+    "cannot be separated from K_O by the accelerometers alone "
+    "(accelcal docs/domain.md, section 4, step 6)"
 )
 
 
@@ -526,7 +527,28 @@ class Identifiability:
     dof: int
 
 
-def _joint_design(alpha, phi):
+def joint_design(alpha, phi):
+    """Linearised joint design: coefficient columns and head-error columns.
+
+    Parameters
+    ----------
+    alpha : numpy.ndarray, shape (n,)
+        Nominal head angles, rad.
+    phi : numpy.ndarray, shape (k,)
+        Mount phases, rad.
+
+    Returns
+    -------
+    coefficients : numpy.ndarray, shape (k n, 5 k)
+        Block-diagonal ``Psi(beta_k)`` of each sensor (normalised outputs).
+    head_error : numpy.ndarray, shape (k n, n)
+        How the head error at each position enters: ``d_alpha cos(beta_k)``.
+
+    References
+    ----------
+    .. [1] Dong2014, eqs. (10)-(13) linearised; docs/domain.md section 4
+       (joint least squares).
+    """
     beta = alpha[None, :] + phi[:, None]
     k, n = beta.shape
     blocks = np.zeros((k, n, 5 * k))
@@ -536,7 +558,27 @@ def _joint_design(alpha, phi):
     return blocks.reshape(k * n, 5 * k), dcols.reshape(k * n, n)
 
 
-def _gauge_basis(alpha, with_first_harmonic: bool):
+def gauge_basis(alpha, with_first_harmonic: bool):
+    """The gauge directions of the head error and an orthonormal complement.
+
+    Parameters
+    ----------
+    alpha : numpy.ndarray, shape (n,)
+        Nominal head angles, rad.
+    with_first_harmonic : bool
+        Include the first harmonic (cos, sin) with the mean.
+
+    Returns
+    -------
+    gauge : numpy.ndarray, shape (n, 1 or 3)
+        The mean (and first-harmonic) columns the accelerometers cannot see.
+    complement : numpy.ndarray, shape (n, n - 1 or n - 3)
+        Orthonormal basis of the head errors the data do determine.
+
+    References
+    ----------
+    .. [1] docs/domain.md section 4 (gauge freedom).
+    """
     cols = [np.ones_like(alpha)]
     if with_first_harmonic:
         cols += [np.cos(alpha), np.sin(alpha)]
@@ -555,11 +597,11 @@ def identifiability(positions, mounts) -> Identifiability:
     alpha = np.asarray(positions, dtype=float).reshape(-1)
     phi = np.asarray(mounts, dtype=float).reshape(-1)
     check_positions(alpha)
-    a, dcols = _joint_design(alpha, phi)
+    a, dcols = joint_design(alpha, phi)
     full = np.concatenate([a, dcols], axis=1)
     sv = np.linalg.svd(full, compute_uv=False)
     rank = int((sv > sv[0] * max(full.shape) * np.finfo(float).eps * 10).sum())
-    _c, z = _gauge_basis(alpha, True)
+    _c, z = gauge_basis(alpha, True)
     red = np.concatenate([a, dcols @ z], axis=1)
     svr = np.linalg.svd(red, compute_uv=False)
     full_rank = red.shape[0] >= red.shape[1] and svr[-1] > svr[0] * 1e-12
@@ -617,8 +659,8 @@ class JointOperator:
         alpha = np.asarray(positions, dtype=float)
         phi = np.asarray(mounts, dtype=float)
         k, n = phi.size, alpha.size
-        a, dcols = _joint_design(alpha, phi)
-        c, z = _gauge_basis(alpha, True)
+        a, dcols = joint_design(alpha, phi)
+        c, z = gauge_basis(alpha, True)
         red = np.concatenate([a, dcols @ z], axis=1)
         p = red.shape[1]
         if red.shape[0] <= p:
@@ -713,7 +755,7 @@ def joint(
         )
         if first_harmonic is not None:
             cov = cov + op.gauge[:, 1:] @ h1_cov @ op.gauge[:, 1:].T
-        a, dcols = _joint_design(alpha, phi)
+        a, dcols = joint_design(alpha, phi)
         resid = u - a @ theta[:5 * k] - dcols @ theta[5 * k:]
         notes = (*notes, extra)
     scale = np.concatenate([np.repeat(k_i, 5), np.ones(n)])
@@ -755,8 +797,8 @@ def _with_autocollimator(data, *, u, g, h1_fixed, readings, sd, s2):
         )
     if sd is None or not np.isfinite(sd) or sd <= 0:
         raise AccelcalError("autocollimator readings need their standard uncertainty (> 0 rad)")
-    a, dcols = _joint_design(alpha, phi)
-    c, z = _gauge_basis(alpha, h1_fixed)
+    a, dcols = joint_design(alpha, phi)
+    c, z = gauge_basis(alpha, h1_fixed)
     gc = g[: c.shape[1]]
     sigma = np.sqrt(s2) if s2 > 0 else sd
     design = np.concatenate([
@@ -786,7 +828,7 @@ def _gauss_newton(data, theta, g, *, h1_cov, op, max_iterations):
     """
     alpha, phi = data.positions, data.mounts
     k, n = phi.size, alpha.size
-    c, z = _gauge_basis(alpha, True)
+    c, z = gauge_basis(alpha, True)
     beta = data.angles()
     w = 1.0 / theta[1:5 * k:5]
     th = theta[:5 * k].copy()

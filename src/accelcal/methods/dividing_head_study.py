@@ -18,11 +18,19 @@ The actual error is measured against the identifiable truth: K_F, K_I,
 K_IO, K_II as simulated and ``K_O* = K_O + K_I (eta + d0)`` with d0 the
 realised mean head error (no method can separate it, [DOMAIN] step 6).
 
-Vectorised: every reduction is a fixed linear operator (after each
-sensor's normalisation by its own fitted scale factor), applied to a block
-of trials by matrix products; there is no per-trial Python loop. Trials
-are drawn in blocks of :data:`RNG_BLOCK`, block b from child b of one
-``numpy.random.SeedSequence``, so results do not depend on ``chunk``.
+The study runs on :func:`accelcal.montecarlo.run`: :class:`HeadStudy`
+turns ``n`` trials drawn from a seed block's generator into one row of
+outputs per trial (every error, plus the formal-SD factors), and the engine
+keeps streaming means and RMS values. Results depend only on the rig, the
+methods, ``h1_sd``, the seed and the block size: they are bit-identical
+for any ``chunk``, in-process or on any number of Dask workers.
+
+Vectorised: the designs are fixed, so every reduction is a precomputed
+linear operator (after each sensor's normalisation by its own fitted scale
+factor) applied to :data:`SUB_BLOCK` trials at once by matrix products,
+trials on the contiguous axis; residual sums of squares come from
+orthonormal bases of the residual spaces (``n - 5`` numbers per sensor, the
+joint design's ``dof``). There is no per-trial Python loop.
 
 References
 ----------
@@ -32,16 +40,17 @@ References
    Monte Carlo RMS errors).
 """
 
-import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
+from accelcal import montecarlo
 from accelcal.errors import AccelcalError
 from accelcal.methods.dividing_head import (
     COEFFICIENTS,
     FourOperator,
     JointOperator,
+    psi,
     single_operator,
 )
 from accelcal.rigs.dividing_head import DividingHeadRig
@@ -49,8 +58,12 @@ from accelcal.rigs.dividing_head import DividingHeadRig
 STUDY_METHODS = ("single", "four_unknown_h1", "four_known_h1", "joint_unknown_h1",
                  "joint_known_h1")
 
-RNG_BLOCK = 256
-"""Trials drawn from one child seed; chunks are whole numbers of blocks."""
+STUDY_BLOCK = 2**15
+"""Default trials per seed block (part of a study's identity, with the seed)."""
+
+SUB_BLOCK = 512
+"""Trials drawn and reduced at once inside a seed block (part of the identity)."""
+
 
 
 @dataclass(frozen=True)
@@ -113,10 +126,15 @@ def run_study(
     seed=0,
     *,
     h1_sd: float = 0.0,
-    chunk: int = 8192,
+    chunk: int | None = None,
     methods=None,
+    block_size: int = STUDY_BLOCK,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress=None,
+    timeout: float = montecarlo.SCHEDULER_TIMEOUT_S,
 ) -> StudyResult:
-    """Run the Monte Carlo study.
+    """Run the Monte Carlo study on :func:`accelcal.montecarlo.run`.
 
     Parameters
     ----------
@@ -124,31 +142,43 @@ def run_study(
         Truth, positions, mounts, head error profile, first harmonic, noise.
         ``four`` methods need uniform positions (n >= 12) and balanced mounts.
     trials : int
-        Number of trials.
-    seed : int or numpy.random.SeedSequence
-        Root seed.
+        Number of trials (>= 2).
+    seed : int
+        Root seed (>= 0).
     h1_sd : float
         Standard deviation of the first-harmonic measurement given to the
         ``known_h1`` methods, rad (their covariance includes it).
-    chunk : int
-        Trials processed at once (rounded up to whole RNG blocks); bounds
-        memory, does not change the result.
+    chunk : int, optional
+        Trials per task, rounded up to whole seed blocks (default one
+        block): scheduling and progress granularity. Does not change the
+        result.
     methods : sequence of str, optional
         Subset of :data:`STUDY_METHODS`; by default every method the rig
         allows (``four`` needs uniform positions and balanced mounts,
         ``joint`` an identifiable design).
+    block_size : int
+        Trials per seed block. Part of the study's identity (with the seed):
+        changing it changes which random numbers each trial gets.
+    workers : int, optional
+        Run on a Dask local cluster of this many worker processes.
+    scheduler : str, optional
+        Run on the Dask scheduler at this address (``tcp://host:8786``).
+    progress : callable, optional
+        ``progress(done, total)`` called as trials complete.
+    timeout : float
+        Seconds to wait for ``scheduler`` to answer.
 
     Returns
     -------
     StudyResult
+        Bit-identical for any ``chunk``, ``workers`` or ``scheduler``.
 
     References
     ----------
     .. [1] [DOMAIN] section 4: formal SDs against Monte Carlo RMS errors.
     """
-    trials = int(trials)
-    if trials < 2:
-        raise AccelcalError(f"a study needs at least 2 trials, got {trials}")
+    if isinstance(trials, bool) or not isinstance(trials, (int, np.integer)) or trials < 2:
+        raise AccelcalError(f"a study needs at least 2 trials, got {trials!r}")
     notes: tuple[str, ...] = ()
     if methods is None:
         methods, notes = _applicable(rig)
@@ -160,29 +190,20 @@ def run_study(
         )
     if not np.isfinite(h1_sd) or h1_sd < 0:
         raise AccelcalError(f"h1_sd must be finite and >= 0 rad, got {h1_sd}")
-    ops = _Operators(rig, methods)
-    blocks_per_chunk = max(1, -(-int(chunk) // RNG_BLOCK))
-    n_blocks = -(-trials // RNG_BLOCK)
-    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-    children = root.spawn(n_blocks)
-    k = rig.n_sensors
-    sq_parts, sd_parts = [], []
-    for start in range(0, n_blocks, blocks_per_chunk):
-        block_ids = range(start, min(start + blocks_per_chunk, n_blocks))
-        sizes = [min(RNG_BLOCK, trials - b * RNG_BLOCK) for b in block_ids]
-        d, u, h1_err = _draw(rig, [children[b] for b in block_ids], sizes)
-        err, sd = ops.apply(d, u, h1_err, h1_sd)  # (M, T, K, 5) each
-        edges = np.cumsum([0, *sizes])
-        for a, b in itertools.pairwise(edges):
-            sq_parts.append((err[:, a:b] ** 2).sum(axis=1))
-            sd_parts.append(sd[:, a:b].sum(axis=1))
-    sq = np.zeros((len(methods), k, 5))
-    sd_sum = np.zeros((len(methods), k, 5))
-    for a, b in zip(sq_parts, sd_parts, strict=True):
-        sq = sq + a
-        sd_sum = sd_sum + b
+    if chunk is not None and (isinstance(chunk, bool) or int(chunk) != chunk or chunk < 1):
+        raise AccelcalError(f"chunk must be a positive number of trials, got {chunk!r}")
+    study = HeadStudy(rig, methods, float(h1_sd))
+    blocks_per_task = 1 if chunk is None else max(1, -(-int(chunk) // block_size))
+    # Only means and RMS are needed: the engine keeps variances, not the p x p
+    # covariance, and runs each task with one BLAS thread (the products are small).
+    result = montecarlo.run(
+        study, int(trials), names=study.names, seed=seed, block_size=block_size,
+        blocks_per_task=blocks_per_task, covariance=False,
+        workers=workers, scheduler=scheduler, progress=progress, timeout=timeout,
+    )
+    rms_error, mean_sd = study.summarise(result.rms, result.mean)
     unit = rig.models[0].output_unit
-    return StudyResult(methods, np.sqrt(sq / trials), sd_sum / trials, trials, unit, notes)
+    return StudyResult(methods, rms_error, mean_sd, int(trials), unit, notes)
 
 
 def _applicable(rig) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -198,80 +219,329 @@ def _applicable(rig) -> tuple[tuple[str, ...], tuple[str, ...]]:
     return tuple(methods), tuple(notes)
 
 
-def _draw(rig, seeds, sizes):
-    """Angle errors, outputs and h1 measurement errors for blocks of trials."""
-    ds, us, hs = [], [], []
-    for ss, size in zip(seeds, sizes, strict=True):
-        rng = np.random.default_rng(ss)
-        d = rig.angle_errors(size, rng)
-        ds.append(d)
-        us.append(rig.outputs(d, rng).mean(axis=1))  # average repeats
-        hs.append(rng.standard_normal((size, 2)))
-    return np.concatenate(ds), np.concatenate(us), np.concatenate(hs)
+def residual_basis(design: np.ndarray) -> np.ndarray:
+    """Orthonormal basis ``Q`` of the residual space of ``design`` ``(..., m, p)``.
+
+    ``I - A A^+ = Q Q'``, so the residual sum of squares of data ``y`` is
+    ``|Q' y|^2``: ``m - p`` numbers per record instead of ``m``.
+    """
+    p = design.shape[-1]
+    q, _ = np.linalg.qr(design, mode="complete")
+    return q[..., p:]
 
 
-class _Operators:
-    """Precomputed linear operators and truth for one rig."""
+def _buffer(work: dict, name: str, shape: tuple) -> np.ndarray:
+    """A reusable scratch array of ``shape`` (new only when the shape changes)."""
+    arr = work.get(name)
+    if arr is None or arr.shape != shape:
+        arr = work[name] = np.empty(shape)
+    return arr
 
-    def __init__(self, rig: DividingHeadRig, methods):
-        self.methods = methods
+
+def _sin_cos_small(d: np.ndarray, work: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``sin d`` and ``cos d``: Taylor series when every ``|d| <= 1e-2`` rad, else numpy.
+
+    Truncation after the ``d^7`` and ``d^6`` terms leaves at most
+    ``|d|^9/9! < 3e-24`` and ``|d|^8/8! < 3e-21`` (far below one ulp of the
+    result for any ``|d| <= 1e-2``); evaluation rounding stays within 2 ulp.
+    ``work`` holds reusable scratch arrays.
+    """
+    work = {} if work is None else work
+    d2 = np.multiply(d, d, out=_buffer(work, "d2", d.shape))
+    if d.size == 0 or not d2.max() <= 1e-4:
+        return np.sin(d), np.cos(d)
+    s, c = _buffer(work, "sin_d", d.shape), _buffer(work, "cos_d", d.shape)
+    # Horner: s = d (1 - d2/6 (1 - d2/20 (1 - d2/42))), c = 1 - d2/2 (1 - d2/12 (1 - d2/30))
+    np.multiply(d2, -1.0 / 42.0, out=s)
+    np.multiply(d2, -1.0 / 30.0, out=c)
+    for ks, kc in ((20.0, 12.0), (6.0, 2.0)):
+        s += 1.0
+        s *= d2
+        s *= -1.0 / ks
+        c += 1.0
+        c *= d2
+        c *= -1.0 / kc
+    s += 1.0
+    s *= d
+    c += 1.0
+    return s, c
+
+
+class SensorBank:
+    """Every sensor's model at once: outputs ``(K, n, T)`` at angles ``theta + d``.
+
+    Parameters
+    ----------
+    models : sequence of ErrorModel
+        One per sensor (a_p = 0 on the indexing head).
+    theta : numpy.ndarray
+        Each sensor's angle at each position without head error,
+        ``alpha_j + phi_k + eta_k``, rad, shape ``(K, n)``.
+    """
+
+    def __init__(self, models, theta: np.ndarray):
+        self.sin_theta, self.cos_theta = np.sin(theta)[..., None], np.cos(theta)[..., None]
+        terms = {name: np.array([getattr(mod, name) for mod in models])[:, None, None]
+                 for name in ("K0", "K1", "K2", "K3", "K4", "Ko", "Koo", "Kio",
+                              "K0_asym", "K1_asym")}
+        for group in (("K3", "K4"), ("Koo",), ("K0_asym", "K1_asym")):
+            if not any(np.any(terms[name]) for name in group):
+                for name in group:
+                    del terms[name]
+        self.model_terms = terms
+
+    def __call__(self, d: np.ndarray, noise: np.ndarray, work: dict | None = None) -> np.ndarray:
+        """Outputs ``(K, n, T)`` for head errors ``d`` ``(T, n)`` plus ``noise`` ``(T, K, n)``.
+
+        The rig's exact model (:meth:`DividingHeadRig.outputs` with one
+        reading) evaluated for all sensors at once, trials on the last
+        (contiguous) axis, with ``sin`` and ``cos`` of ``theta + d`` from the
+        angle-sum identities. ``work`` holds reusable scratch arrays.
+
+        References
+        ----------
+        .. [1] Dong2014, eqs. (1)-(5); Guan2021, eqs. (1)-(3) (the model).
+        """
+        work = {} if work is None else work
+        d_t = _buffer(work, "d_t", d.shape[::-1])
+        np.copyto(d_t, d.T)
+        sd, cd = _sin_cos_small(d_t, work)  # (n, T)
+        st, ct = self.sin_theta, self.cos_theta  # (K, n, 1)
+        shape = (*self.sin_theta.shape[:2], d.shape[0])
+        tmp, a_i, a_o, u = (_buffer(work, name, shape) for name in ("tmp", "a_i", "a_o", "u"))
+        # In-place arithmetic throughout: large temporaries cost more than the flops.
+        np.multiply(ct, sd, out=tmp)
+        np.multiply(st, cd, out=a_i)
+        a_i += tmp  # Eqs. (1)-(4) [Dong2014]: a_i = sin(theta + d)
+        np.multiply(st, sd, out=tmp)
+        np.multiply(ct, cd, out=a_o)
+        a_o -= tmp  # a_o = cos(theta + d)
+        c = self.model_terms
+        # Eq. (2) [Guan2021], Horner in a_i, the same operations as ErrorModel.output_g
+        # (terms zero for every sensor skipped: adding an exact zero changes nothing).
+        if "K3" in c:
+            np.multiply(a_i, c["K4"], out=u)
+            u += c["K3"]
+            u *= a_i
+            u += c["K2"]
+        else:
+            u[:] = c["K2"]
+        u *= a_i
+        u += 1.0
+        u *= a_i
+        u += c["K0"]
+        if "Koo" in c:
+            np.multiply(c["Koo"], a_o, out=tmp)
+            tmp += c["Ko"]
+            tmp += c["Kio"] * a_i
+        else:
+            np.multiply(c["Kio"], a_i, out=tmp)
+            tmp += c["Ko"]
+        tmp *= a_o
+        u += tmp
+        if "K0_asym" in c:
+            np.sign(a_i, out=tmp)  # Eq. (3) [Guan2021]
+            tmp *= 0.5
+            a_i *= c["K1_asym"]
+            a_i += c["K0_asym"]
+            tmp *= a_i
+            u += tmp
+        u *= c["K1"]
+        u += noise.transpose(1, 2, 0)
+        return u
+
+
+class HeadStudy:
+    """One seed block of the study: ``study(rng, n) -> (n, p)`` (picklable).
+
+    For each of ``n`` trials: draws the head errors, the noise of every
+    reading and the first-harmonic measurement error (in that order, per
+    sub-block of :data:`SUB_BLOCK` trials), simulates the outputs exactly
+    and reduces them by every method with precomputed linear operators.
+
+    Outputs (``names``): the actual error of every coefficient of every
+    sensor by every method, then the per-trial factors of the formal SDs
+    (see :meth:`summarise`).
+    """
+
+    def __init__(self, rig: DividingHeadRig, methods, h1_sd: float):
+        self.rig = rig
+        self.methods = tuple(methods)
+        self.h1_sd = float(h1_sd)
         alpha, phi = rig.positions, rig.mounts
-        self.k, self.n = phi.size, alpha.size
+        self.k, self.n = k, n = phi.size, alpha.size
         beta = rig.sensor_angles()
-        self.single_pinv, self.single_res, self.single_cov = single_operator(beta)
-        if any(m.startswith("four") for m in methods):
-            self.four = FourOperator.build(alpha, phi)
-        if any(m.startswith("joint") for m in methods):
-            self.joint = JointOperator.build(alpha, phi)
-            self.joint_sd_unit = np.sqrt(np.diag(self.joint.cov_unit)[:5 * self.k]).reshape(
-                self.k, 5)
-            g = self.joint.gauge[:5 * self.k, 1:].reshape(self.k, 5, 2)
-            self.joint_h1 = g
+        self.sensors = SensorBank(rig.models, beta + rig.eta[:, None])
+        pinv, _res, cov = single_operator(beta)
+        basis = residual_basis(psi(beta))  # (K, n, n - 5)
+        # Single-sensor stage, per sensor: estimates then residual coordinates.
+        self.single_op = np.concatenate([pinv, np.swapaxes(basis, 1, 2)], axis=1)
+        self.single_dof = n - 5
+        self.single_sd_unit = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))  # (K, 5)
+        h1_cov = np.eye(2) * self.h1_sd**2
+        blocks, self.slices, self.sd_unit, self.sd_extra, self.h1_gain = [], {}, {}, {}, {}
+        start = 0
+
+        def add(key, op):
+            nonlocal start
+            blocks.append(op)
+            self.slices[key] = slice(start, start + op.shape[0])
+            start += op.shape[0]
+
+        if any(m.startswith("four") for m in self.methods):
+            four = FourOperator.build(alpha, phi)
+            # Step 4 [DOMAIN]: V'_k = U'_k - d_hi cos(beta_k), then the single-sensor fit
+            # (FourOperator.coef and .resid factored: only d_hi acts on every sensor).
+            add("four_dhi", four.angle)
+            self.cos_beta = np.cos(beta)[..., None]
+            self.sd_unit["four"] = np.sqrt(np.diagonal(four.cov_unit, axis1=1, axis2=2))
+            self.h1_gain["four"] = -four.alias
+            self.sd_extra["four"] = np.einsum("kpi,ij,kpj->kp", four.alias, h1_cov, four.alias)
+        if any(m.startswith("joint") for m in self.methods):
+            joint = JointOperator.build(alpha, phi)
+            add("joint_x", joint.pinv[:5 * k])
+            # Orthonormal basis of the residual projector's range (eigenvalues 1).
+            w, v = np.linalg.eigh(joint.resid)
+            add("joint_res", v[:, w > 0.5].T)
+            self.dof_joint = joint.dof
+            self.sd_unit["joint"] = np.sqrt(np.diag(joint.cov_unit)[:5 * k]).reshape(k, 5)
+            g = joint.gauge[:5 * k, 1:].reshape(k, 5, 2)
+            self.h1_gain["joint"] = g
+            self.sd_extra["joint"] = np.einsum("kpi,ij,kpj->kp", g, h1_cov, g)
+        self.dense_op = np.concatenate(blocks) if blocks else np.zeros((0, k * n))
         c = np.stack([np.ones_like(alpha), np.cos(alpha), np.sin(alpha)], axis=-1)
         self.gauge_proj = np.linalg.pinv(c)  # (3, n): d0, d1c, d1s of d
-        coef = np.array([[m.to_dong2014()[name] for name in COEFFICIENTS] for m in rig.models])
-        self.coef = coef
-        self.eta = rig.eta
-        self.dof_single = self.n - 5
+        self.coef = np.array(
+            [[mod.to_dong2014()[name] for name in COEFFICIENTS] for mod in rig.models]
+        )
+        self.names = self._names()
 
-    def apply(self, d, u, h1_noise, h1_sd):
-        """Errors and formal SDs, each ``(methods, T, K, 5)``, in the output unit."""
-        t = d.shape[0]
-        g = d @ self.gauge_proj.T  # (T, 3)
-        truth = np.broadcast_to(self.coef, (t, self.k, 5)).copy()
-        truth[..., 2] += self.coef[:, 1] * (self.eta + g[:, 0:1])  # K_O* [DOMAIN step 6]
-        k_i = np.einsum("kn,tkn->tk", self.single_pinv[:, 1, :], u)  # step 0 [DOMAIN]
-        un = (u / k_i[..., None]).reshape(t, -1)
-        h1_given = g[:, 1:] + h1_sd * h1_noise
-        h1_cov = np.eye(2) * h1_sd**2
-        errs, sds = [], []
-        for name in self.methods:
-            if name == "single":
-                est = np.einsum("kpn,tkn->tkp", self.single_pinv, u)
-                res = np.einsum("kmn,tkn->tkm", self.single_res, u)
-                s2 = (res**2).sum(-1) / self.dof_single
-                var = s2[..., None] * np.diagonal(self.single_cov, axis1=-2, axis2=-1)
-            elif name.startswith("four"):
-                op = self.four
-                x = np.einsum("kpm,tm->tkp", op.coef, un)
-                res = np.einsum("knm,tm->tkn", op.resid, un)
-                s2 = (res**2).sum(-1) / self.dof_single
-                var = s2[..., None] * np.diagonal(op.cov_unit, axis1=-2, axis2=-1)
-                if name == "four_known_h1":
-                    x = x - np.einsum("kpi,ti->tkp", op.alias, h1_given)
-                    var = var + np.einsum("kpi,ij,kpj->kp", op.alias, h1_cov, op.alias)
-                est, var = x * k_i[..., None], var * k_i[..., None] ** 2
+    # ------------------------------------------------------------------ layout
+    def _full_sd(self, method: str) -> bool:
+        """Whether a method's formal SD needs one output per coefficient (h1 term)."""
+        family = method.split("_", maxsplit=1)[0]
+        return method.endswith("known_h1") and not method.endswith("unknown_h1") and bool(
+            np.any(self.sd_extra.get(family, 0.0))
+        )
+
+    def _names(self) -> tuple[str, ...]:
+        sensors = [f"U{i + 1}" for i in range(self.k)]
+        names = [f"error:{m}:{s}:{c}" for m in self.methods for s in sensors for c in COEFFICIENTS]
+        for m in self.methods:
+            if self._full_sd(m):
+                names += [f"sd:{m}:{s}:{c}" for s in sensors for c in COEFFICIENTS]
             else:
-                op = self.joint
-                sol = un @ op.pinv.T  # (T, p)
-                x = sol[:, :5 * self.k].reshape(t, self.k, 5)
-                res = un @ op.resid.T
-                s2 = (res**2).sum(-1) / op.dof
-                var = s2[:, None, None] * self.joint_sd_unit**2
-                if name == "joint_known_h1":
-                    x = x + np.einsum("kpi,ti->tkp", self.joint_h1, h1_given)
-                    var = var + np.einsum("kpi,ij,kpj->kp", self.joint_h1, h1_cov, self.joint_h1)
-                est, var = x * k_i[..., None], var * k_i[..., None] ** 2
-            errs.append(est - truth)
-            sds.append(np.sqrt(np.broadcast_to(var, (t, self.k, 5))))
-        return np.stack(errs), np.stack(sds)
+                names += [f"sd_factor:{m}:{s}" for s in sensors]
+        return tuple(names)
+
+    def summarise(self, rms: np.ndarray, mean: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """RMS errors and mean formal SDs ``(methods, K, 5)`` from the outputs' RMS and mean.
+
+        Where a formal SD is a per-trial factor times a constant (no
+        first-harmonic term), the study keeps the factor and the mean SD is
+        the constant times its mean.
+        """
+        m, k = len(self.methods), self.k
+        rms_error = rms[: m * k * 5].reshape(m, k, 5)
+        sds, at = [], m * k * 5
+        for method in self.methods:
+            if self._full_sd(method):
+                sds.append(mean[at: at + 5 * k].reshape(k, 5))
+                at += 5 * k
+            else:
+                sds.append(mean[at: at + k, None] * self._sd_unit(method))
+                at += k
+        return rms_error, np.stack(sds)
+
+    def _sd_unit(self, method: str) -> np.ndarray:
+        family = method.split("_", maxsplit=1)[0]
+        return self.single_sd_unit if family == "single" else self.sd_unit[family]
+
+    # ---------------------------------------------------------------- simulate
+    def __call__(self, rng: np.random.Generator, trials: int) -> np.ndarray:
+        """Errors and formal-SD factors of ``trials`` trials, shape ``(trials, p)``."""
+        out = np.empty((len(self.names), trials))  # trials contiguous, returned transposed
+        work: dict = {}  # buffers reused across sub-blocks: fresh pages cost more than flops
+        for start in range(0, trials, SUB_BLOCK):
+            self._sub_block(rng, out[:, start:start + SUB_BLOCK], work)
+        return out.T
+
+    def draw(self, rng: np.random.Generator, trials: int, work: dict | None = None):
+        """Head errors ``(T, n)``, mean noise ``(T, K, n)`` and h1 errors ``(T, 2)``.
+
+        The same numbers, in the same order, as ``rig.angle_errors``,
+        ``rig.outputs`` and ``rng.standard_normal((T, 2))`` would draw.
+        """
+        rig, work = self.rig, {} if work is None else work
+        d = rig.angle_errors(trials, rng)
+        if (rig.noise > 0).any():
+            shape = (trials, rig.repeats, self.k, self.n)
+            noise = rng.standard_normal(out=_buffer(work, "noise", shape))
+            if rig.repeats > 1:
+                noise = noise.mean(axis=1, out=_buffer(work, "noise_mean", shape[::2] + shape[3:]))
+            else:
+                noise = noise[:, 0]
+            noise *= rig.noise[:, None]
+        else:
+            noise = np.zeros((trials, self.k, self.n))
+        return d, noise, rng.standard_normal((trials, 2))
+
+    def _sub_block(self, rng, res_t, work):
+        """Fill ``res_t`` ``(p, t)`` with the outputs of ``t`` trials (one per column)."""
+        k, n, t = self.k, self.n, res_t.shape[1]
+        d, noise, h1_noise = self.draw(rng, t, work)
+        u = self.sensors(d, noise, work)  # (K, n, T)
+        # Single-sensor stage, per sensor (also each scale factor, step 0 [DOMAIN]).
+        single = np.matmul(self.single_op, u, out=_buffer(work, "single", (k, n, t)))
+        k_i = single[:, 1]  # (K, T)
+        # Normalised outputs, sensor-major, through every other method's operator.
+        u /= k_i[:, None]
+        dense = np.matmul(self.dense_op, u.reshape(k * n, t),
+                          out=_buffer(work, "dense", (self.dense_op.shape[0], t)))
+        stage = {"single": (single[:, :5], single[:, 5:])}
+        if "four_dhi" in self.slices:
+            v = np.multiply(self.cos_beta, dense[self.slices["four_dhi"]],
+                            out=_buffer(work, "four_v", u.shape))
+            np.subtract(u, v, out=v)  # Eq. (22) corrected [DOMAIN]
+            four = np.matmul(self.single_op, v, out=_buffer(work, "four", single.shape))
+            stage["four"] = (four[:, :5], four[:, 5:])  # Eqs. (24), (29) [Dong2014]
+        if "joint_x" in self.slices:
+            stage["joint"] = (dense[self.slices["joint_x"]].reshape(k, 5, t),
+                              dense[self.slices["joint_res"]])
+        s2 = {}
+        g = self.gauge_proj @ d.T  # (3, T): d0, d1c, d1s
+        truth = np.empty((k, 5, t))
+        truth[:] = self.coef[..., None]
+        truth[:, 2] += self.coef[:, 1, None] * (self.rig.eta[:, None] + g[0])  # K_O* [DOMAIN 6]
+        h1_given = g[1:] + self.h1_sd * h1_noise.T  # (2, T)
+        abs_k_i = np.abs(k_i)
+        width = 5 * k
+        sd_at = len(self.methods) * width
+        for m, method in enumerate(self.methods):
+            family = method.split("_")[0]
+            err = res_t[m * width:(m + 1) * width].reshape(k, 5, t)
+            x, res = stage[family]
+            if family not in s2:
+                # Residual sums of squares: Eq. (30) [Dong2014] (per sensor) or pooled (joint).
+                sq = np.einsum("rt,rt->t", res, res)[None] if family == "joint" else \
+                    np.einsum("krt,krt->kt", res, res)
+                s2[family] = sq / (self.dof_joint if family == "joint" else self.single_dof)
+            if family == "single":
+                np.subtract(x, truth, out=err)
+            else:
+                if method.endswith("_known_h1"):
+                    x = x + self.h1_gain[family] @ h1_given  # Step 5 [DOMAIN]
+                np.multiply(x, k_i[:, None], out=err)
+                err -= truth
+            if self._full_sd(method):
+                var = s2[family][:, None] * self.sd_unit[family][..., None] ** 2 \
+                    + self.sd_extra[family][..., None]
+                np.multiply(np.sqrt(var), abs_k_i[:, None],
+                            out=res_t[sd_at:sd_at + width].reshape(k, 5, t))
+                sd_at += width
+            else:
+                factor = np.sqrt(s2[family])
+                if family != "single":
+                    factor = factor * abs_k_i
+                res_t[sd_at:sd_at + k] = factor
+                sd_at += k

@@ -30,7 +30,7 @@ References
 ----------
 .. [GuanTang] Guan W., Tang L., Shaker test method of transverse sensitivity
    of inertial accelerometers, eqs. (2), (7)-(12), (13)-(25) as reconstructed
-   in DOMAIN.md section 3.
+   in docs/domain.md section 3.
 .. [ISO16063-31] ISO 16063-31:2009, Testing of transverse vibration sensitivity.
 .. [IEEE1057] IEEE Std 1057-2017, sec. 4.1.3.1, three-parameter sine fit.
 """
@@ -140,7 +140,7 @@ def closed_form_sT(sensor, theta, amplitude: float, estimator: str, *, gravity: 
 
     References
     ----------
-    .. [1] GuanTang, eqs. (12), (17)-(18), (21)-(22); DOMAIN.md section 3.
+    .. [1] GuanTang, eqs. (12), (17)-(18), (21)-(22); docs/domain.md section 3.
     """
     _check_estimator(estimator)
     if not amplitude > 0:
@@ -182,7 +182,7 @@ def axial_sensitivity(sensor, definition: str = "eq20") -> float:
 
     References
     ----------
-    .. [1] GuanTang, eqs. (19)-(20), (25); DOMAIN.md section 3.
+    .. [1] GuanTang, eqs. (19)-(20), (25); docs/domain.md section 3.
     """
     if definition not in AXIAL_DEFINITIONS:
         raise AccelcalError(
@@ -529,7 +529,7 @@ def regressors(theta, p_v, p_n, p_ia, gravity: float) -> dict:
 
     References
     ----------
-    .. [1] GuanTang eq. (13) with a_i = 0 plus the IA motion; DOMAIN.md section 3.
+    .. [1] GuanTang eq. (13) with a_i = 0 plus the IA motion; docs/domain.md section 3.
     """
     s, c = np.sin(theta), np.cos(theta)
     po = s * p_v + c * p_n  # OA component of the vibration phasor
@@ -684,7 +684,7 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
 
     References
     ----------
-    .. [1] GuanTang eqs. (13), (16), (24), beyond the paper; DOMAIN.md section 3.
+    .. [1] GuanTang eqs. (13), (16), (24), beyond the paper; docs/domain.md section 3.
     """
     if records.u.ndim != 2:
         raise AccelcalError("identify takes records of shape (angles, samples); "
@@ -713,7 +713,7 @@ def identify_arrays(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_
 
     References
     ----------
-    .. [1] DOMAIN.md section 3 (identification beyond GuanTang).
+    .. [1] docs/domain.md section 3 (identification beyond GuanTang).
     """
     design, y, _, _ = _system(records, route, tuple(terms), base, scale_factor)
     ata = design.swapaxes(-1, -2) @ design
@@ -730,7 +730,7 @@ def fundamental_extremes(model: ErrorModel) -> dict:
 
     References
     ----------
-    .. [1] DOMAIN.md section 3 (figure of eight of the w component).
+    .. [1] docs/domain.md section 3 (figure of eight of the w component).
     """
     th = np.mod(np.arctan2(model.Ko, model.Kp), np.pi)
     return {"S_Tmax": abs(model.K1) * float(np.hypot(model.Ko, model.Kp)),

@@ -527,7 +527,7 @@ def identify(
     units = {t: TERMS[t].unit for t in terms}
     method = "vre-identify"
     prov = {"measurements": n, **(provenance or {})}
-    null, identifiable = _null_space(design, sigma)
+    null, identifiable = null_space(design, sigma)
     if null.shape[1] == 0:
         est = least_squares(design, y, terms, units, method, sigma=sigma, provenance=prov)
         unident, combos = (), ()
@@ -550,7 +550,7 @@ def _scaled(design, sigma):
     return aw, np.where(scale > 0, scale, 1.0)
 
 
-def _null_space(design, sigma) -> tuple[np.ndarray, np.ndarray]:
+def null_space(design, sigma) -> tuple[np.ndarray, np.ndarray]:
     """Null space of the design: ``(unscaled, identifiable)``.
 
     The rank is decided on the column-equilibrated (and weighted) design, so

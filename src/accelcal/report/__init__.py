@@ -85,6 +85,19 @@ def format_std(std: float) -> str:
     return f"{std:#.2g}".rstrip(".")
 
 
+def format_unit(unit: str) -> str:
+    """A unit with superscript powers (``V/g^2`` -> ``V/g²``)."""
+    return unit.replace("^2", "²").replace("^3", "³").replace("^4", "⁴")
+
+
+def format_correlation(x: float) -> str:
+    """A correlation coefficient with three decimals (no negative zero; n/a for NaN)."""
+    if x is None or not math.isfinite(x):
+        return "n/a"
+    text = f"{x:.3f}"
+    return "0.000" if text == "-0.000" else text
+
+
 def render_report(sections, *, title: str, subtitle: str = "", generated: str | None = None) -> str:
     """The report as one HTML document.
 
@@ -109,6 +122,8 @@ def render_report(sections, *, title: str, subtitle: str = "", generated: str | 
     )
     env.filters["value"] = format_value
     env.filters["std"] = format_std
+    env.filters["unit"] = format_unit
+    env.filters["corr"] = format_correlation
     template = env.get_template("report.html.j2")
     return template.render(
         title=title,
@@ -136,6 +151,8 @@ def _view(section: Section, number: int) -> dict:
         "record": None,
     }
     rec = section.record
+    record_notes = list(rec.notes) if rec is not None else []
+    view["all_notes"] = list(dict.fromkeys([*section.notes, *record_notes]))
     if rec is not None:
         std = rec.std
         with np.errstate(invalid="ignore", divide="ignore"):

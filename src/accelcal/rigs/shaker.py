@@ -372,7 +372,7 @@ def _record_tables(records: ShakerRecords, extra: dict | None):
         yield angle, meta, cols
 
 
-def write_records(records_list, out, *, extra: dict | None = None) -> list:
+def write_records(records_list, out, *, extra: dict | None = None, suffix: str = ".csv") -> list:
     """Write shaker records, one file per angle (and amplitude).
 
     Parameters
@@ -383,7 +383,10 @@ def write_records(records_list, out, *, extra: dict | None = None) -> list:
         A directory (created if absent; files named by :func:`record_file_name`)
         or, for exactly one record, a file ending in ``.csv``.
     extra : dict, optional
-        Further metadata written into every file.
+        Further metadata written into every file (e.g. ``serial``,
+        ``operator``, ``date``, ``local_gravity``).
+    suffix : {".csv", ".parquet"}
+        File type of the records written into a directory.
 
     Returns
     -------
@@ -417,7 +420,9 @@ def write_records(records_list, out, *, extra: dict | None = None) -> list:
         return [out]
     if out.exists() and not out.is_dir():
         raise AccelcalError(f"--out {out} exists and is not a directory")
-    names = [record_file_name(a, ang) for a, ang, _, _ in tables]
+    if suffix not in (".csv", ".parquet"):
+        raise AccelcalError(f"record file suffix {suffix!r} is not .csv or .parquet")
+    names = [record_file_name(a, ang).removesuffix(".csv") + suffix for a, ang, _, _ in tables]
     if len(set(names)) != len(names):
         raise AccelcalError("two records would share a file name (repeated angle or amplitude)")
     if out.is_dir():
@@ -456,13 +461,14 @@ def read_records(path) -> list[ShakerRecords]:
     """
     from pathlib import Path
 
+    from accelcal.io.lab_metadata import check_lab_metadata
     from accelcal.io.records import read_record
 
     path = Path(path)
     if path.is_dir():
-        files = sorted(path.glob("*.csv"))
+        files = sorted([*path.glob("*.csv"), *path.glob("*.parquet")])
         if not files:
-            raise AccelcalError(f"{path}: no record files (*.csv) in the directory")
+            raise AccelcalError(f"{path}: no record files (*.csv, *.parquet) in the directory")
     elif path.exists():
         files = [path]
     else:
@@ -474,6 +480,11 @@ def read_records(path) -> list[ShakerRecords]:
         for key in ("frequency_hz", "sample_rate_hz", "angle_deg", "amplitude_g", "gravity_g"):
             if isinstance(meta[key], bool) or not isinstance(meta[key], int | float):
                 raise AccelcalError(f"{f}: metadata {key} must be a number")
+        scale = meta.get("scale_factor")
+        if scale is not None and (isinstance(scale, bool) or not isinstance(scale, int | float)
+                                  or not np.isfinite(scale) or scale == 0):
+            raise AccelcalError(f"{f}: metadata scale_factor must be a finite non-zero number")
+        check_lab_metadata(meta, f)
         groups.setdefault(float(meta["amplitude_g"]), []).append((f, meta, cols))
     out = []
     for amp in sorted(groups):
@@ -502,6 +513,7 @@ def read_records(path) -> list[ShakerRecords]:
             scale_factor=None if scale is None else float(scale),
             ref_n=stack.get("ref_n"), ref_ia=stack.get("ref_ia"), u_rest=stack.get("u_rest"),
             metadata={k: v for k, v in meta0.items()
-                      if k in ("axial_sensitivity", "sensor", "source")},
+                      if k in ("axial_sensitivity", "sensor", "source", "serial",
+                               "operator", "date", "local_gravity")},
         ))
     return out

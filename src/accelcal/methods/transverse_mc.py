@@ -1,0 +1,229 @@
+"""Monte Carlo (GUM-S1) uncertainty of cross-axis coefficients identified on a shaker.
+
+The identification (:func:`accelcal.methods.transverse.identify`) regresses
+the output's DC, w and 2w components on regressors built from the
+reference channels' phasors. Synthetic observations are drawn, per
+direction angle, from the fitted coefficients (plus the model's fixed
+terms) with
+
+- the **output noise**: Gaussian with the covariance of the output's sine
+  fit (from its residuals), the weights of the identification;
+- the **reference-channel noise**: the reference phasors' own sine-fit
+  covariance (the identification takes them as exact);
+- the **reference accelerometer's calibration** (Type B): every reference
+  phasor (along the vibration, and the transverse and IA channels when
+  present) scaled by a common ``1 + e``, ``e ~ N(0, u_ref)``.
+
+Each set is reduced by the identification's whitened least-squares
+operator, vectorised over trials, at the phasor level (the sine fits are
+linear, so this is the record-level reduction without re-fitting the
+samples).
+
+References
+----------
+.. [GuanTang] Guan W., Tang L., Shaker test method of transverse sensitivity
+   of inertial accelerometers, eqs. (13), (16), (24) as in docs/domain.md section 3.
+.. [ISO16063-31] ISO 16063-31:2009 (reference accelerometer along the vibration).
+.. [GUM-S1] JCGM 101:2008, sections 5-7.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+from accelcal.methods.transverse import FIT_TERMS, ROUTES, record_phasors, regressors
+from accelcal.model import ErrorModel
+from accelcal.results import Estimate
+from accelcal.rigs.shaker import ShakerRecords
+from accelcal.uncertainty import McUncertainty, propagate
+
+_REFS = ("ref", "ref_n", "ref_ia")
+
+
+def _columns(reg: dict, term: str, route: str) -> np.ndarray:
+    """Real observation columns of ``term`` per angle: [dc shift], a1, b1, [a2, b2]."""
+    dc, dc_rest, w, w2 = reg[term]
+    cols = [w.real, -w.imag]  # P = a - i b
+    if route in ("2w", "both"):
+        cols += [w2.real, -w2.imag]
+    if route in ("dc", "both"):
+        cols = [dc - dc_rest, *cols]
+    return np.stack(np.broadcast_arrays(*cols), axis=-1)
+
+
+@dataclass(frozen=True)
+class TransverseSampler:
+    """Picklable sampler of re-identified synthetic shaker observations.
+
+    Parameters
+    ----------
+    theta : numpy.ndarray
+        Direction angles, rad, ``(m,)``.
+    gravity : float
+        Static specific force along the vibration, g.
+    phasors : dict
+        Measured w phasors of the reference channels (``ref`` and, when
+        present, ``ref_n``, ``ref_ia``), ``(m,)`` complex, g.
+    phasor_chol : dict
+        Cholesky factors of their (a1, b1) covariances, ``(m, 2, 2)``.
+    values : dict
+        Every model term's coefficient (fitted and fixed), g/g^n.
+    terms : tuple of str
+        Fitted terms.
+    route : str
+        Components used (:data:`accelcal.methods.transverse.ROUTES`).
+    scale_factor : float
+        K1, output unit per g.
+    chol : numpy.ndarray
+        Cholesky factors of the observations' covariance per angle, ``(m, q, q)``.
+    operator : numpy.ndarray
+        Whitened least-squares operator, ``(p, m q)``.
+    reference_sd : float
+        Relative standard uncertainty of the reference calibration (fraction).
+
+    Calling ``sampler(rng, t)`` returns the errors ``(t, p)``.
+    """
+
+    theta: np.ndarray
+    gravity: float
+    phasors: dict
+    phasor_chol: dict
+    values: dict
+    terms: tuple
+    route: str
+    scale_factor: float
+    chol: np.ndarray
+    operator: np.ndarray
+    reference_sd: float = 0.0
+
+    def response(self, phasors: dict) -> np.ndarray:
+        """The output's observations per angle for reference phasors ``phasors``, ``(..., m, q)``.
+
+        ``[dc shift], a1, b1, [a2, b2]`` of the output in its unit, for every
+        term of ``values`` and the input-axis motion.
+        """
+        zero = np.zeros_like(phasors["ref"])
+        reg = regressors(self.theta, phasors["ref"], phasors.get("ref_n", zero),
+                         phasors.get("ref_ia", zero), self.gravity)  # [GuanTang] (13)
+        total = _columns(reg, "Ki", self.route)  # a_i enters with coefficient 1
+        for term, value in self.values.items():
+            if value != 0.0:
+                total = total + value * _columns(reg, term, self.route)
+        return self.scale_factor * total
+
+    def __call__(self, rng: np.random.Generator, t: int) -> np.ndarray:
+        """Errors of ``t`` re-identified synthetic observation sets, shape ``(t, p)``."""
+        m = self.theta.size
+        scale = 1.0 + self.reference_sd * rng.standard_normal((t, 1))
+        drawn = {}
+        for name in _REFS:
+            if name in self.phasors:
+                ab = np.einsum("mij,tmj->tmi", self.phasor_chol[name],
+                               rng.standard_normal((t, m, 2)))
+                drawn[name] = (self.phasors[name] + ab[..., 0] - 1j * ab[..., 1]) * scale
+        shift = self.response(drawn) - self.response(self.phasors)  # (t, m, q)
+        q = self.chol.shape[-1]
+        white = np.linalg.solve(self.chol, shift[..., None])[..., 0]
+        white = white + rng.standard_normal((t, m, q))  # output noise, whitened
+        return white.reshape(t, m * q) @ self.operator.T
+
+
+def transverse_uncertainty(
+    records: ShakerRecords,
+    estimate: Estimate,
+    *,
+    route: str,
+    base: ErrorModel | None = None,
+    scale_factor: float | None = None,
+    trials: int,
+    seed: int,
+    reference_sd: float = 0.0,
+    shortest: bool = False,
+    progress=None,
+) -> McUncertainty:
+    """Monte Carlo uncertainty of :func:`accelcal.methods.transverse.identify`.
+
+    Parameters
+    ----------
+    records : ShakerRecords
+        The records identified (one amplitude, ``(m, n)``).
+    estimate : Estimate
+        The identification of ``records`` with ``route``, ``base``, ``scale_factor``.
+    route, base, scale_factor
+        As given to ``identify``.
+    trials, seed : int
+        Monte Carlo trials (> 0) and root seed.
+    reference_sd : float
+        Relative standard uncertainty of the reference accelerometer's
+        calibration (fraction, e.g. 0.005 for 0.5 %).
+    shortest : bool
+        Shortest coverage interval instead of the symmetric one.
+    progress : callable, optional
+        ``progress(done, total)``.
+
+    Returns
+    -------
+    McUncertainty
+
+    Raises
+    ------
+    AccelcalError
+        For a negative reference uncertainty or an unknown route.
+
+    References
+    ----------
+    .. [1] JCGM 101:2008 (GUM-S1); GuanTang eq. (13); docs/domain.md section 3.
+    """
+    if not np.isfinite(reference_sd) or reference_sd < 0:
+        raise AccelcalError(
+            f"reference calibration uncertainty {reference_sd} must be a finite fraction >= 0"
+        )
+    if route not in ROUTES:
+        raise AccelcalError(f"route {route!r} is not one of {', '.join(ROUTES)}")
+    terms = estimate.names
+    k1 = scale_factor if scale_factor is not None else (
+        base.K1 if base is not None else records.scale_factor)
+    ph = record_phasors(records)
+    phasors = {n: ph[n].phasors[..., 0] for n in _REFS if n in ph}
+    # a noise-free reference has a zero covariance: the tiny ridge keeps it factorable
+    phasor_chol = {n: np.linalg.cholesky(ph[n].covariance[..., 1:3, 1:3] + 1e-300 * np.eye(2))
+                   for n in phasors}
+    known = base.terms() if base is not None else {}
+    values = {t: float(known.get(t, 0.0)) for t in FIT_TERMS if t != "Ki"}
+    values.update(dict(zip(terms, estimate.values.tolist(), strict=True)))
+    chol = _observation_chol(records, ph, route)
+    zero = np.zeros_like(phasors["ref"])
+    reg = regressors(records.theta, phasors["ref"], phasors.get("ref_n", zero),
+                     phasors.get("ref_ia", zero), records.gravity)
+    design = k1 * np.stack([_columns(reg, t, route) for t in terms], axis=-1)  # (m, q, p)
+    white = np.linalg.solve(chol[:, None], np.moveaxis(design, -1, 1)[..., None])[..., 0]
+    dw = np.moveaxis(white, 1, -1).reshape(-1, len(terms))
+    operator = np.linalg.pinv(dw)
+    sampler = TransverseSampler(records.theta, float(records.gravity), phasors, phasor_chol,
+                                values, tuple(terms), route, float(k1), chol, operator,
+                                float(reference_sd))
+    inputs = ["output noise (sine-fit covariance)", "reference-channel noise (sine fit)"]
+    if reference_sd > 0:
+        inputs.append(f"reference calibration N(0, {reference_sd:.3g}) relative")
+    return propagate(sampler, estimate.values, estimate.std, names=terms, trials=trials,
+                     seed=seed, units=dict(estimate.units), shortest=shortest, inputs=inputs,
+                     progress=progress)
+
+
+def _observation_chol(records: ShakerRecords, ph: dict, route: str) -> np.ndarray:
+    """Cholesky factors of each angle's observation covariance, as the identification weights."""
+    u = ph["u"]
+    use_dc = route in ("dc", "both")
+    sel = ([0] if use_dc else []) + [1, 2] + ([3, 4] if route in ("2w", "both") else [])
+    cu = u.cov_unit[np.ix_(sel, sel)]
+    scale = np.abs(records.u).max(axis=(-1, -2), initial=1e-300)
+    floor = 1e-15 * scale  # as the identification: noise-free records stay usable
+    s_u = np.maximum(u.residual_std, floor)
+    cov = s_u[..., None, None] ** 2 * cu
+    if use_dc:
+        s_r = np.maximum(ph["u_rest"].residual_std, floor)
+        first = np.zeros(len(sel))
+        first[0] = 1.0
+        cov = cov + (s_r**2 * ph["u_rest"].cov_unit[0, 0])[..., None, None] * np.outer(first, first)
+    return np.linalg.cholesky(cov)

@@ -1,0 +1,190 @@
+"""Monte Carlo (GUM-S1) uncertainty of VRE coefficients identified from measured VRE.
+
+Synthetic VRE sets are drawn from the fitted coefficients (and the fixed
+ones) over the measured (b, A) design, with
+
+- each point's **VRE uncertainty** (Gaussian, independent; or, when the
+  points carry none, the residual standard deviation of the fit);
+- the **amplitude calibration** (Type B): every amplitude scaled by a common
+  ``1 + e_A``, ``e_A ~ N(0, u_A)`` (one reference accelerometer measures all
+  points);
+- the **overload calibration** (Type B): every overload vector scaled by a
+  common ``1 + e_b``, ``e_b ~ N(0, u_b)`` (the centrifuge's radius and speed).
+
+Each set is reduced by the same linear operator as the measured VRE
+(:func:`accelcal.methods.vre.identify`: weighted least squares, restricted
+to the row space of the design when it is rank deficient), vectorised over
+trials with the closed-form columns :func:`accelcal.methods.vre.vre_columns`.
+
+References
+----------
+.. [Guan2021] Guan W., Asymmetry coefficient errors of accelerometer under
+   overload-vibration environment, 2021, eqs. (9), (21), (24).
+.. [GUM-S1] JCGM 101:2008, sections 5-7.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+from accelcal.methods.vre import VreFit, along_ia, null_space, vre_columns
+from accelcal.uncertainty import McUncertainty, propagate
+
+
+@dataclass(frozen=True)
+class VreSampler:
+    """Picklable sampler of re-identified synthetic VRE sets.
+
+    Parameters
+    ----------
+    overload : numpy.ndarray
+        Overload vectors, g, ``(n, 3)``.
+    amplitude : numpy.ndarray
+        Amplitudes, g, ``(n,)``.
+    direction : numpy.ndarray
+        Vibration directions, ``(n, 3)``.
+    noise : numpy.ndarray
+        Standard deviation of each VRE, g, ``(n,)``.
+    terms : tuple of str
+        Fitted coefficients.
+    values : numpy.ndarray
+        Their values generating the synthetic sets (row-space solution).
+    operator : numpy.ndarray
+        Linear map of VRE (after subtracting the fixed terms) to the
+        estimates, ``(p, n)``.
+    fixed : dict
+        Coefficients held at known values.
+    amplitude_sd, overload_sd : float
+        Relative standard uncertainties of the amplitude and overload
+        calibrations (fractions).
+
+    Calling ``sampler(rng, t)`` returns the errors ``(t, p)``.
+    """
+
+    overload: np.ndarray
+    amplitude: np.ndarray
+    direction: np.ndarray
+    noise: np.ndarray
+    terms: tuple
+    values: np.ndarray
+    operator: np.ndarray
+    fixed: dict
+    amplitude_sd: float = 0.0
+    overload_sd: float = 0.0
+
+    def __call__(self, rng: np.random.Generator, t: int) -> np.ndarray:
+        """Errors of ``t`` re-identified synthetic VRE sets, shape ``(t, p)``."""
+        n = self.amplitude.size
+        scale_a = 1.0 + self.amplitude_sd * rng.standard_normal((t, 1))
+        scale_b = 1.0 + self.overload_sd * rng.standard_normal((t, 1, 1))
+        cols = vre_columns(self.overload[None] * scale_b, self.amplitude[None] * scale_a,
+                           self.direction[None])  # Eqs. (9), (21) [Guan2021]
+        coef = {**dict(zip(self.terms, self.values, strict=True)), **self.fixed}
+        y = sum((v * cols[k] for k, v in coef.items()), np.zeros((t, n)))
+        y = y + self.noise * rng.standard_normal((t, n))
+        if self.fixed:
+            nominal = vre_columns(self.overload, self.amplitude, self.direction)
+            y = y - sum(v * nominal[k] for k, v in self.fixed.items())
+        return y @ self.operator.T - self.values
+
+
+def _operator(design: np.ndarray, sigma: np.ndarray | None) -> np.ndarray:
+    """The identification's linear operator (row space of a deficient design)."""
+    null, _ = null_space(design, sigma)
+    p = design.shape[1]
+    w = np.ones(design.shape[0]) if sigma is None else 1.0 / sigma
+    if null.shape[1] == 0:
+        return np.linalg.pinv(design * w[:, None]) * w
+    q, _ = np.linalg.qr(np.concatenate([null, np.eye(p)], axis=1))
+    row_basis = q[:, null.shape[1]:p]
+    return row_basis @ np.linalg.pinv(design @ row_basis * w[:, None]) * w
+
+
+def vre_uncertainty(
+    fit: VreFit,
+    overload,
+    amplitude,
+    vre,
+    uncertainty=None,
+    *,
+    direction=(1.0, 0.0, 0.0),
+    trials: int,
+    seed: int,
+    amplitude_sd: float = 0.0,
+    overload_sd: float = 0.0,
+    shortest: bool = False,
+    progress=None,
+) -> McUncertainty:
+    """Monte Carlo uncertainty of an identification by :func:`accelcal.methods.vre.identify`.
+
+    Parameters
+    ----------
+    fit : VreFit
+        The identification of the measured VRE.
+    overload, amplitude, vre, uncertainty, direction
+        The measurements, as given to ``identify`` (g).
+    trials, seed : int
+        Monte Carlo trials (> 0) and root seed.
+    amplitude_sd, overload_sd : float
+        Relative standard uncertainties of the amplitude and overload
+        calibrations (fractions, e.g. 0.01 for 1 %).
+    shortest : bool
+        Shortest coverage interval instead of the symmetric one.
+    progress : callable, optional
+        ``progress(done, total)``.
+
+    Returns
+    -------
+    McUncertainty
+        One entry per fitted coefficient (NaN for the unidentifiable ones).
+
+    Raises
+    ------
+    AccelcalError
+        For negative or non-finite calibration uncertainties, or points
+        without uncertainties and no residual degree of freedom.
+
+    References
+    ----------
+    .. [1] JCGM 101:2008 (GUM-S1); Guan2021 eqs. (9), (21).
+    """
+    for value, what in ((amplitude_sd, "amplitude"), (overload_sd, "overload")):
+        if not np.isfinite(value) or value < 0:
+            raise AccelcalError(
+                f"{what} calibration uncertainty {value} must be a finite fraction >= 0"
+            )
+    est = fit.estimate
+    terms = est.names
+    a = np.asarray(amplitude, dtype=float).reshape(-1)
+    b = np.asarray(overload, dtype=float)
+    b = b.reshape(-1, 3) if b.ndim == 2 else along_ia(b.reshape(-1))
+    d = np.broadcast_to(np.asarray(direction, dtype=float), (a.size, 3)).copy()
+    y = np.asarray(vre, dtype=float).reshape(-1)
+    sigma = None if uncertainty is None else np.asarray(uncertainty, dtype=float).reshape(-1)
+    if sigma is not None and (sigma <= 0).any():
+        sigma = None  # as identify: noise-free points, the residuals set the scale
+    cols = vre_columns(b, a, d)
+    design = np.stack([np.broadcast_to(cols[k], a.shape) for k in terms], axis=1)
+    y = y - sum((v * cols[k] for k, v in fit.fixed.items()), np.zeros(a.size))
+    op = _operator(design, sigma)
+    values = op @ y
+    if sigma is None:
+        if est.dof <= 0:
+            raise AccelcalError(
+                "--uncertainty mc: the VRE points carry no uncertainty and the fit has no "
+                "residual degree of freedom to estimate the noise; add points"
+            )
+        noise = np.full(a.size, np.sqrt(float(est.residuals @ est.residuals) / est.dof))
+    else:
+        noise = sigma
+    sampler = VreSampler(b, a, d, noise, terms, values, op, dict(fit.fixed),
+                         float(amplitude_sd), float(overload_sd))
+    inputs = ["VRE noise N(0, u_j) g" if sigma is not None else
+              f"VRE noise N(0, {noise[0]:.3g}) g (residual level)"]
+    if amplitude_sd > 0:
+        inputs.append(f"amplitude calibration N(0, {amplitude_sd:.3g}) relative")
+    if overload_sd > 0:
+        inputs.append(f"overload calibration N(0, {overload_sd:.3g}) relative")
+    return propagate(sampler, est.values, est.std, names=terms, trials=trials, seed=seed,
+                     units=dict(est.units), shortest=shortest, inputs=inputs, progress=progress)

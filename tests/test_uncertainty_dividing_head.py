@@ -1,0 +1,203 @@
+"""Monte Carlo uncertainty of indexing-head reductions (accelcal.methods.dividing_head_mc)."""
+
+import pickle
+
+import numpy as np
+import pytest
+
+from accelcal.errors import AccelcalError
+from accelcal.methods.dividing_head import (
+    COEFFICIENTS,
+    HeadData,
+    JointOperator,
+    four,
+    psi,
+    reduce,
+    scale_factors,
+)
+from accelcal.methods.dividing_head_mc import HeadSampler, head_uncertainty, noise_levels
+from accelcal.rigs.dividing_head import (
+    AngleErrorProfile,
+    DividingHeadRig,
+    dong2014_models,
+    simulate,
+)
+from accelcal.units import ARCSEC
+
+NOISE = 2.8e-6  # V, Dong2014 Table 1 column U
+TRIALS = 20_000
+
+
+def _rig(**kwargs):
+    return DividingHeadRig.uniform(24, dong2014_models(4), noise=NOISE, **kwargs)
+
+
+def _data(rig, seed):
+    run = simulate(rig, seed)
+    return HeadData.build(rig.positions, run.outputs, rig.mounts)
+
+
+def _truth(rig):
+    return np.array([[m.to_dong2014()[c] for c in COEFFICIENTS] for m in rig.models])
+
+
+@pytest.mark.parametrize("method", ["single", "joint"])
+def test_formal_and_mc_agree_without_angle_error(method):
+    # Linear-Gaussian apart from the normalisation by the fitted K_I (relative
+    # effect ~ noise / K_I ~ 2e-6): MC and formal SDs must agree within the
+    # Monte Carlo standard error 1/sqrt(2 (M - 1)) = 0.5 %; 4 standard errors.
+    rig = _rig()
+    data = _data(rig, 1)
+    result = reduce(data, method)
+    mc = head_uncertainty(data, result, trials=TRIALS, seed=3)
+    ratio = mc.mc_std / mc.formal_std
+    assert np.all(np.abs(ratio - 1) < 4 / np.sqrt(2 * (TRIALS - 1))), ratio
+    assert np.all(np.abs(mc.mc_bias) < 4 * mc.mc_std / np.sqrt(TRIALS))
+
+
+def test_noise_free_reduction_is_reproduced_exactly():
+    # the sampler re-reduces data drawn from the fitted model: without noise
+    # and angle error every method returns the fitted values (rounding only)
+    rig = _rig()
+    data = _data(rig, 2)
+    for method in ("single", "four", "joint"):
+        result = reduce(data, method)
+        coef = np.stack([e.values for e in result.sensors])
+        sampler = HeadSampler(data.positions, data.mounts, coef, np.zeros(4), method)
+        err = sampler(np.random.default_rng(0), 3)
+        # K_I ~ 1.3 V/g: rounding of a 24-point fit ~1e-15 V
+        np.testing.assert_allclose(err, 0.0, rtol=0, atol=1e-13)
+
+
+def test_angle_error_level_adds_the_predicted_variance_single():
+    # A rectangular head error within +-L at each position enters U linearly
+    # through dU/dd = K_I cos(g) - K_O sin(g) + K_IO cos(2g) + K_II sin(2g)
+    # (derivative of Dong2014 eq. (5)); its variance is L^2/3 per position
+    # (GUM-S1 6.4.2). K_O* absorbs the mean error (DOMAIN step 6).
+    level = 2.0 * ARCSEC
+    rig = _rig()
+    data = _data(rig, 4)
+    result = reduce(data, "single")
+    coef = np.stack([e.values for e in result.sensors])
+    beta = data.angles()
+    h = 1e-6
+    slope = (psi(beta + h) @ coef[:, :, None] - psi(beta - h) @ coef[:, :, None])[..., 0] / (2 * h)
+    pinv = np.linalg.pinv(psi(beta))  # (K, 5, n)
+    jac = pinv * slope[:, None, :]  # d estimate / d d_n
+    jac[:, 2, :] -= coef[:, 1, None] / beta.shape[1]  # minus d(K_O*)/d d_n
+    extra = (level**2 / 3) * (jac**2).sum(axis=-1)
+    mc = head_uncertainty(data, result, trials=TRIALS, seed=5, angle_error_level=level)
+    predicted = mc.formal_std**2 + extra.reshape(-1)
+    # variance standard error ~ var sqrt(2/M) = 1 %; 4.5 standard errors
+    np.testing.assert_allclose(mc.mc_std**2, predicted, rtol=4.5 * np.sqrt(2 / TRIALS), atol=0)
+    assert np.all(mc.mc_std[[0, 3, 4]] > 1.5 * mc.formal_std[[0, 3, 4]])
+
+
+def test_first_harmonic_uncertainty_propagates_through_the_alias():
+    # a known first harmonic with sd s shifts K_F, K_IO, K_II by its alias
+    # [c', s', -c'] (DOMAIN step 4): each gets variance s^2 K_I^2 from it
+    rig = _rig()
+    data = _data(rig, 6)
+    sd = 1e-6
+    result = four(data, first_harmonic=(0.0, 0.0), first_harmonic_sd=sd)
+    mc = head_uncertainty(data, result, trials=TRIALS, seed=8, first_harmonic=(0.0, 0.0),
+                          first_harmonic_sd=sd)
+    base = head_uncertainty(data, four(data, first_harmonic=(0.0, 0.0)), trials=TRIALS, seed=8,
+                            first_harmonic=(0.0, 0.0))
+    k_i = np.repeat([e["K_I"] for e in result.sensors], 5)
+    added = np.tile([1.0, 0.0, 0.0, 1.0, 1.0], 4) * (sd * k_i) ** 2
+    # two independent variance estimates, each with standard error var sqrt(2/M)
+    tol = 4 * np.sqrt(2 / TRIALS) * np.hypot(mc.mc_std**2, base.mc_std**2)
+    assert np.all(np.abs(mc.mc_std**2 - base.mc_std**2 - added) < tol)
+    assert np.all(mc.mc_std[[0, 3, 4]] > 1.2 * base.mc_std[[0, 3, 4]])
+
+
+def test_four_method_mc_interval_covers_where_the_formal_one_does_not():
+    # Repeat a simulated 24-position, 4-sensor experiment; the four-sensor
+    # formal SD ignores the noise carried in by the separated head error, so
+    # its 95 % interval under-covers; the Monte Carlo interval must cover at
+    # 95 % within a binomial tolerance. Each experiment's Monte Carlo run is
+    # vectorised over its trials.
+    rig = _rig()
+    experiments = 150
+    run = simulate(rig, 12, trials=experiments)
+    truth = _truth(rig).reshape(-1)
+    inside_mc, inside_formal = [], []
+    for outputs in run.outputs:
+        data = HeadData.build(rig.positions, outputs, rig.mounts)
+        result = four(data)
+        mc = head_uncertainty(data, result, trials=1000, seed=1)
+        inside_mc.append((mc.ci_low <= truth) & (truth <= mc.ci_high))
+        est = np.concatenate([e.values for e in result.sensors])
+        inside_formal.append(np.abs(est - truth) <= 1.959964 * mc.formal_std)
+    rate_mc, rate_formal = np.mean(inside_mc), np.mean(inside_formal)
+    # binomial sd for 150 experiments 1.8 %; 3 sd (pooled coefficients are
+    # positively correlated, so this bound is conservative), less 1.5 % for
+    # the noise level estimated from 19 degrees of freedom per sensor
+    tol = 3 * np.sqrt(0.95 * 0.05 / experiments)
+    assert 0.95 - tol - 0.015 < rate_mc < 0.95 + tol, rate_mc
+    assert rate_formal < 0.88, rate_formal
+
+
+def test_noise_levels_are_unbiased_for_the_four_method():
+    # E[r_k' r_k] = sum_j ||R_kj||^2 s_j^2: the mean estimated variance over
+    # many data sets equals the true one (3 standard errors of the mean)
+    rig = _rig()
+    run = simulate(rig, 21, trials=200)
+    s2 = np.array([noise_levels(HeadData.build(rig.positions, u, rig.mounts), "four") ** 2
+                   for u in run.outputs])
+    sem = s2.std(axis=0) / np.sqrt(len(s2))
+    assert np.all(np.abs(s2.mean(axis=0) - NOISE**2) < 3.5 * sem)
+
+
+def test_reproducible_and_rejects_tumble():
+    rig = _rig(angle_error=AngleErrorProfile.uniform(ARCSEC))
+    data = _data(rig, 9)
+    result = reduce(data, "joint")
+    a = head_uncertainty(data, result, trials=3000, seed=4, angle_error_level=ARCSEC)
+    b = head_uncertainty(data, result, trials=3000, seed=4, angle_error_level=ARCSEC)
+    np.testing.assert_array_equal(a.ci_low, b.ci_low)
+    np.testing.assert_array_equal(a.mc_std, b.mc_std)
+    with pytest.raises(AccelcalError, match="single, four, joint"):
+        head_uncertainty(data, reduce(data, "tumble"), trials=10, seed=0)
+    with pytest.raises(AccelcalError, match="angle-error level"):
+        head_uncertainty(data, result, trials=10, seed=0, angle_error_level=-1.0)
+
+
+def test_sampler_pickles_for_dask():
+    rig = _rig()
+    data = _data(rig, 10)
+    result = reduce(data, "four")
+    coef = np.stack([e.values for e in result.sensors])
+    sampler = HeadSampler(data.positions, data.mounts, coef, np.full(4, NOISE), "four",
+                          angle_error_level=ARCSEC, first_harmonic=np.zeros(2),
+                          first_harmonic_sd=1e-6)
+    copy = pickle.loads(pickle.dumps(sampler))
+    np.testing.assert_array_equal(copy(np.random.default_rng(1), 50),
+                                  sampler(np.random.default_rng(1), 50))
+
+
+@pytest.mark.parametrize("first_harmonic", [None, (3e-6, -1e-6)])
+def test_sampler_reduction_equals_the_joint_reduction_with_autocollimator(first_harmonic):
+    # the sampler's vectorised operators against accelcal.methods.dividing_head.joint
+    # on the same data (same weights): identical to rounding
+    rig = _rig(angle_error=AngleErrorProfile.uniform(2 * ARCSEC))
+    run = simulate(rig, 13)
+    data = HeadData.build(rig.positions, run.outputs, rig.mounts)
+    readings = run.d_alpha + 0.2 * ARCSEC * np.random.default_rng(0).standard_normal(24)
+    options = {"first_harmonic": first_harmonic, "first_harmonic_sd": 0.0}
+    result = reduce(data, "joint", autocollimator=readings, autocollimator_sd=0.2 * ARCSEC,
+                    **options)
+    mc = head_uncertainty(data, result, trials=10, seed=0, autocollimator_sd=0.2 * ARCSEC,
+                          **options)
+    assert mc.trials == 10
+    op = JointOperator.build(data.positions, data.mounts)
+    res = op.resid @ (data.outputs / scale_factors(data)[:, None]).reshape(-1)
+    sampler = HeadSampler(data.positions, data.mounts, np.zeros((4, 5)), np.zeros(4), "joint",
+                          first_harmonic=None if first_harmonic is None else
+                          np.asarray(first_harmonic), autocollimator_sd=0.2 * ARCSEC,
+                          weight_sigma=float(np.sqrt(res @ res / op.dof)))
+    got = sampler.reduce(data.outputs[None], readings[None])[0]
+    want = np.stack([e.values for e in result.sensors])
+    # volts of order 1.3; QR against pseudo-inverse solutions: 1e-12 V
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
