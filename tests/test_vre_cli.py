@@ -1,4 +1,4 @@
-"""The ``accelcal vre`` command group: the contract of the issue, end to end."""
+"""The ``accelcal vre`` command group: its command-line contract, end to end."""
 
 import csv
 import io

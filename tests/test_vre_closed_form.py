@@ -21,7 +21,7 @@ from accelcal.methods.vre import (
     vre_table,
 )
 
-# Tolerances: the contract is 1e-12 relative OR 1e-18 g absolute.
+# Tolerances: the required agreement is 1e-12 relative OR 1e-18 g absolute.
 # quad on each smooth piece (split at the zero crossings) reaches ~1e-15
 # relative, but a sum of floating-point samples cannot resolve a mean below
 # a few eps times the mean of |integrand|: when the VRE is a cancellation
