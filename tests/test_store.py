@@ -201,3 +201,14 @@ def test_killed_writer_leaves_store_consistent(db):
     assert [r["serial"] for r in store.calibrations()] == ["SN-1"]
     store.add(make_record(serial="SN-after"))
     assert len(store.calibrations()) == 2
+
+
+def test_store_addresses_paths_urls_and_the_environment(tmp_path, monkeypatch):
+    monkeypatch.setenv("ACCELCAL_DB", str(tmp_path / "env.sqlite"))
+    with Store() as store:  # a plain path in the environment is an SQLite file
+        store.add(make_record())
+    assert (tmp_path / "env.sqlite").exists()
+    with pytest.raises(AccelcalError, match="neither a database URL nor a file path"):
+        Store("postgresql+psycopg://user@host:notaport/db")
+    with pytest.raises(AccelcalError, match="cannot use the store nosuchdialect://"):
+        Store("nosuchdialect://x/y")

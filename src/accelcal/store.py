@@ -43,12 +43,13 @@ def default_url() -> str:
     when unset).
     """
     if os.environ.get(DEFAULT_DB_ENV):
-        return os.environ[DEFAULT_DB_ENV]
+        return _url(os.environ[DEFAULT_DB_ENV])
     base = Path(os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share")
     return f"sqlite:///{base / 'accelcal' / 'records.sqlite'}"
 
 
 def _url(db: str | os.PathLike | None) -> str:
+    """A database URL from a URL, an SQLite file path, or None (the default store)."""
     if db is None:
         return default_url()
     text = os.fspath(db)
@@ -100,6 +101,13 @@ class Store:
         import sqlalchemy as sa
 
         self.url = _url(db)
+        try:
+            sa.make_url(self.url)
+        except (sa.exc.ArgumentError, ValueError):
+            raise AccelcalError(
+                f"the store {self.url!r} is neither a database URL nor a file path; give e.g. "
+                "records.sqlite or postgresql+psycopg://user@host/db"
+            ) from None
         # No connection pool: a command opens the store for a few statements,
         # and every connection is closed as soon as it is released.
         if self.url.startswith("sqlite:///"):
@@ -110,7 +118,13 @@ class Store:
             sa.event.listen(self.engine, "connect", _sqlite_on_connect)
             sa.event.listen(self.engine, "begin", _sqlite_on_begin)
         else:
-            self.engine = sa.create_engine(self.url, poolclass=sa.pool.NullPool)
+            try:
+                self.engine = sa.create_engine(self.url, poolclass=sa.pool.NullPool)
+            except (sa.exc.NoSuchModuleError, ImportError) as exc:
+                raise AccelcalError(
+                    f"cannot use the store {self._shown_url()}: {exc}; for PostgreSQL install "
+                    "'accelcal[postgresql]' and use postgresql+psycopg://..."
+                ) from None
         self._tables = _tables(sa)
         try:
             self._migrate()
