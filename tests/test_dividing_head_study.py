@@ -256,3 +256,80 @@ def test_progress_bar_only_after_delay_and_on_a_terminal(capsys):
     with DelayedProgress("trials", delay=60.0, force=True) as later:  # a short run
         later(10, 10)
     assert capsys.readouterr().err == ""
+
+
+def _all_terms_rig(half_width=5 * ARCSEC):
+    model = ErrorModel(K0=1e-3, K1=1.3, K2=2e-5, K3=-3e-6, K4=4e-7, Ko=-1e-5, Koo=6e-6,
+                       Kio=-7e-6, K0_asym=2e-5, K1_asym=-3e-5, Kp=9.0, Kpp=9.0, Kip=9.0,
+                       Kop=9.0, output_unit="V")
+    return DividingHeadRig.uniform(24, (model, *dong2014_models(3)), eta=[1e-4, 0, -2e-4, 0],
+                                   angle_error=AngleErrorProfile.uniform(half_width),
+                                   first_harmonic=DONG2014_FIRST_HARMONIC, noise=1e-6)
+
+
+@pytest.mark.parametrize("half_width", [5 * ARCSEC, 3600 * ARCSEC])
+def test_taylor_outputs_match_the_rig_for_every_model_term(half_width):
+    """SensorBank.outputs (Taylor series in d when |d| is small enough, else the exact
+    evaluation) against DividingHeadRig.outputs, every model term: atol 1e-14 V."""
+    rig = _all_terms_rig(half_width)
+    rng = np.random.default_rng(3)
+    d = rig.angle_errors(50, rng)
+    noise = rng.normal(0.0, 1e-6, (50, 4, 24))
+    bank = SensorBank(rig.models, rig.sensor_angles() + rig.eta[:, None])
+    order = bank.taylor_order(float(np.max(np.abs(d))))
+    assert (order is None) == (half_width > 5 * ARCSEC)
+    expected = rig.outputs(d)[:, 0] + noise  # (T, K, n)
+    got = bank.outputs(d, noise)  # (K, n, T)
+    np.testing.assert_allclose(got.transpose(2, 0, 1), expected, rtol=0, atol=1e-14)
+
+
+def test_study_with_large_head_errors_matches_per_trial_reductions():
+    """Head errors too large for the Taylor series (exact evaluation), mounts off their
+    nominal angles: the study against the one-record reductions."""
+    rig = DividingHeadRig.uniform(24, dong2014_models(4), eta=[1e-4, 0, -2e-4, 3e-4],
+                                  angle_error=AngleErrorProfile.uniform(1800 * ARCSEC),
+                                  first_harmonic=DONG2014_FIRST_HARMONIC, noise=1e-6)
+    study = HeadStudy(rig, ("single",), 0.0)
+    assert study.sensors.taylor_order(float(np.max(np.abs(
+        study.draw(block_generator(4, 0), 6)[0])))) is None
+    trials = 6
+    res = run_study(rig, trials, seed=4, methods=("single", "joint_unknown_h1"))
+    d, noise, _ = HeadStudy(rig, STUDY_METHODS, 0.0).draw(block_generator(4, 0), trials)
+    coef = np.array([[m.to_dong2014()[c] for c in COEFFICIENTS] for m in rig.models])
+    sq = np.zeros((2, 4, 5))
+    for t in range(trials):
+        data = HeadData.build(rig.positions, rig.outputs(d[t])[0] + noise[t], rig.mounts)
+        truth = coef.copy()
+        truth[:, 2] += coef[:, 1] * (rig.eta + d[t].mean())
+        for i, r in enumerate((single(data), joint(data))):
+            sq[i] += (np.array([e.values for e in r.sensors]) - truth) ** 2
+    np.testing.assert_allclose(res.rms_error, np.sqrt(sq / trials), rtol=1e-8)
+
+
+@pytest.mark.skipif(np.finfo(np.longdouble).eps >= np.finfo(float).eps,
+                    reason="needs an extended-precision long double")
+def test_single_errors_match_an_extended_precision_reference():
+    """The study's single-fit errors against the same fit done in long double (outputs from
+    sin/cos in long double, least squares refined against Psi): the study never rounds at
+    the outputs' magnitude, so its errors (~1e-6 V) are exact to ~1e-17 V."""
+    rig, trials = _rig(), 64
+    study = HeadStudy(rig, ("single",), 0.0)
+    values = study(block_generator(5, 0), trials)[:, :20].reshape(trials, 4, 5)
+    d, noise, _ = study.draw(block_generator(5, 0), trials)
+    ld = np.longdouble
+    gamma = (rig.sensor_angles() + rig.eta[:, None]).astype(ld)[None] + d[:, None, :].astype(ld)
+    s, c = np.sin(gamma), np.cos(gamma)
+    u = np.stack([ld(m.K1) * (ld(m.K0) + s[:, k] * (1 + s[:, k] * ld(m.K2))
+                              + c[:, k] * (ld(m.Ko) + ld(m.Koo) * c[:, k] + ld(m.Kio) * s[:, k]))
+                  for k, m in enumerate(rig.models)], axis=1) + noise
+    sb, cb = np.sin(rig.sensor_angles().astype(ld)), np.cos(rig.sensor_angles().astype(ld))
+    design = np.stack([np.ones_like(sb), sb, cb, sb * cb, sb * sb], axis=-1)  # (K, n, 5)
+    op = study.single_op[:, :5].astype(ld)
+    x = np.einsum("kij,tkj->tki", op, u)
+    for _ in range(3):
+        x += np.einsum("kij,tkj->tki", op, u - np.einsum("kji,tki->tkj", design, x))
+    coef = np.array([[m.to_dong2014()[c] for c in COEFFICIENTS] for m in rig.models])
+    truth = np.broadcast_to(coef, x.shape).astype(ld).copy()
+    d0 = (study.gauge_proj[0] @ d.T.astype(ld))[:, None]  # (T, 1)
+    truth[:, :, 2] += coef[:, 1] * (rig.eta + d0)
+    np.testing.assert_allclose(values, (x - truth).astype(float), rtol=0, atol=1e-17)

@@ -37,6 +37,7 @@ References
 .. [NumPySeed] NumPy, "Parallel random number generation" (SeedSequence spawning).
 """
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -72,9 +73,14 @@ class _Moments:
 
     @classmethod
     def of(cls, values: np.ndarray, first_index: int, stride: int, full: bool) -> "_Moments":
-        mean = values.mean(axis=0)
-        centred = values - mean
-        m2 = centred.T @ centred if full else np.einsum("ij,ij->j", centred, centred)
+        if not full and values.flags.f_contiguous and values.size:
+            # Trials contiguous for each output (a study filling ``(p, n)`` and returning
+            # its transpose): two passes per few outputs while they are in cache.
+            mean, m2 = _output_moments(values.T)
+        else:
+            mean = values.mean(axis=0)
+            centred = values - mean
+            m2 = centred.T @ centred if full else np.einsum("ij,ij->j", centred, centred)
         if stride:
             kept = values[(-first_index) % stride :: stride].copy()
         else:
@@ -90,6 +96,29 @@ class _Moments:
         m2 = self.m2 + other.m2 + cross * (self.n * other.n / n)
         kept = np.concatenate([self.kept, other.kept]) if len(other.kept) else self.kept
         return _Moments(n, mean, m2, kept)
+
+
+_ROWS_PER_PASS = 8
+"""Outputs centred and squared together by :func:`_output_moments` (while in cache)."""
+
+
+def _output_moments(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and centred sum of squares of each row of ``rows`` ``(p, n)`` (C-contiguous).
+
+    Two-pass (centred) sums, a few rows at a time so that each row is read
+    from memory once; deterministic for given values.
+    """
+    p, n = rows.shape
+    mean, m2 = np.empty(p), np.empty(p)
+    centred = np.empty((min(p, _ROWS_PER_PASS), n))
+    for start in range(0, p, _ROWS_PER_PASS):
+        block = rows[start:start + _ROWS_PER_PASS]
+        c = centred[:len(block)]
+        mu = mean[start:start + len(block)]
+        np.mean(block, axis=1, out=mu)
+        np.subtract(block, mu[:, None], out=c)
+        m2[start:start + len(block)] = (c[:, None, :] @ c[:, :, None])[:, 0, 0]
+    return mean, m2
 
 
 @dataclass(frozen=True)
@@ -289,9 +318,7 @@ class _BlockSpec:
     def __call__(self, blocks: range) -> list[_Moments]:
         if self.blas_threads is None:
             return self._evaluate(blocks)
-        from threadpoolctl import threadpool_limits
-
-        with threadpool_limits(limits=self.blas_threads, user_api="blas"):
+        with _blas_controller().limit(limits=self.blas_threads, user_api="blas"):
             return self._evaluate(blocks)
 
     def _evaluate(self, blocks: range) -> list[_Moments]:
@@ -307,6 +334,14 @@ class _BlockSpec:
                 )
             out.append(_Moments.of(values, first, self.stride, self.full_covariance))
         return out
+
+
+@functools.cache
+def _blas_controller():
+    """The process's threadpoolctl controller (finding the libraries once, not per task)."""
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
 
 
 class _InOrder:

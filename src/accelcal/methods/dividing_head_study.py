@@ -28,9 +28,15 @@ for any ``chunk``, in-process or on any number of Dask workers.
 Vectorised: the designs are fixed, so every reduction is a precomputed
 linear operator (after each sensor's normalisation by its own fitted scale
 factor) applied to :data:`SUB_BLOCK` trials at once by matrix products,
-trials on the contiguous axis; residual sums of squares come from
-orthonormal bases of the residual spaces (``n - 5`` numbers per sensor, the
-joint design's ``dof``). There is no per-trial Python loop.
+trials on the contiguous axis. The outputs enter only as their variation
+about the noise-free outputs at zero head error (a Taylor series in the
+head error, :meth:`SensorBank.variation`), so nothing is rounded at the
+outputs' magnitude; the constant part is fitted once in extended
+precision. The single fit gives each sensor's estimates and orthonormal
+residual coordinates (``n - 5`` numbers); ``four`` and ``joint`` differ from
+it only by removing a head-error estimate whose effect lies in one small
+subspace of those coordinates, so both act on a few projections of them.
+There is no per-trial Python loop.
 
 References
 ----------
@@ -63,6 +69,10 @@ STUDY_BLOCK = 2**15
 
 SUB_BLOCK = 512
 """Trials drawn and reduced at once inside a seed block (part of the identity)."""
+
+TAYLOR_MAX_ORDER = 6
+"""Highest power of the head error in the outputs' Taylor series (else exact evaluation)."""
+_TAYLOR_GROUP = 64
 
 
 
@@ -280,6 +290,7 @@ class SensorBank:
     """
 
     def __init__(self, models, theta: np.ndarray):
+        theta = np.asarray(theta, dtype=float)
         self.sin_theta, self.cos_theta = np.sin(theta)[..., None], np.cos(theta)[..., None]
         terms = {name: np.array([getattr(mod, name) for mod in models])[:, None, None]
                  for name in ("K0", "K1", "K2", "K3", "K4", "Ko", "Koo", "Kio",
@@ -289,6 +300,122 @@ class SensorBank:
                 for name in group:
                     del terms[name]
         self.model_terms = terms
+        # Taylor series in the head error d of every output about d = 0: the outputs are
+        # trigonometric polynomials of degree <= 4 in theta + d (Bernstein's inequality
+        # bounds every derivative by degree**m times the largest output).
+        self.degree = 4 if "K3" in terms else 2 if any(
+            np.any(terms[name]) for name in ("K2", "Koo", "Kio") if name in terms) else 1
+        taylor = self._taylor_coefficients(theta.astype(np.longdouble), TAYLOR_MAX_ORDER)
+        self.offset = taylor[0]  # outputs at d = 0 without noise, (K, n), extended precision
+        self.taylor = taylor[1:].astype(float)  # d**1 ... d**TAYLOR_MAX_ORDER, (order, K, n)
+        # sgn(a_i) stays that of sin(theta) while |d| is below the distance to a zero of sin.
+        asym = np.zeros(len(theta), bool)
+        for name in ("K0_asym", "K1_asym"):
+            if name in terms:
+                asym |= terms[name][:, 0, 0] != 0.0
+        self.sign_margin = float(np.min(
+            np.abs(theta[asym] - np.pi * np.round(theta[asym] / np.pi)), initial=np.inf))
+
+    def _taylor_coefficients(self, theta: np.ndarray, order: int) -> np.ndarray:
+        """``c[m]`` with ``output(theta + d) = sum_m c[m] d**m``, shape ``(order + 1, K, n)``.
+
+        Truncated power series (jets) through the same formula as
+        :meth:`__call__` (sgn(a_i) taken as that of sin(theta)).
+        """
+        s, c = np.sin(theta), np.cos(theta)
+        cycle_s, cycle_c = (s, c, -s, -c), (c, -s, -c, s)
+        fact = np.cumprod(np.array([1.0, *range(1, order + 1)], dtype=theta.dtype))
+        a_i = np.stack([cycle_s[m % 4] / fact[m] for m in range(order + 1)])  # sin(theta + d)
+        a_o = np.stack([cycle_c[m % 4] / fact[m] for m in range(order + 1)])  # cos(theta + d)
+
+        def mul(a, b):
+            return np.stack([sum(a[i] * b[m - i] for i in range(m + 1)) for m in range(len(a))])
+
+        def plus(a, const):
+            out = a.copy()
+            out[0] = out[0] + const
+            return out
+
+        t = {name: value[..., 0] for name, value in self.model_terms.items()}  # (K, 1)
+        if "K3" in t:
+            u = plus(a_i * t["K4"], t["K3"])
+            u = plus(mul(u, a_i), t["K2"])
+        else:
+            u = np.zeros_like(a_i)
+            u[0] = t["K2"]
+        u = plus(mul(u, a_i), 1.0)
+        u = plus(mul(u, a_i), t["K0"])
+        if "Koo" in t:
+            v = plus(a_o * t["Koo"], t["Ko"]) + t["Kio"] * a_i
+        else:
+            v = plus(t["Kio"] * a_i, t["Ko"])
+        u = u + mul(v, a_o)
+        if "K0_asym" in t:
+            u = u + 0.5 * np.sign(s) * plus(a_i * t["K1_asym"], t["K0_asym"])
+        return u * t["K1"]
+
+    def taylor_order(self, d_max: float) -> int | None:
+        """Terms needed beyond the constant for head errors ``|d| <= d_max``, or None.
+
+        The smallest order ``r`` whose remainder bound ``(N d_max)^(r+1) / (r+1)!``
+        (relative to the largest output; N the trigonometric degree) is below
+        2**-60, far below one ulp; None when no order up to
+        :data:`TAYLOR_MAX_ORDER` is enough or sgn(a_i) may change sign.
+        """
+        if not d_max < self.sign_margin:
+            return None
+        x, term = self.degree * d_max, 1.0
+        for r in range(TAYLOR_MAX_ORDER + 1):
+            term *= x / (r + 1)
+            if term <= 2.0**-60:
+                return r
+        return None
+
+    def outputs(self, d: np.ndarray, noise: np.ndarray, work: dict | None = None) -> np.ndarray:
+        """Outputs ``(K, n, T)`` for head errors ``d`` ``(T, n)`` plus ``noise`` ``(T, K, n)``.
+
+        :meth:`variation` plus :attr:`offset`; agrees with :meth:`__call__`
+        (and the rig's model) to rounding.
+        """
+        return self.variation(d, noise, work) + self.offset.astype(float)[..., None]
+
+    def variation(self, d: np.ndarray, noise: np.ndarray, work: dict | None = None) -> np.ndarray:
+        """Outputs minus :attr:`offset` ``(K, n, T)``, as :meth:`outputs`.
+
+        For head errors ``d`` ``(T, n)`` plus ``noise`` ``(T, K, n)``. By the
+        Taylor series in ``d`` (:meth:`taylor_order`) when the head errors are
+        small enough: the variation alone, never rounded at the outputs'
+        magnitude, evaluated trials-first and returned as a transposed view.
+        Otherwise the exact evaluation :meth:`__call__` minus the offset.
+        ``work`` holds reusable scratch arrays.
+        """
+        work = {} if work is None else work
+        order = self.taylor_order(max(float(d.max(initial=0.0)), -float(d.min(initial=0.0))))
+        if order is None:
+            u = self(d, noise, work)
+            u -= self.offset.astype(float)[..., None]
+            return u
+        t, shape = d.shape[0], (d.shape[0], *self.offset.shape)
+        u = _buffer(work, "u_tf", shape)
+        if order:
+            d_rep = _buffer(work, "d_rep", shape)
+            np.copyto(d_rep, d[:, None, :])
+            # Coefficients repeated over _TAYLOR_GROUP trials, broadcast over groups of
+            # trials: long contiguous inner loops, and small enough to stay in cache.
+            group = _TAYLOR_GROUP if t % _TAYLOR_GROUP == 0 else 1
+            coef = work.get(("taylor", order, group))
+            if coef is None:
+                coef = work[("taylor", order, group)] = np.repeat(
+                    self.taylor[:order, None], group, axis=1).reshape(order, 1, -1)
+            ug, dg = u.reshape(t // group, 1, -1), d_rep.reshape(t // group, 1, -1)
+            np.multiply(coef[order - 1], dg, out=ug)
+            for m in range(order - 1, 0, -1):  # Horner: d (c1 + d (c2 + ...))
+                ug += coef[m - 1]
+                ug *= dg
+            u += noise
+        else:
+            np.copyto(u, noise)
+        return u.transpose(1, 2, 0)
 
     def __call__(self, d: np.ndarray, noise: np.ndarray, work: dict | None = None) -> np.ndarray:
         """Outputs ``(K, n, T)`` for head errors ``d`` ``(T, n)`` plus ``noise`` ``(T, K, n)``.
@@ -372,49 +499,103 @@ class HeadStudy:
         self.k, self.n = k, n = phi.size, alpha.size
         beta = rig.sensor_angles()
         self.sensors = SensorBank(rig.models, beta + rig.eta[:, None])
+        design = psi(beta)  # (K, n, 5)
         pinv, _res, cov = single_operator(beta)
-        basis = residual_basis(psi(beta))  # (K, n, n - 5)
+        basis = residual_basis(design)  # (K, n, n - 5)
+        m = self.single_dof = n - 5
         # Single-sensor stage, per sensor: estimates then residual coordinates.
         self.single_op = np.concatenate([pinv, np.swapaxes(basis, 1, 2)], axis=1)
-        self.single_dof = n - 5
         self.single_sd_unit = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))  # (K, 5)
         h1_cov = np.eye(2) * self.h1_sd**2
-        blocks, self.slices, self.sd_unit, self.sd_extra, self.h1_gain = [], {}, {}, {}, {}
-        start = 0
-
-        def add(key, op):
-            nonlocal start
-            blocks.append(op)
-            self.slices[key] = slice(start, start + op.shape[0])
-            start += op.shape[0]
-
-        if any(m.startswith("four") for m in self.methods):
+        self.sd_unit, self.sd_extra, self.h1_gain = {}, {}, {}
+        self.families = tuple(f for f in ("four", "joint") if any(
+            name.startswith(f) for name in self.methods))
+        # Every other method acts on the normalised outputs U'_k = U_k / K_I,k. Their
+        # parts in the single fits' model spaces pass through unchanged, so the methods
+        # differ only in what they do with the residual coordinates r (K (n - 5) numbers):
+        # both remove the effect of a head-error estimate, which lies in the range of
+        # ``effect`` (d -> residual coordinates of d cos(beta_k)), orthonormal basis q.
+        blk_design, blk_basis = _block_diagonal(design), _block_diagonal(basis)
+        cos_beta = np.cos(beta)
+        effect = (np.swapaxes(basis, 1, 2) * cos_beta[:, None, :]).reshape(k * m, n)
+        x_of_d = (pinv * cos_beta[:, None, :]).reshape(5 * k, n)  # d -> estimates
+        u_svd, sv, _ = np.linalg.svd(effect, full_matrices=False)
+        q = u_svd[:, sv > 1e-9 * sv[0]]  # (K (n - 5), rank)
+        stage, x_gain = [], []
+        if "four" in self.families:
             four = FourOperator.build(alpha, phi)
-            # Step 4 [DOMAIN]: V'_k = U'_k - d_hi cos(beta_k), then the single-sensor fit
-            # (FourOperator.coef and .resid factored: only d_hi acts on every sensor).
-            add("four_dhi", four.angle)
-            self.cos_beta = np.cos(beta)[..., None]
+            # Step 4 [DOMAIN]: V'_k = U'_k - d_hi cos(beta_k), then the single-sensor fit.
+            # d_hi = four.angle @ U' depends on r only; y = q' (effect d_hi) carries it all.
+            _require_close(four.angle @ blk_design, 0.0, "d_hi ignores the model spaces")
+            angle_r = four.angle @ blk_basis  # (n, K (n - 5))
+            y_of_r = q.T @ (effect @ angle_r)
+            _require_close(q @ y_of_r, effect @ angle_r, "d_hi's effect lies in range(q)")
+            gain = -x_of_d @ angle_r @ np.linalg.pinv(y_of_r)
+            _require_close(gain @ y_of_r, -x_of_d @ angle_r, "estimates follow from y")
+            stage.append(y_of_r)
+            x_gain.append(gain)
             self.sd_unit["four"] = np.sqrt(np.diagonal(four.cov_unit, axis1=1, axis2=2))
             self.h1_gain["four"] = -four.alias
             self.sd_extra["four"] = np.einsum("kpi,ij,kpj->kp", four.alias, h1_cov, four.alias)
-        if any(m.startswith("joint") for m in self.methods):
+        if "joint" in self.families:
             joint = JointOperator.build(alpha, phi)
-            add("joint_x", joint.pinv[:5 * k])
-            # Orthonormal basis of the residual projector's range (eigenvalues 1).
-            w, v = np.linalg.eigh(joint.resid)
-            add("joint_res", v[:, w > 0.5].T)
+            # Joint least squares: estimates x' + G r with G r = G q q' r; residual
+            # r - q q' r (the joint residual space is range(q)'s complement, joint.dof).
+            x_joint = joint.pinv[:5 * k]
+            _require_close(x_joint @ blk_design, np.eye(5 * k), "joint keeps the model spaces")
+            g = x_joint @ blk_basis
+            _require_close(g @ q @ q.T, g, "joint estimates follow from q' r")
+            resid = blk_basis @ (np.eye(k * m) - q @ q.T) @ blk_basis.T
+            _require_close(resid, joint.resid, "joint residual space")
+            stage.append(q.T)
+            x_gain.append(g @ q)
             self.dof_joint = joint.dof
             self.sd_unit["joint"] = np.sqrt(np.diag(joint.cov_unit)[:5 * k]).reshape(k, 5)
-            g = joint.gauge[:5 * k, 1:].reshape(k, 5, 2)
-            self.h1_gain["joint"] = g
-            self.sd_extra["joint"] = np.einsum("kpi,ij,kpj->kp", g, h1_cov, g)
-        self.dense_op = np.concatenate(blocks) if blocks else np.zeros((0, k * n))
+            gg = joint.gauge[:5 * k, 1:].reshape(k, 5, 2)
+            self.h1_gain["joint"] = gg
+            self.sd_extra["joint"] = np.einsum("kpi,ij,kpj->kp", gg, h1_cov, gg)
+        self.q = q
+        self.stage_op = np.concatenate(stage) if stage else np.zeros((0, k * m))
+        self.x_gain = np.stack(x_gain) if x_gain else np.zeros((0, 5 * k, q.shape[1]))
+        self.h1_gain_all = np.stack(
+            [self.h1_gain[f].reshape(5 * k, 2) for f in self.families]
+        ) if self.families else np.zeros((0, 5 * k, 2))
         c = np.stack([np.ones_like(alpha), np.cos(alpha), np.sin(alpha)], axis=-1)
         self.gauge_proj = np.linalg.pinv(c)  # (3, n): d0, d1c, d1s of d
         self.coef = np.array(
             [[mod.to_dong2014()[name] for name in COEFFICIENTS] for mod in rig.models]
         )
         self.names = self._names()
+        # The single fit of the outputs at d = 0 (SensorBank.offset), in extended precision:
+        # K_I and the estimates minus the truth. Its residual coordinates vanish exactly
+        # (the study's models are Dong2014 eq. (5) models: their outputs lie in Psi's span).
+        # Estimates refined against Psi in extended precision: a float64 operator's own
+        # rounding (~1e-16 of the outputs) would otherwise bias every trial alike.
+        op = self.single_op.astype(np.longdouble)
+        offset = np.einsum("kij,kj->ki", op, self.sensors.offset)
+        sb, cb = np.sin(beta.astype(np.longdouble)), np.cos(beta.astype(np.longdouble))
+        design_ld = np.stack([np.ones_like(sb), sb, cb, sb * cb, sb * sb], axis=-1)
+        for _ in range(2):
+            fit_residual = self.sensors.offset - np.einsum("kji,ki->kj", design_ld, offset[:, :5])
+            offset[:, :5] += np.einsum("kij,kj->ki", op[:, :5], fit_residual)
+        self.k_i0 = offset[:, 1].astype(float)
+        base0 = offset[:, :5] - self.coef
+        base0[:, 2] -= self.coef[:, 1] * rig.eta  # K_O* = K_O + K_I (eta + d0) [DOMAIN 6]
+        self.base0 = base0.astype(float)
+        self.dof = {"single": m, "four": m, "joint": getattr(self, "dof_joint", 0)}
+        self.any_known = any(name.endswith("_known_h1") for name in self.methods)
+        # Per method: family, its slot in the residual stages, known h1, full SD, output rows.
+        plan, width, sd_at = [], 5 * k, len(self.methods) * 5 * k
+        for j, method in enumerate(self.methods):
+            family = method.split("_", maxsplit=1)[0]
+            full = self._full_sd(method)
+            rows = width if full else k
+            slot = 0 if family == "single" else 1 + self.families.index(family)
+            plan.append((family, slot, method.endswith("_known_h1"), full,
+                         slice(j * width, (j + 1) * width), slice(sd_at, sd_at + rows)))
+            sd_at += rows
+        self.plan = tuple(plan)
+        self.single_rows = next((rows for family, *_, rows, _ in plan if family == "single"), None)
 
     # ------------------------------------------------------------------ layout
     def _full_sd(self, method: str) -> bool:
@@ -463,7 +644,11 @@ class HeadStudy:
         out = np.empty((len(self.names), trials))  # trials contiguous, returned transposed
         work: dict = {}  # buffers reused across sub-blocks: fresh pages cost more than flops
         for start in range(0, trials, SUB_BLOCK):
-            self._sub_block(rng, out[:, start:start + SUB_BLOCK], work)
+            t = min(SUB_BLOCK, trials - start)
+            # Filled in a small buffer that stays in cache, then copied out in one pass.
+            res_t = _buffer(work, "res_t", (len(self.names), t))
+            self._sub_block(rng, res_t, work)
+            out[:, start:start + t] = res_t
         return out.T
 
     def draw(self, rng: np.random.Generator, trials: int, work: dict | None = None):
@@ -489,59 +674,97 @@ class HeadStudy:
     def _sub_block(self, rng, res_t, work):
         """Fill ``res_t`` ``(p, t)`` with the outputs of ``t`` trials (one per column)."""
         k, n, t = self.k, self.n, res_t.shape[1]
+        m, families, f = self.single_dof, self.families, len(self.families)
         d, noise, h1_noise = self.draw(rng, t, work)
-        u = self.sensors(d, noise, work)  # (K, n, T)
-        # Single-sensor stage, per sensor (also each scale factor, step 0 [DOMAIN]).
+        u = self.sensors.variation(d, noise, work)  # (K, n, T): outputs - offset
+        # Single-sensor stage, per sensor (also each scale factor, step 0 [DOMAIN]), on the
+        # variation; the offset's share is added to the small results, not to the outputs.
         single = np.matmul(self.single_op, u, out=_buffer(work, "single", (k, n, t)))
-        k_i = single[:, 1]  # (K, T)
-        # Normalised outputs, sensor-major, through every other method's operator.
-        u /= k_i[:, None]
-        dense = np.matmul(self.dense_op, u.reshape(k * n, t),
-                          out=_buffer(work, "dense", (self.dense_op.shape[0], t)))
-        stage = {"single": (single[:, :5], single[:, 5:])}
-        if "four_dhi" in self.slices:
-            v = np.multiply(self.cos_beta, dense[self.slices["four_dhi"]],
-                            out=_buffer(work, "four_v", u.shape))
-            np.subtract(u, v, out=v)  # Eq. (22) corrected [DOMAIN]
-            four = np.matmul(self.single_op, v, out=_buffer(work, "four", single.shape))
-            stage["four"] = (four[:, :5], four[:, 5:])  # Eqs. (24), (29) [Dong2014]
-        if "joint_x" in self.slices:
-            stage["joint"] = (dense[self.slices["joint_x"]].reshape(k, 5, t),
-                              dense[self.slices["joint_res"]])
-        s2 = {}
+        k_i = np.add(single[:, 1], self.k_i0[:, None], out=_buffer(work, "k_i", (k, t)))
         g = self.gauge_proj @ d.T  # (3, T): d0, d1c, d1s
-        truth = np.empty((k, 5, t))
-        truth[:] = self.coef[..., None]
-        truth[:, 2] += self.coef[:, 1, None] * (self.rig.eta[:, None] + g[0])  # K_O* [DOMAIN 6]
-        h1_given = g[1:] + self.h1_sd * h1_noise.T  # (2, T)
+        # Actual error of the single fit: x - truth, K_O* = K_O + K_I (eta + d0) [DOMAIN 6].
+        base = _buffer(work, "base", (k, 5, t)) if self.single_rows is None else \
+            res_t[self.single_rows].reshape(k, 5, t)
+        np.add(single[:, :5], self.base0[..., None], out=base)
+        base[:, 2] -= np.multiply(self.coef[:, 1, None], g[0], out=_buffer(work, "k_o", (k, t)))
+        # Normalised residual coordinates r (slot 0) and, for four, r minus the effect
+        # q y of its head-error estimate (slot 1).
+        inv = np.divide(1.0, k_i, out=_buffer(work, "inv_k_i", (k, t)))
+        four = int("four" in families)
+        res = _buffer(work, "res", (1 + four, k * m, t))
+        r = res[0]
+        np.multiply(single[:, 5:], inv[:, None], out=r.reshape(k, m, t))
+        if families:
+            y = np.matmul(self.stage_op, r, out=_buffer(work, "y", (f * self.q.shape[1], t)))
+            y = y.reshape(f, -1, t)
+            if four:
+                np.matmul(self.q, y[0], out=res[1])
+                np.subtract(r, res[1], out=res[1])
+            corr = np.matmul(self.x_gain, y, out=_buffer(work, "corr", (f, 5 * k, t)))
+            if self.any_known:
+                h1_given = g[1:] + self.h1_sd * h1_noise.T if self.h1_sd else g[1:]  # (2, T)
+                corr_h1 = np.matmul(self.h1_gain_all, h1_given,
+                                    out=_buffer(work, "corr_h1", (f, 5 * k, t)))
+                corr_h1 += corr
+        # Residual sums of squares (normalised): Eq. (30) [Dong2014] per sensor, pooled
+        # over the sensors for joint.
+        sq = np.einsum("fkrt,fkrt->fkt", *(res.reshape(1 + four, k, m, t),) * 2)
+        rss = {"single": sq[0], "four": sq[-1]}
+        if "joint" in families:
+            rss["joint"] = self._joint_rss(r, y[-1], sq[0])
         abs_k_i = np.abs(k_i)
-        width = 5 * k
-        sd_at = len(self.methods) * width
-        for m, method in enumerate(self.methods):
-            family = method.split("_")[0]
-            err = res_t[m * width:(m + 1) * width].reshape(k, 5, t)
-            x, res = stage[family]
-            if family not in s2:
-                # Residual sums of squares: Eq. (30) [Dong2014] (per sensor) or pooled (joint).
-                sq = np.einsum("rt,rt->t", res, res)[None] if family == "joint" else \
-                    np.einsum("krt,krt->kt", res, res)
-                s2[family] = sq / (self.dof_joint if family == "joint" else self.single_dof)
-            if family == "single":
-                np.subtract(x, truth, out=err)
-            else:
-                if method.endswith("_known_h1"):
-                    x = x + self.h1_gain[family] @ h1_given  # Step 5 [DOMAIN]
-                np.multiply(x, k_i[:, None], out=err)
-                err -= truth
-            if self._full_sd(method):
-                var = s2[family][:, None] * self.sd_unit[family][..., None] ** 2 \
+        done = {}
+        for family, i, known, full, err_rows, sd_rows in self.plan:
+            if family != "single":
+                # Error (x' + c) K_I - truth = base + K_I c, c the method's correction
+                # (plus the first harmonic's, step 5 [DOMAIN], when it is known).
+                c = (corr_h1 if known else corr)[i - 1].reshape(k, 5, t)
+                err = res_t[err_rows].reshape(k, 5, t)
+                np.multiply(c, k_i[:, None], out=err)
+                err += base
+            if family in done and not full:
+                res_t[sd_rows] = done[family]
+                continue
+            s2 = rss[family]  # times 1 / dof below
+            if full:
+                var = s2[:, None] * (self.sd_unit[family] ** 2 / self.dof[family])[..., None] \
                     + self.sd_extra[family][..., None]
-                np.multiply(np.sqrt(var), abs_k_i[:, None],
-                            out=res_t[sd_at:sd_at + width].reshape(k, 5, t))
-                sd_at += width
-            else:
-                factor = np.sqrt(s2[family])
-                if family != "single":
-                    factor = factor * abs_k_i
-                res_t[sd_at:sd_at + k] = factor
-                sd_at += k
+                np.sqrt(var, out=var)
+                np.multiply(var, abs_k_i[:, None], out=res_t[sd_rows].reshape(k, 5, t))
+                continue
+            factor = res_t[sd_rows]  # (K, T): SD / sd_unit (output units)
+            np.multiply(s2, 1.0 / self.dof[family], out=factor)
+            np.sqrt(factor, out=factor)
+            factor *= abs_k_i
+            done[family] = factor
+
+    def _joint_rss(self, r: np.ndarray, y: np.ndarray, sq_r: np.ndarray) -> np.ndarray:
+        """Pooled joint residual sum of squares ``|r - q y|^2``, shape ``(1, T)``.
+
+        With ``q`` orthonormal and ``y = q' r`` it equals ``|r|^2 - |y|^2``: no
+        product by ``q``. Where that difference would lose more than 10 bits
+        (``|r|^2 > 1024 RSS``) the trials are recomputed from ``r - q y``.
+        """
+        total = sq_r.sum(axis=0)
+        out = total - np.einsum("rt,rt->t", y, y)
+        lossy = np.flatnonzero(out * 1024.0 < total)
+        if lossy.size:
+            e = r[:, lossy] - self.q @ y[:, lossy]
+            out[lossy] = np.einsum("rt,rt->t", e, e)
+        return out[None]
+
+
+def _block_diagonal(blocks: np.ndarray) -> np.ndarray:
+    """The block-diagonal matrix of ``blocks`` ``(K, a, b)``, shape ``(K a, K b)``."""
+    k, a, b = blocks.shape
+    out = np.zeros((k, a, k, b))
+    out[np.arange(k), :, np.arange(k)] = blocks
+    return out.reshape(k * a, k * b)
+
+
+def _require_close(a, b, what: str) -> None:
+    """Check an identity the factored operators rely on (exact up to rounding)."""
+    a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+    scale = max(1.0, float(np.max(np.abs(b), initial=0.0)))
+    if not np.max(np.abs(a - b), initial=0.0) <= 1e-8 * scale:
+        raise AccelcalError(f"study operators: {what} does not hold for this design")
