@@ -562,6 +562,28 @@ _TERM_UNITS = {"K0": "g", "K2": "g/g^2", "K3": "g/g^3", "K4": "g/g^4", "Ko": "g/
                "Koo": "g/g^2", "Kpp": "g/g^2", "Kop": "g/g^2", "Kio": "g/g^2", "Kip": "g/g^2"}
 
 
+def observation_columns(reg: dict, term: str, route: str) -> np.ndarray:
+    """Real observation columns of ``term`` per angle: [DC shift], a1, b1, [a2, b2].
+
+    Parameters
+    ----------
+    reg : dict
+        :func:`regressors` output: per term ``(dc, dc_rest, w, w2)``.
+    term : str
+        A name of :data:`FIT_TERMS`.
+    route : str
+        Components used (:data:`ROUTES`): the DC shift with ``dc``/``both``,
+        the 2w phasor with ``2w``/``both``; phasors ``P = a - i b``.
+    """
+    dc, dc_rest, w, w2 = reg[term]
+    cols = [w.real, -w.imag]
+    if route in ("2w", "both"):
+        cols += [w2.real, -w2.imag]
+    if route in ("dc", "both"):
+        cols = [dc - dc_rest, *cols]
+    return np.stack(np.broadcast_arrays(*cols), axis=-1)
+
+
 def _system(records: ShakerRecords, route: str, terms, base: ErrorModel | None,
             scale_factor: float | None):
     """Whitened design (..., N, p) and observations (..., N) of the identification."""
@@ -602,21 +624,15 @@ def _system(records: ShakerRecords, route: str, terms, base: ErrorModel | None,
     if use_dc:
         obs = [u.dc - ph["u_rest"].dc, *obs]
 
-    def rows(term):
-        dc, dc_rest, w, w2 = reg[term]
-        cols = [w.real, -w.imag] + ([w2.real, -w2.imag] if route in ("2w", "both") else [])
-        if use_dc:
-            cols = [dc - dc_rest, *cols]
-        return np.stack(cols, axis=-1)
-
     y = np.stack(obs, axis=-1)  # (..., m, q)
     values = base.terms()
-    known = rows("Ki")  # coefficient of a_i is 1 by the definition of K1
+    known = observation_columns(reg, "Ki", route)  # coefficient of a_i is 1 by the definition of K1
     for term in FIT_TERMS:
         if term not in terms and term != "Ki" and values.get(term, 0.0) != 0.0:
-            known = known + values[term] * rows(term)
+            known = known + values[term] * observation_columns(reg, term, route)
     y = y - k1 * known
-    design = k1 * np.stack([rows(t) for t in terms], axis=-1)  # (..., m, q, p)
+    # (..., m, q, p)
+    design = k1 * np.stack([observation_columns(reg, t, route) for t in terms], axis=-1)
     # per-angle covariance of the observations, from the sine-fit residuals
     sel = ([0] if use_dc else []) + idx
     cu = u.cov_unit[np.ix_(sel, sel)]

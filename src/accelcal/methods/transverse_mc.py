@@ -32,24 +32,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.methods.transverse import FIT_TERMS, ROUTES, record_phasors, regressors
+from accelcal.methods.transverse import (
+    FIT_TERMS,
+    ROUTES,
+    observation_columns,
+    record_phasors,
+    regressors,
+)
 from accelcal.model import ErrorModel
 from accelcal.results import Estimate
 from accelcal.rigs.shaker import ShakerRecords
 from accelcal.uncertainty import McUncertainty, propagate
 
 _REFS = ("ref", "ref_n", "ref_ia")
-
-
-def _columns(reg: dict, term: str, route: str) -> np.ndarray:
-    """Real observation columns of ``term`` per angle: [dc shift], a1, b1, [a2, b2]."""
-    dc, dc_rest, w, w2 = reg[term]
-    cols = [w.real, -w.imag]  # P = a - i b
-    if route in ("2w", "both"):
-        cols += [w2.real, -w2.imag]
-    if route in ("dc", "both"):
-        cols = [dc - dc_rest, *cols]
-    return np.stack(np.broadcast_arrays(*cols), axis=-1)
 
 
 @dataclass(frozen=True)
@@ -106,10 +101,10 @@ class TransverseSampler:
         zero = np.zeros_like(phasors["ref"])
         reg = regressors(self.theta, phasors["ref"], phasors.get("ref_n", zero),
                          phasors.get("ref_ia", zero), self.gravity)  # [GuanTang] (13)
-        total = _columns(reg, "Ki", self.route)  # a_i enters with coefficient 1
+        total = observation_columns(reg, "Ki", self.route)  # a_i enters with coefficient 1
         for term, value in self.values.items():
             if value != 0.0:
-                total = total + value * _columns(reg, term, self.route)
+                total = total + value * observation_columns(reg, term, self.route)
         return self.scale_factor * total
 
     def __call__(self, rng: np.random.Generator, t: int) -> np.ndarray:
@@ -196,7 +191,8 @@ def transverse_uncertainty(
     zero = np.zeros_like(phasors["ref"])
     reg = regressors(records.theta, phasors["ref"], phasors.get("ref_n", zero),
                      phasors.get("ref_ia", zero), records.gravity)
-    design = k1 * np.stack([_columns(reg, t, route) for t in terms], axis=-1)  # (m, q, p)
+    # (m, q, p)
+    design = k1 * np.stack([observation_columns(reg, t, route) for t in terms], axis=-1)
     white = np.linalg.solve(chol[:, None], np.moveaxis(design, -1, 1)[..., None])[..., 0]
     dw = np.moveaxis(white, 1, -1).reshape(-1, len(terms))
     operator = np.linalg.pinv(dw)
