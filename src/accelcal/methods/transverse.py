@@ -584,6 +584,62 @@ def observation_columns(reg: dict, term: str, route: str) -> np.ndarray:
     return np.stack(np.broadcast_arrays(*cols), axis=-1)
 
 
+def observation_covariance(records: ShakerRecords, ph: dict, route: str, k1: float, *,
+                           reference: bool = True) -> np.ndarray:
+    """Covariance of each angle's real observations ``[DC shift], a1, b1, [a2, b2]``.
+
+    The output's sine-fit covariance (noise from its residuals), plus the
+    output at rest's for the DC shift, plus (``reference=True``) the noise of
+    the input-axis reference channel: the IA motion enters the w phasor with
+    the known coefficient 1 (times K1, by the definition of K1), so its
+    phasor's covariance adds ``K1^2 cov(P_ia)`` to the w components. The
+    reference channels' noise entering through the fitted (small) cross-axis
+    coefficients is of relative order ``|k_o|`` and neglected.
+
+    Parameters
+    ----------
+    records : ShakerRecords
+        The records, ``(..., m, n)``.
+    ph : dict
+        Their :func:`record_phasors`.
+    route : str
+        Components used (:data:`ROUTES`).
+    k1 : float
+        K1, output unit per g.
+    reference : bool
+        Include the IA reference channel's noise (when that channel is present).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(..., m, q, q)``; a floor at rounding level keeps noise-free
+        records usable (equal weights).
+
+    References
+    ----------
+    .. [1] IEEE Std 1057-2017, sec. 4.1.3.1 (sine-fit covariance); GuanTang eq. (13)
+       with the IA motion; docs/domain.md section 3.
+    """
+    u = ph["u"]
+    use_dc = route in ("dc", "both")
+    sel = ([0] if use_dc else []) + [1, 2] + ([3, 4] if route in ("2w", "both") else [])
+    cu = u.cov_unit[np.ix_(sel, sel)]
+    scale = np.abs(records.u).max(axis=(-1, -2), initial=1e-300)
+    floor = 1e-15 * scale
+    s_u = np.maximum(u.residual_std, floor[..., None])
+    cov = s_u[..., None, None] ** 2 * cu
+    if use_dc:
+        s_r = np.maximum(ph["u_rest"].residual_std, floor[..., None])
+        first = np.zeros(len(sel))
+        first[0] = 1.0
+        cov = cov + (s_r**2 * ph["u_rest"].cov_unit[0, 0])[..., None, None] * np.outer(first, first)
+    if reference and "ref_ia" in ph:
+        w = np.isin(sel, (1, 2)).astype(float)
+        s_ia = k1 * ph["ref_ia"].residual_std
+        cov = cov + s_ia[..., None, None] ** 2 * (cu * np.outer(w, w))
+    return cov
+
+
 def _system(records: ShakerRecords, route: str, terms, base: ErrorModel | None,
             scale_factor: float | None):
     """Whitened design (..., N, p) and observations (..., N) of the identification."""
@@ -633,24 +689,13 @@ def _system(records: ShakerRecords, route: str, terms, base: ErrorModel | None,
     y = y - k1 * known
     # (..., m, q, p)
     design = k1 * np.stack([observation_columns(reg, t, route) for t in terms], axis=-1)
-    # per-angle covariance of the observations, from the sine-fit residuals
-    sel = ([0] if use_dc else []) + idx
-    cu = u.cov_unit[np.ix_(sel, sel)]
-    # a floor at rounding level keeps noise-free records usable (equal weights)
-    scale = np.abs(records.u).max(axis=(-1, -2), initial=1e-300)
-    floor = 1e-15 * scale
-    s_u = np.maximum(u.residual_std, floor[..., None])
-    cov = s_u[..., None, None] ** 2 * cu
-    if use_dc:
-        s_r = np.maximum(ph["u_rest"].residual_std, floor[..., None])
-        first = np.zeros(len(sel))
-        first[0] = 1.0
-        cov = cov + (s_r**2 * ph["u_rest"].cov_unit[0, 0])[..., None, None] * np.outer(first, first)
+    cov = observation_covariance(records, ph, route, k1)
     chol = np.linalg.cholesky(cov)
     yw = np.linalg.solve(chol, y[..., None])[..., 0]
     dw = np.linalg.solve(chol[..., None, :, :], design.swapaxes(-1, -2)[..., None]).squeeze(-1)
     dw = dw.swapaxes(-1, -2)  # (..., m, q, p)
     lead = y.shape[:-2]
+    scale = np.abs(records.u).max(axis=(-1, -2), initial=1e-300)
     return (dw.reshape(*lead, -1, len(terms)), yw.reshape(*lead, -1), k1,
             bool(np.all(u.residual_std > 1e-12 * scale[..., None])))
 
@@ -665,8 +710,10 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
     (k_oo, k_pp, k_op through ``C(theta)``). The regressors use the
     reference channels, so a measured transverse motion of the shaker
     (``ref_n``, ``ref_ia``) is separated exactly. Observations are weighted
-    by the sine-fit covariance of each record (noise estimated from its
-    residuals), so the returned covariance is ``(A' W A)^-1``.
+    by the covariance of each angle's observations
+    (:func:`observation_covariance`: the output's sine fit and the IA
+    reference channel's noise, both estimated from the fit residuals), so
+    the returned covariance is ``(A' W A)^-1``.
 
     Parameters
     ----------
@@ -695,8 +742,10 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
 
     Notes
     -----
-    Neglected: the reference channels' noise in the regressors, the
-    asymmetry terms' response to IA motion and the 3w component.
+    Neglected: the noise of the reference channels along the vibration and
+    across it, which enters through the small fitted coefficients (relative
+    order ``|k_o|``), the asymmetry terms' response to IA motion and the 3w
+    component.
 
     References
     ----------
@@ -707,7 +756,9 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
                             "use identify_arrays for stacked trials")
     design, y, k1, noisy = _system(records, route, tuple(terms), base, scale_factor)
     notes = ["observations weighted by each record's sine-fit covariance",
-             "reference channels taken as exact in the regressors"]
+             ("the IA reference channel's noise included in the weights; the other "
+              "reference channels' noise, entering through the small fitted "
+              "coefficients, neglected")]
     if not noisy:
         notes.append("noise-free records: covariance is not meaningful")
     return least_squares(design, y, names=tuple(terms),

@@ -7,9 +7,10 @@ direction angle, from the fitted coefficients (plus the model's fixed
 terms) with
 
 - the **output noise**: Gaussian with the covariance of the output's sine
-  fit (from its residuals), the weights of the identification;
+  fit (from its residuals);
 - the **reference-channel noise**: the reference phasors' own sine-fit
-  covariance (the identification takes them as exact);
+  covariance, through the full response (the identification's weights
+  carry only the input-axis channel's share, to first order);
 - the **reference accelerometer's calibration** (Type B): every reference
   phasor (along the vibration, and the transverse and IA channels when
   present) scaled by a common ``1 + e``, ``e ~ N(0, u_ref)``.
@@ -36,6 +37,7 @@ from accelcal.methods.transverse import (
     FIT_TERMS,
     ROUTES,
     observation_columns,
+    observation_covariance,
     record_phasors,
     regressors,
 )
@@ -71,7 +73,10 @@ class TransverseSampler:
     scale_factor : float
         K1, output unit per g.
     chol : numpy.ndarray
-        Cholesky factors of the observations' covariance per angle, ``(m, q, q)``.
+        Cholesky factors of the identification's weights per angle, ``(m, q, q)``.
+    noise_chol : numpy.ndarray
+        Cholesky factors of the output noise's covariance per angle, ``(m, q, q)``
+        (the weights less the reference channel's share, drawn separately).
     operator : numpy.ndarray
         Whitened least-squares operator, ``(p, m q)``.
     reference_sd : float
@@ -89,6 +94,7 @@ class TransverseSampler:
     route: str
     scale_factor: float
     chol: np.ndarray
+    noise_chol: np.ndarray
     operator: np.ndarray
     reference_sd: float = 0.0
 
@@ -119,8 +125,8 @@ class TransverseSampler:
                 drawn[name] = (self.phasors[name] + ab[..., 0] - 1j * ab[..., 1]) * scale
         shift = self.response(drawn) - self.response(self.phasors)  # (t, m, q)
         q = self.chol.shape[-1]
-        white = np.linalg.solve(self.chol, shift[..., None])[..., 0]
-        white = white + rng.standard_normal((t, m, q))  # output noise, whitened
+        noise = np.einsum("mij,tmj->tmi", self.noise_chol, rng.standard_normal((t, m, q)))
+        white = np.linalg.solve(self.chol, (shift + noise)[..., None])[..., 0]
         return white.reshape(t, m * q) @ self.operator.T
 
 
@@ -187,7 +193,9 @@ def transverse_uncertainty(
     known = base.terms() if base is not None else {}
     values = {t: float(known.get(t, 0.0)) for t in FIT_TERMS if t != "Ki"}
     values.update(dict(zip(terms, estimate.values.tolist(), strict=True)))
-    chol = _observation_chol(records, ph, route)
+    chol = np.linalg.cholesky(observation_covariance(records, ph, route, k1))
+    noise_chol = np.linalg.cholesky(observation_covariance(records, ph, route, k1,
+                                                           reference=False))
     zero = np.zeros_like(phasors["ref"])
     reg = regressors(records.theta, phasors["ref"], phasors.get("ref_n", zero),
                      phasors.get("ref_ia", zero), records.gravity)
@@ -197,8 +205,8 @@ def transverse_uncertainty(
     dw = np.moveaxis(white, 1, -1).reshape(-1, len(terms))
     operator = np.linalg.pinv(dw)
     sampler = TransverseSampler(records.theta, float(records.gravity), phasors, phasor_chol,
-                                values, tuple(terms), route, float(k1), chol, operator,
-                                float(reference_sd))
+                                values, tuple(terms), route, float(k1), chol, noise_chol,
+                                operator, float(reference_sd))
     inputs = ["output noise (sine-fit covariance)", "reference-channel noise (sine fit)"]
     if reference_sd > 0:
         inputs.append(f"reference calibration N(0, {reference_sd:.3g}) relative")
@@ -206,20 +214,3 @@ def transverse_uncertainty(
                      seed=seed, units=dict(estimate.units), shortest=shortest, inputs=inputs,
                      progress=progress)
 
-
-def _observation_chol(records: ShakerRecords, ph: dict, route: str) -> np.ndarray:
-    """Cholesky factors of each angle's observation covariance, as the identification weights."""
-    u = ph["u"]
-    use_dc = route in ("dc", "both")
-    sel = ([0] if use_dc else []) + [1, 2] + ([3, 4] if route in ("2w", "both") else [])
-    cu = u.cov_unit[np.ix_(sel, sel)]
-    scale = np.abs(records.u).max(axis=(-1, -2), initial=1e-300)
-    floor = 1e-15 * scale  # as the identification: noise-free records stay usable
-    s_u = np.maximum(u.residual_std, floor)
-    cov = s_u[..., None, None] ** 2 * cu
-    if use_dc:
-        s_r = np.maximum(ph["u_rest"].residual_std, floor)
-        first = np.zeros(len(sel))
-        first[0] = 1.0
-        cov = cov + (s_r**2 * ph["u_rest"].cov_unit[0, 0])[..., None, None] * np.outer(first, first)
-    return np.linalg.cholesky(cov)
