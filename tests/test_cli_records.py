@@ -37,7 +37,21 @@ def test_records_workflow(capsys, tmp_path):
     code, out, _ = run(capsys, "records", "stats", "SN-1", "--db", db, "--format", "json")
     stats = {s["name"]: s for s in json.loads(out)}
     assert stats["K_I"]["n"] == 3
+    assert stats["K_I"]["method"] == "dividing-head/joint"
     assert stats["K_I"]["repeatability"] == pytest.approx(1e-6, rel=1e-9)
+    other = tmp_path / "single.json"
+    make_record(date="2026-04-01T00:00:00+00:00", method="dividing-head/single").save(other)
+    run(capsys, "records", "add", str(other), "--db", db)
+    code, out, _ = run(capsys, "records", "stats", "SN-1", "--db", db, "--format", "json",
+                       "--method", "dividing-head/joint")
+    assert code == 0
+    assert [s["n"] for s in json.loads(out)] == [3, 3, 3]
+    code, out, _ = run(capsys, "records", "history", "SN-1", "--db", db, "--format", "json",
+                       "--method", "dividing-head/single")
+    assert {r["method"] for r in json.loads(out)} == {"dividing-head/single"}
+    code, _, err = run(capsys, "records", "stats", "SN-1", "--db", db, "--method", "tumble")
+    assert code == 2
+    assert "by method 'tumble'" in err
 
 
 def test_records_errors_exit_2(capsys, tmp_path):

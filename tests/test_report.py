@@ -96,3 +96,23 @@ def test_report_renders_in_headless_chromium(tmp_path):
     assert shot.stat().st_size > 20_000  # a rendered page, not a blank one
     console = [line for line in proc.stderr.splitlines() if "CONSOLE" in line]
     assert console == []
+
+
+def test_history_section_keeps_methods_apart(tmp_path):
+    from accelcal.report.sections import history_section
+    from accelcal.store import Store
+
+    store = Store(str(tmp_path / "s.sqlite"))
+    store.add(make_record(date="2026-01-01T00:00:00+00:00"))
+    store.add(make_record(date="2026-02-01T00:00:00+00:00", shift=1e-6))
+    store.add(make_record(date="2026-03-01T00:00:00+00:00", method="dividing-head/single"))
+    both = history_section(store, "SN-1")
+    assert [(r["method"], r["coefficient"]) for r in both.rows][:4] == [
+        ("dividing-head/joint", "K_F"), ("dividing-head/joint", "K_I"),
+        ("dividing-head/joint", "K_O"), ("dividing-head/single", "K_F")]
+    assert both.rows[0]["calibrations"] == 2
+    assert both.rows[3]["calibrations"] == 1
+    one = history_section(store, "SN-1", method="dividing-head/joint")
+    assert "method" not in one.rows[0]
+    assert len(one.rows) == 3
+    assert history_section(store, "SN-1", method="tumble") is None

@@ -19,11 +19,12 @@ FIXTURES = Path(__file__).parent / "fixtures"
 PG_URL = os.environ.get("ACCELCAL_TEST_POSTGRES_URL")
 
 
-def make_record(serial="SN-1", date="2026-01-01T00:00:00+00:00", shift=0.0, **kwargs):
+def make_record(serial="SN-1", date="2026-01-01T00:00:00+00:00", shift=0.0,
+                method="dividing-head/joint", **kwargs):
     est = Estimate(
         ("K_F", "K_I", "K_O"), np.array([-8.3e-4, 1.2993698, -1.2e-5]) + shift,
         np.diag([1.0e-12, 4.0e-12, 9.0e-12]), {"K_F": "V", "K_I": "V/g", "K_O": "V"},
-        "dividing-head/joint", notes=("first harmonic known",),
+        method, notes=("first harmonic known",),
     )
     return CalibrationRecord.from_estimate(est, serial=serial, date=date, **kwargs)
 
@@ -116,6 +117,32 @@ def test_store_add_list_history_stats(db):
     assert np.isfinite(stats["K_F"].drift_std)
     rec = store.record(store.calibrations("SN-2")[0]["id"])
     assert rec.serial == "SN-2"
+
+
+def test_methods_are_never_pooled(db):
+    # Two joint calibrations 1e-6 apart and two single-sensor ones offset by
+    # 1e-4 (e.g. a first-harmonic alias): pooled, the repeatability of K_F
+    # would be ~6e-5; per method it is the run-to-run spread of each.
+    store = Store(db)
+    for month, shift in ((1, 0.0), (2, 1e-6)):
+        store.add(make_record(date=f"2026-{month:02d}-01T00:00:00+00:00", shift=shift))
+    for month, shift in ((3, 1e-4), (4, 1e-4 + 2e-6)):
+        store.add(make_record(date=f"2026-{month:02d}-01T00:00:00+00:00", shift=shift,
+                              method="dividing-head/single"))
+    stats = {(s.method, s.name): s for s in store.stats("SN-1")}
+    assert len(stats) == 6
+    assert stats[("dividing-head/joint", "K_F")].repeatability == pytest.approx(
+        1e-6 / np.sqrt(2), rel=1e-6)
+    assert stats[("dividing-head/single", "K_F")].repeatability == pytest.approx(
+        2e-6 / np.sqrt(2), rel=1e-6)
+    only = store.stats("SN-1", "dividing-head/single")
+    assert {s.method for s in only} == {"dividing-head/single"}
+    assert len(only) == 3
+    hist = store.history("SN-1", "dividing-head/joint")
+    assert len(hist) == 6
+    assert {r["method"] for r in hist} == {"dividing-head/joint"}
+    with pytest.raises(AccelcalError, match="no calibration of serial 'SN-1' by method 'vre'"):
+        store.history("SN-1", "vre")
 
 
 def test_store_refuses_duplicates_and_unknown_serials(db):

@@ -62,6 +62,9 @@ class CoefficientStats:
 
     Attributes
     ----------
+    method : str
+        Calibration method; coefficients of different methods (or different
+        tests: a VRE fit's K2 is not a tumble's K2) are never pooled.
     name, unit : str
     n : int
         Calibrations.
@@ -78,6 +81,7 @@ class CoefficientStats:
         Standard uncertainty of the slope (NaN with fewer than 3 dates).
     """
 
+    method: str
     name: str
     unit: str
     n: int
@@ -236,13 +240,19 @@ class Store:
             raise AccelcalError(f"no record with id {record_id} in the store")
         return CalibrationRecord.from_json(text, source=f"store record {record_id}")
 
-    def history(self, serial: str) -> list[dict]:
+    def history(self, serial: str, method: str | None = None) -> list[dict]:
         """Every coefficient of every calibration of ``serial``, oldest first.
+
+        Parameters
+        ----------
+        serial : str
+        method : str, optional
+            Only calibrations by this method (e.g. ``dividing-head/joint``).
 
         Raises
         ------
         AccelcalError
-            If the store has no calibration of ``serial``.
+            If the store has no calibration of ``serial`` (by ``method``).
         """
         import sqlalchemy as sa
 
@@ -254,32 +264,52 @@ class Store:
             .where(cal.c.serial == serial)
             .order_by(cal.c.date, cal.c.id, coef.c.id)
         )
+        if method is not None:
+            query = query.where(cal.c.method == method)
         with self.engine.connect() as conn:
             rows = [dict(r) for r in conn.execute(query).mappings().all()]
         if not rows:
+            by = f" by method {method!r}" if method is not None else ""
             raise AccelcalError(
-                f"no calibration of serial {serial!r} in the store; see 'accelcal records list'"
+                f"no calibration of serial {serial!r}{by} in the store; "
+                "see 'accelcal records list'"
             )
         for r in rows:
             r["std"] = math.nan if r["std"] is None else r["std"]
         return rows
 
-    def stats(self, serial: str) -> list[CoefficientStats]:
-        """Repeatability and drift of each coefficient of ``serial``."""
+    def stats(self, serial: str, method: str | None = None) -> list[CoefficientStats]:
+        """Repeatability and drift of each coefficient of ``serial``, per method.
+
+        Parameters
+        ----------
+        serial : str
+        method : str, optional
+            Only calibrations by this method.
+
+        Returns
+        -------
+        list of CoefficientStats
+            One per (method, coefficient), in order of first appearance.
+
+        References
+        ----------
+        .. [1] IEEE Std 1293-2018, definitions of repeatability and drift.
+        """
         import datetime as dt
 
-        by_name: dict[str, list[dict]] = {}
-        for r in self.history(serial):
-            by_name.setdefault(r["name"], []).append(r)
+        groups: dict[tuple[str, str], list[dict]] = {}
+        for r in self.history(serial, method):
+            groups.setdefault((r["method"], r["name"]), []).append(r)
         out = []
-        for name, rows in by_name.items():
+        for (meth, name), rows in groups.items():
             x = np.array([r["estimate"] for r in rows])
             s = np.array([r["std"] for r in rows])
             t = np.array([dt.datetime.fromisoformat(r["date"]).timestamp() for r in rows])
             years = (t - t.min()) / (365.25 * 86400.0)
             slope, slope_std = _drift(years, x)
             out.append(CoefficientStats(
-                name=name, unit=rows[0]["unit"], n=len(x), mean=float(x.mean()),
+                method=meth, name=name, unit=rows[0]["unit"], n=len(x), mean=float(x.mean()),
                 repeatability=float(x.std(ddof=1)) if len(x) > 1 else math.nan,
                 mean_std=float(np.nanmean(s)) if np.isfinite(s).any() else math.nan,
                 drift_per_year=slope, drift_std=slope_std,

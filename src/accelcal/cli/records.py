@@ -19,6 +19,8 @@ _DB_HELP = (
     "Store: an SQLite file path or a database URL (e.g. postgresql+psycopg://user@host/db). "
     "Default: $ACCELCAL_DB, else ~/.local/share/accelcal/records.sqlite."
 )
+_METHOD_HELP = ("Only calibrations by this method, as 'records list' shows it "
+                "(e.g. dividing-head/joint).")
 
 
 def _store(db: str | None):
@@ -63,6 +65,7 @@ def list_(
 @app.command("history")
 def history(
     serial: str = typer.Argument(..., help="Serial number."),
+    method: str | None = typer.Option(None, "--method", help=_METHOD_HELP),
     db: str | None = typer.Option(None, "--db", help=_DB_HELP),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
     plot: Path | None = typer.Option(
@@ -71,7 +74,7 @@ def history(
 ) -> None:
     """Every coefficient of every calibration of SERIAL (estimate and standard uncertainty)."""
     with _store(db) as store:
-        rows = store.history(serial)
+        rows = store.history(serial, method)
     emit(rows, fmt, title=f"Coefficient history of {serial}")
     if plot is not None:
         from accelcal.plotting import save_figure
@@ -84,14 +87,15 @@ def history(
 @app.command("stats")
 def stats(
     serial: str = typer.Argument(..., help="Serial number."),
+    method: str | None = typer.Option(None, "--method", help=_METHOD_HELP),
     db: str | None = typer.Option(None, "--db", help=_DB_HELP),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
 ) -> None:
-    """Repeatability (run-to-run SD) and drift (slope per year) of each coefficient."""
+    """Repeatability (run-to-run SD) and drift (slope per year) of each coefficient, per method."""
     from dataclasses import asdict
 
     with _store(db) as store:
-        rows = [asdict(s) for s in store.stats(serial)]
+        rows = [asdict(s) for s in store.stats(serial, method)]
     emit(rows, fmt, title=f"Repeatability and drift of {serial}")
 
 

@@ -318,24 +318,18 @@ def history_section(store, serial: str, *, method: str | None = None) -> Section
     from accelcal.plotting.records import history_figure
 
     try:
-        rows = store.history(serial)
+        rows = store.history(serial, method)
+        stats = store.stats(serial, method)
     except AccelcalError:
         return None
-    if method is not None:
-        rows = [r for r in rows if r["method"] == method]
-    if not rows:
-        return None
-    table = []
-    for name in dict.fromkeys(r["name"] for r in rows):
-        x = np.array([r["estimate"] for r in rows if r["name"] == name])
-        s = np.array([r["std"] for r in rows if r["name"] == name])
-        unit = next(r["unit"] for r in rows if r["name"] == name)
-        table.append({
-            "coefficient": name, "unit": format_unit(unit), "calibrations": int(x.size),
-            "mean": float(x.mean()),
-            "repeatability (1 σ)": float(x.std(ddof=1)) if x.size > 1 else "n/a",
-            "mean own σ": float(np.nanmean(s)) if np.isfinite(s).any() else "n/a",
-        })
+    several = len({s.method for s in stats}) > 1
+    table = [{
+        **({"method": s.method} if several else {}),
+        "coefficient": s.name, "unit": format_unit(s.unit), "calibrations": s.n,
+        "mean": s.mean,
+        "repeatability (1 σ)": s.repeatability if s.n > 1 else "n/a",
+        "mean own σ": s.mean_std if np.isfinite(s.mean_std) else "n/a",
+    } for s in stats]
     fig = history_figure(rows, serial)
     names = len(table)
     fig.set_size_inches(6.4, 1.25 * names + 0.9)
