@@ -5,7 +5,7 @@ from pathlib import Path
 
 import typer
 
-from accelcal.cli import uncertainty_options
+from accelcal.cli import record_options, uncertainty_options
 from accelcal.cli.common import check_format, emit, parse_grid, parse_number
 from accelcal.errors import AccelcalError
 
@@ -220,13 +220,8 @@ def reduce_cmd(
         None, "--record", help="Write one calibration record (JSON) per sensor: FILE with -1, "
         "-2, ... inserted before the suffix, in sensor column order (one sensor: FILE).",
     ),
-    serial: str | None = typer.Option(
-        None, "--serial", help="Serial numbers for --record, one per sensor column, comma "
-        "separated (default: the file's 'serial' metadata).",
-    ),
-    operator: str | None = typer.Option(
-        None, "--operator", help="Operator for --record (default: the file's 'operator')."
-    ),
+    serial: str | None = record_options.SERIALS,
+    operator: str | None = record_options.OPERATOR,
     uncertainty: str = uncertainty_options.UNCERTAINTY,
     trials: int = uncertainty_options.TRIALS,
     seed: int = uncertainty_options.SEED,
@@ -252,13 +247,8 @@ def reduce_cmd(
         raise AccelcalError(f"--method {method!r} is unknown; choose one of {', '.join(_METHODS)}")
     record = read_head_record(file)
     data = record.data()
-    info = None
-    if record_out is not None:
-        from accelcal.calibration import lab_info
-
-        info = lab_info([file], sensors=len(record.sensors), serial=serial, operator=operator)
-    elif serial is not None or operator is not None:
-        raise AccelcalError("--serial and --operator go with --record FILE")
+    info = record_options.lab_info_for(record_out, [file], serial=serial, operator=operator,
+                                       sensors=len(record.sensors))
     h1 = _pair(first_harmonic, "--first-harmonic") if first_harmonic is not None else (
         None if record.first_harmonic is None else tuple(record.first_harmonic))
     sd = first_harmonic_sd if first_harmonic_sd is not None else (

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import typer
 
-from accelcal.cli import uncertainty_options
+from accelcal.cli import record_options, uncertainty_options
 from accelcal.cli.common import check_format, emit, load_model, parse_grid
 from accelcal.errors import AccelcalError
 
@@ -284,10 +284,8 @@ def fit_cmd(
         None, "--record", help="Write the calibration record (JSON, coefficients in g/g^n): one "
         "per amplitude; with several amplitudes FILE with -1, -2, ... inserted before the "
         "suffix, in increasing amplitude."),
-    serial: str | None = typer.Option(
-        None, "--serial", help="Serial number for --record (default: the records' 'serial')."),
-    operator: str | None = typer.Option(
-        None, "--operator", help="Operator for --record (default: the records' 'operator')."),
+    serial: str | None = record_options.SERIAL,
+    operator: str | None = record_options.OPERATOR,
     uncertainty: str = uncertainty_options.UNCERTAINTY,
     trials: int = uncertainty_options.TRIALS,
     seed: int = uncertainty_options.SEED,
@@ -308,14 +306,12 @@ def fit_cmd(
     names = [t.strip() for t in terms.split(",") if t.strip()]
     base = read_model(model_file) if model_file is not None else None
     info = None
-    if record_out is not None:
-        from accelcal.calibration import lab_info, shaker_files
+    if record_out is not None or serial is not None or operator is not None:
+        from accelcal.calibration import shaker_files
 
         inputs = shaker_files(data)
-        info = lab_info([f for group in inputs.values() for f in group], serial=serial,
-                        operator=operator)
-    elif serial is not None or operator is not None:
-        raise AccelcalError("--serial and --operator go with --record FILE")
+        files = [f for group in inputs.values() for f in group]
+        info = record_options.lab_info_for(record_out, files, serial=serial, operator=operator)
     rows = []
     cal = []
     for rec in _read(data):

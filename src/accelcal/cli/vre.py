@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from accelcal.cli import uncertainty_options
+from accelcal.cli import record_options, uncertainty_options
 from accelcal.cli.common import check_format, emit, load_model, parse_grid, parse_number
 from accelcal.errors import AccelcalError
 
@@ -212,10 +212,8 @@ def fit(
     record_out: Path | None = typer.Option(
         None, "--record", help="Write the calibration record (JSON) of the fitted coefficients "
         "(g/g^n) to this file."),
-    serial: str | None = typer.Option(
-        None, "--serial", help="Serial number for --record (default: the files' 'serial')."),
-    operator: str | None = typer.Option(
-        None, "--operator", help="Operator for --record (default: the files' 'operator')."),
+    serial: str | None = record_options.SERIAL,
+    operator: str | None = record_options.OPERATOR,
     uncertainty: str = uncertainty_options.UNCERTAINTY,
     trials: int = uncertainty_options.TRIALS,
     seed: int = uncertainty_options.SEED,
@@ -254,13 +252,7 @@ def fit(
         if not sep or not name.strip():
             raise AccelcalError(f"--fix {item!r} is not NAME=VALUE (e.g. --fix K4=0)")
         fixed[name.strip()] = parse_number(value, f"--fix {name.strip()}")
-    info = None
-    if record_out is not None:
-        from accelcal.calibration import lab_info
-
-        info = lab_info(files, serial=serial, operator=operator)
-    elif serial is not None or operator is not None:
-        raise AccelcalError("--serial and --operator go with --record FILE")
+    info = record_options.lab_info_for(record_out, files, serial=serial, operator=operator)
     _, m = _read_measurements(files)
     result = identify(m["overload"], m["amplitude"], m["vre"], m["uncertainty"],
                       direction=m["direction"], terms=names, fixed=fixed,
