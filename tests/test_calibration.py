@@ -239,11 +239,13 @@ def test_cli_record_options_write_one_record_per_sensor_and_method(tmp_path, cap
     ["dividing-head", "reduce", "{head}", "--record", "{out}", "--serial", "a,b"],
     ["dividing-head", "reduce", "{head}", "--serial", "a,b,c,d"],
     ["vre", "fit", "{vib}", "--operator", "x"],
+    ["transverse", "fit", "{shaker}", "--serial", "x"],
     ["dividing-head", "reduce", "{head}", "--record", "{tmp}/missing/dir/c.json"],
 ])
 def test_cli_record_errors_exit_2_and_write_nothing(tmp_path, capsys, argv):
     argv = [a.format(head=EXAMPLES / "indexing_head.csv", vib=EXAMPLES / "vibrafuge.csv",
-                     out=tmp_path / "c.json", tmp=tmp_path) for a in argv]
+                     shaker=EXAMPLES / "shaker", out=tmp_path / "c.json", tmp=tmp_path)
+            for a in argv]
     code, out = _run(argv, capsys)
     assert code == 2
     assert out.err.startswith("accelcal: error:")
