@@ -180,3 +180,44 @@ def test_autocollimator_readings_in_file_fix_the_first_harmonic(tmp_path, capsys
             assert rows[False][(f"U{k + 1}", c)] == pytest.approx(truth[c], abs=1e-8)
             # exact model, exact first harmonic: rounding only
             assert rows[True][(f"U{k + 1}", c)] == pytest.approx(truth[c], abs=1e-13)
+
+
+def test_user_angle_errors_from_values_and_from_a_survey_file(tmp_path, capsys):
+    from accelcal.units import ARCSEC
+
+    survey = np.round(np.random.default_rng(3).uniform(-2, 2, 12), 3)  # arcsec
+    text = "# head survey, arcsec\n" + "\n".join(
+        f"{a:.3f}, {b:.3f}  # positions {2 * i}, {2 * i + 1}"
+        for i, (a, b) in enumerate(survey.reshape(-1, 2)))
+    (tmp_path / "survey.txt").write_text(text + "\n")
+    for spec, expected in (
+        (f"file:{tmp_path / 'survey.txt'}", survey * ARCSEC),
+        ("values:" + ",".join(f"{v}urad" for v in range(12)), np.arange(12) * 1e-6),
+    ):
+        out = tmp_path / "head.csv"
+        code, _, err = _run(["dividing-head", "simulate", "--positions", "12", "--angle-error",
+                             spec, "--noise", "0", "--out", str(out)], capsys)
+        assert code == 0, err
+        applied = read_head_record(out).simulation["angle_error_rad"]
+        np.testing.assert_allclose(applied, expected, rtol=1e-15, atol=0)
+        out.unlink()
+
+
+@pytest.mark.parametrize(("spec", "message"), [
+    ("values:1,2,3", "3 angle-error values given for 12 positions"),
+    ("values:1,x", "unknown angle unit 'x'"),
+    ("values:1,1e999", "'1e999' is not finite"),
+    ("file:{tmp}/missing.txt", "cannot read it"),
+    ("file:{tmp}/bad.txt", "bad.txt, line 2: 'nan' is not finite"),
+    ("file:{tmp}/empty.txt", "holds no values"),
+])
+def test_bad_user_angle_errors_exit_2_and_write_nothing(tmp_path, capsys, spec, message):
+    (tmp_path / "bad.txt").write_text("1.0\nnan\n")
+    (tmp_path / "empty.txt").write_text("# nothing\n")
+    out = tmp_path / "head.csv"
+    code, _, err = _run(["dividing-head", "simulate", "--positions", "12", "--angle-error",
+                         spec.format(tmp=tmp_path), "--out", str(out)], capsys)
+    assert code == 2
+    assert message in err
+    assert "Traceback" not in err
+    assert not out.exists()

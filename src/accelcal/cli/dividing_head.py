@@ -31,8 +31,10 @@ _ANGLE_ERROR = typer.Option(
     "uniform:2arcsec", "--angle-error",
     help=(
         "Head angular position error: uniform:X (random within +-X, e.g. uniform:2arcsec), "
-        "harmonics:2c=5arcsec,3s=1arcsec (Fourier terms m c|s = amplitude) or none. "
-        "Units arcsec, urad, mrad, rad or deg (default arcsec)."
+        "harmonics:2c=5arcsec,3s=1arcsec (Fourier terms m c|s = amplitude), "
+        "values:0.8,-1.2,... (one per position), file:PATH (one value per position, arcsec, "
+        "separated by commas, spaces or lines; # starts a comment, e.g. a head survey) or "
+        "none. Units arcsec, urad, mrad, rad or deg (default arcsec)."
     ),
 )
 _FIRST_HARMONIC = typer.Option(
@@ -94,9 +96,33 @@ def parse_angle_error(text: str):
                 raise AccelcalError(f"--angle-error: harmonic {item.strip()!r} given twice")
             terms[key] = _angle(m.group(3), f"--angle-error {item.strip()}", "arcsec")
         return AngleErrorProfile.harmonics(terms)
+    if kind == "values" and rest.strip():
+        return AngleErrorProfile.values(
+            [_angle(v, "--angle-error values", "arcsec") for v in rest.split(",")])
+    if kind == "file" and rest.strip():
+        return AngleErrorProfile.values(_angle_error_file(Path(rest.strip())))
     raise AccelcalError(
-        f"--angle-error {text!r} is not uniform:X, harmonics:2c=A,3s=B or none"
+        f"--angle-error {text!r} is not uniform:X, harmonics:2c=A,3s=B, values:A,B,..., "
+        "file:PATH or none"
     )
+
+
+def _angle_error_file(path: Path) -> list[float]:
+    """Angle errors in arcsec from a text file, in rad (``--angle-error file:PATH``)."""
+    from accelcal.units import ARCSEC
+
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise AccelcalError(f"--angle-error file {path}: cannot read it ({exc})") from None
+    values = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        for item in line.split("#", 1)[0].replace(",", " ").split():
+            values.append(parse_number(item, f"{path}, line {number}") * ARCSEC)
+    if not values:
+        raise AccelcalError(f"--angle-error file {path} holds no values; give one per position "
+                            "in arcsec")
+    return values
 
 
 def _pair(text: str, what: str) -> tuple[float, float]:
