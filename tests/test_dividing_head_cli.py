@@ -129,6 +129,8 @@ def test_bad_records_exit_2(record, capsys, edit, message):
     (["--method", "fourier"], "unknown"),
     (["--method", "four", "--format", "xml"], "--format"),
     (["--method", "single", "--first-harmonic", "1e-5"], "two values"),
+    (["--method", "joint", "--covariance", "propagated"], "--covariance applies to --method four"),
+    (["--method", "four", "--covariance", "exact"], "'exact' is not one of paper, propagated"),
 ])
 def test_bad_options_exit_2(record, capsys, args, message):
     code, _, err = _run(["dividing-head", "reduce", str(record), *args], capsys)
@@ -221,3 +223,20 @@ def test_bad_user_angle_errors_exit_2_and_write_nothing(tmp_path, capsys, spec, 
     assert message in err
     assert "Traceback" not in err
     assert not out.exists()
+
+
+def test_four_propagated_covariance_option(tmp_path, capsys):
+    path = tmp_path / "noisy.csv"
+    code, _, _ = _run(["dividing-head", "simulate", "--noise", "2.8e-6", "--seed", "3",
+                       "--out", str(path)], capsys)
+    assert code == 0
+    rows = {}
+    for cov in ("paper", "propagated"):
+        code, out, err = _run(["dividing-head", "reduce", str(path), "--method", "four",
+                               "--covariance", cov, "--format", "json"], capsys)
+        assert code == 0, err
+        rows[cov] = json.loads(out)
+    assert [r["estimate"] for r in rows["paper"]] == [r["estimate"] for r in rows["propagated"]]
+    ratio = np.array([b["std"] / a["std"] for a, b in zip(rows["paper"], rows["propagated"],
+                                                          strict=True)])
+    assert np.median(ratio) > 1.2  # the head error's share of the noise, omitted by the paper

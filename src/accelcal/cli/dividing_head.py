@@ -233,6 +233,12 @@ def reduce_cmd(
         help="Standard uncertainty of the first harmonic, rad (or, when it is unknown, a "
              "systematic bound to include in the uncertainty).",
     ),
+    covariance: str | None = typer.Option(
+        None, "--covariance",
+        help="four: 'paper' (default; each sensor's residual variance, Dong2014 eq. (31), which "
+             "omits the noise carried in by the separated head error) or 'propagated' (the "
+             "readings' noise propagated exactly through every step).",
+    ),
     gauss_newton: bool = typer.Option(
         False, "--gauss-newton",
         help="joint: iterate on the exact (non-linearised) model (the file's autocollimator "
@@ -291,6 +297,10 @@ def reduce_cmd(
             options["autocollimator_sd"] = record.autocollimator_sd
     elif gauss_newton:
         raise AccelcalError("--gauss-newton applies to --method joint only")
+    if covariance is not None:
+        if method != "four":
+            raise AccelcalError("--covariance applies to --method four only")
+        options["covariance"] = covariance
     result = reduce(data, method, **options)
     rows = result.rows(list(record.sensors))
     if monte_carlo:

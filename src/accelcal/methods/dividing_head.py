@@ -206,7 +206,7 @@ class HeadReduction:
         plus the given first harmonic; ``joint``: everything but the gauge).
     covariance : numpy.ndarray or None
         Full covariance of ``[coefficients of all sensors, angle errors]``
-        (``joint`` only).
+        (``joint``, and ``four`` with the propagated covariance).
     null_space_dim : int or None
         Null-space dimension of the unconstrained joint design.
     notes : tuple of str
@@ -413,20 +413,63 @@ class FourOperator:
         resid = hat_res @ v  # Eq. (29) [Dong2014]
         return cls(coef, resid, d_hi, cov_unit, _alias_jacobian(phi))
 
+    def noise_variances(self, residuals: np.ndarray) -> np.ndarray:
+        """Unbiased noise variance of each sensor's normalised outputs from the step-4 residuals.
+
+        Each sensor's residual carries every sensor's noise through the
+        separated head error: ``E|r_k|^2 = sum_l M_kl s_l^2`` with
+        ``M_kl = ||resid[k][:, block l]||_F^2``; solving that K x K system
+        gives ``s_l^2`` (clipped at zero).
+
+        Parameters
+        ----------
+        residuals : numpy.ndarray, shape (..., K, n)
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., K)
+        """
+        k, n = self.resid.shape[:2]
+        blocks = self.resid.reshape(k, n, k, n)  # [sensor k, position, sensor l, reading]
+        moments = np.einsum("kjlm,kjlm->kl", blocks, blocks)
+        rss = np.einsum("...kn,...kn->...k", residuals, residuals)
+        return np.clip(np.linalg.solve(moments, rss[..., None])[..., 0], 0.0, None)
+
+    def propagated_covariance(self, variances: np.ndarray) -> np.ndarray:
+        """Covariance of ``[step-4 estimates of all sensors, d_hi]`` from the readings' noise.
+
+        Every step is linear in the normalised outputs, so with independent
+        noise of variance ``variances[l]`` on sensor l's readings the
+        covariance is ``L diag(v) L'`` with ``L = [coef; angle]``: exact for
+        the linear method, including the noise carried into each sensor's
+        fit by the separated head error (which step 7 of [DOMAIN] omits).
+
+        Returns
+        -------
+        numpy.ndarray, shape (5 K + n, 5 K + n)
+        """
+        k, n = self.resid.shape[:2]
+        lin = np.concatenate([self.coef.reshape(5 * k, k * n), self.angle])
+        return (lin * np.repeat(variances, n)) @ lin.T
+
+
+FOUR_COVARIANCES = ("paper", "propagated")
+
 
 def four(
     data: HeadData,
     *,
     first_harmonic=None,
     first_harmonic_sd=0.0,
+    covariance: str = "paper",
 ) -> HeadReduction:
     """Four-sensor separation of the head's angle error, as corrected in [DOMAIN].
 
     Steps: 0 normalise each sensor by its own scale factor; 1 harmonics >= 4
     of d_alpha from V_z; 2 harmonics 2, 3 from sensor 1; 3-4 compensate
     each sensor and fit Psi(beta_k); 5 remove the first-harmonic alias if
-    d1 is given; 6 K_O* = K_O + K_I (eta + d0); 7 covariance
-    ``s^2 (Psi' Psi)^-1`` plus the d1 term, scaled back by K_I.
+    d1 is given; 6 K_O* = K_O + K_I (eta + d0); 7 covariance, scaled back
+    by K_I.
 
     Parameters
     ----------
@@ -440,6 +483,16 @@ def four(
         Standard uncertainty of (d1c, d1s), rad. With ``first_harmonic`` it
         is the measurement's uncertainty; without it, a bound on the
         neglected first harmonic carried as a systematic uncertainty.
+    covariance : {"paper", "propagated"}
+        ``paper``: step 7, ``s^2 (Psi' Psi)^-1`` per sensor from its own
+        residuals (Dong2014 eq. (31)); it omits the noise that the separated
+        head error carries into every sensor's fit and understates the
+        scatter (about 1.4 times for four sensors at 24 positions).
+        ``propagated``: the readings' noise (each sensor's variance estimated
+        without bias from all residuals, :meth:`FourOperator.noise_variances`)
+        propagated exactly through the linear steps 1-5, with the
+        covariances between sensors and with the head error in
+        ``HeadReduction.covariance``. Both add the first-harmonic term.
 
     Returns
     -------
@@ -449,34 +502,53 @@ def four(
     ----------
     .. [1] Dong2014, eqs. (14)-(31); corrected steps 0-7 of [DOMAIN] section 4.
     """
+    if covariance not in FOUR_COVARIANCES:
+        raise AccelcalError(
+            f"covariance {covariance!r} is not one of {', '.join(FOUR_COVARIANCES)}"
+        )
     op = FourOperator.build(data.positions, data.mounts)
     k_i = scale_factors(data)  # Step 0 [DOMAIN]
     u = (data.outputs / k_i[:, None]).reshape(-1)
     x = op.coef @ u
     resid = op.resid @ u
-    n = data.positions.size
-    s2 = np.einsum("kn,kn->k", resid, resid) / (n - 5)  # Eq. (30) [Dong2014]
-    cov = s2[:, None, None] * op.cov_unit  # Eq. (31) [Dong2014]
+    n, k = data.positions.size, data.n_sensors
     h1, h1_cov, notes = _first_harmonic_terms(first_harmonic, first_harmonic_sd)
     x = x - op.alias @ h1  # Step 5 [DOMAIN]; Eq. (27)-(28) corrected
-    cov = cov + op.alias @ h1_cov @ np.swapaxes(op.alias, -1, -2)
+    c1 = np.stack([np.cos(data.positions), np.sin(data.positions)], axis=-1)
+    d_hi = op.angle @ u
+    if first_harmonic is not None:
+        d_hi = d_hi + c1 @ h1
+    # first-harmonic part of [coefficients (volts), head error]: -alias h1 and, when given, +c1 h1
+    h1_map = np.concatenate([-(op.alias * k_i[:, None, None]).reshape(5 * k, 2),
+                             c1 if first_harmonic is not None else np.zeros((n, 2))])
+    full = None
+    if covariance == "paper":
+        s2 = np.einsum("kn,kn->k", resid, resid) / (n - 5)  # Eq. (30) [Dong2014]
+        cov = s2[:, None, None] * op.cov_unit  # Eq. (31) [Dong2014]
+        cov = cov + op.alias @ h1_cov @ np.swapaxes(op.alias, -1, -2)
+        cov = k_i[:, None, None] ** 2 * cov
+        d_cov = float(s2.mean()) * op.angle @ op.angle.T + h1_map[5 * k:] @ h1_cov @ \
+            h1_map[5 * k:].T
+        cov_note = "covariance from each sensor's residual variance (Dong2014 eq. (31))"
+        angle_note = "covariance from the pooled residual variance"
+    else:
+        scale = np.concatenate([np.repeat(k_i, 5), np.ones(n)])
+        full = op.propagated_covariance(op.noise_variances(resid)) * np.outer(scale, scale)
+        full = full + h1_map @ h1_cov @ h1_map.T
+        cov = np.stack([full[5 * j:5 * j + 5, 5 * j:5 * j + 5] for j in range(k)])
+        d_cov = full[5 * k:, 5 * k:]
+        cov_note = angle_note = ("covariance propagated from the readings' noise through every "
+                                 "step (head error's share included)")
     units = coefficient_units(data.output_unit)
     notes = (*notes, _FIRST_ORDER_NOTE)
     sensors = tuple(
-        Estimate(COEFFICIENTS, k_i[k] * x[k], k_i[k] ** 2 * cov[k], units, "four",
-                 residuals=k_i[k] * resid[k], dof=n - 5, notes=notes)
-        for k in range(data.n_sensors)
+        Estimate(COEFFICIENTS, k_i[j] * x[j], cov[j], units, "four",
+                 residuals=k_i[j] * resid[j], dof=n - 5, notes=(*notes, cov_note))
+        for j in range(k)
     )
-    d_hi = op.angle @ u
-    s2_pool = float(s2.mean())
-    d_cov = s2_pool * op.angle @ op.angle.T
-    if first_harmonic is not None:
-        c1 = np.stack([np.cos(data.positions), np.sin(data.positions)], axis=-1)
-        d_hi = d_hi + c1 @ h1
-        d_cov = d_cov + c1 @ h1_cov @ c1.T
     angle = Estimate(_angle_names(n), d_hi, d_cov, dict.fromkeys(_angle_names(n), "rad"),
-                     "four", notes=("covariance from the pooled residual variance",))
-    return HeadReduction("four", sensors, angle_error=angle, notes=notes)
+                     "four", notes=(angle_note,))
+    return HeadReduction("four", sensors, angle_error=angle, covariance=full, notes=notes)
 
 
 def _first_harmonic_terms(first_harmonic, sd):
@@ -890,7 +962,7 @@ def reduce(data: HeadData, method: str, **options) -> HeadReduction:
     """Run ``method`` (``single``, ``four``, ``joint`` or ``tumble``) on ``data``.
 
     ``options`` are passed to the method (``first_harmonic``,
-    ``first_harmonic_sd``; for ``joint`` also ``autocollimator``,
+    ``first_harmonic_sd``; for ``four`` also ``covariance``; for ``joint`` also ``autocollimator``,
     ``autocollimator_sd``, ``gauss_newton``). ``tumble`` uses the IEEE 1293
     multipoint Fourier reduction of :mod:`accelcal.methods.tumble` on each
     sensor, with the head axis along PA.
@@ -905,7 +977,7 @@ def reduce(data: HeadData, method: str, **options) -> HeadReduction:
         return single(data)
     if method == "four":
         _no_options({k: v for k, v in options.items()
-                     if k not in ("first_harmonic", "first_harmonic_sd")}, method)
+                     if k not in ("first_harmonic", "first_harmonic_sd", "covariance")}, method)
         return four(data, **options)
     if method == "joint":
         return joint(data, **options)
