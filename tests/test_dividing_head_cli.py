@@ -180,8 +180,22 @@ def test_autocollimator_readings_in_file_fix_the_first_harmonic(tmp_path, capsys
             # 4.8e-9 sqrt(2/24) = 1.4e-9 rad, i.e. 1.8e-9 V after K_I; 1e-8 V is 5 sigma
             # (second-order terms ~1e-9 V included)
             assert rows[False][(f"U{k + 1}", c)] == pytest.approx(truth[c], abs=1e-8)
-            # exact model, exact first harmonic: rounding only
-            assert rows[True][(f"U{k + 1}", c)] == pytest.approx(truth[c], abs=1e-13)
+            # exact model, exact first harmonic; the file's readings (noise 4.8e-9 rad) are
+            # pseudo-observations weighted by sigma / sd, sigma being the linear solution's
+            # second-order residual (~1e-9): they move d by <~ (sigma / sd)^2 4.8e-9 / (K n / 2)
+            # ~ 1e-11 rad at most, i.e. ~1e-11 V
+            assert rows[True][(f"U{k + 1}", c)] == pytest.approx(truth[c], abs=2e-11)
+    # the command passes the file's readings to the iteration: the API gives the same numbers
+    from accelcal.methods.dividing_head import joint
+    from accelcal.units import ARCSEC
+
+    rec = read_head_record(path)
+    api = joint(rec.data(), first_harmonic=(3 * ARCSEC, -1 * ARCSEC),
+                autocollimator=rec.autocollimator, autocollimator_sd=rec.autocollimator_sd,
+                gauss_newton=True)
+    for k, est in enumerate(api.sensors):
+        for c, v in zip(est.names, est.values, strict=True):
+            assert rows[True][(f"U{k + 1}", c)] == pytest.approx(v, rel=1e-15, abs=0)
 
 
 def test_user_angle_errors_from_values_and_from_a_survey_file(tmp_path, capsys):

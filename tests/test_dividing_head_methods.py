@@ -512,3 +512,31 @@ def test_four_propagated_result_is_consistent():
     assert r.sensors[0].notes[-1].startswith("covariance propagated")
     with pytest.raises(AccelcalError, match="covariance 'exact' is not one of paper, propagated"):
         four(data, covariance="exact")
+
+
+def test_gauss_newton_with_autocollimator_readings():
+    """Noise-free exact model, first harmonic not given: the readings (offset by an arbitrary
+    zero) fix it, and the iteration removes the linear solution's second-order residual
+    (1e-13: rounding, as without readings). With noise the covariance is the linear one to
+    first order: the Jacobians differ by O(d_alpha + eta) ~ 1e-5 relative."""
+    h1 = DONG2014_FIRST_HARMONIC
+    _rig, run, data = _run(first_harmonic=h1)
+    readings = run.d_alpha + 1e-3
+    res = joint(data, autocollimator=readings, autocollimator_sd=5e-7, gauss_newton=True)
+    exact = np.array([_exact_truth(m, e) for m, e in zip(MODELS, ETA, strict=True)])
+    np.testing.assert_allclose(_estimates(res), exact, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(res.angle_error.values, run.d_alpha, rtol=0, atol=1e-13)
+    linear = joint(data, autocollimator=readings, autocollimator_sd=5e-7)
+    assert np.abs(_estimates(linear) - exact).max() > 1e-11
+    assert any("converged" in n for n in res.notes)
+
+    rig = DividingHeadRig.uniform(24, MODELS, angle_error=HIGH, eta=ETA, first_harmonic=h1,
+                                  noise=2.8e-6)
+    sim = simulate(rig, 8)
+    noisy = HeadData.build(rig.positions, sim.outputs, rig.mounts)
+    kwargs = {"autocollimator": sim.d_alpha, "autocollimator_sd": 2e-7}
+    gn = joint(noisy, gauss_newton=True, **kwargs)
+    lin = joint(noisy, **kwargs)
+    np.testing.assert_allclose(gn.covariance, lin.covariance, rtol=0,
+                               atol=1e-4 * np.abs(lin.covariance).max())
+    np.testing.assert_allclose(np.diag(gn.covariance), np.diag(lin.covariance), rtol=1e-3)

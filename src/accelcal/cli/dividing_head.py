@@ -241,8 +241,8 @@ def reduce_cmd(
     ),
     gauss_newton: bool = typer.Option(
         False, "--gauss-newton",
-        help="joint: iterate on the exact (non-linearised) model (the file's autocollimator "
-             "readings, if any, are then not used).",
+        help="joint: iterate on the exact (non-linearised) model (with the file's "
+             "autocollimator readings, if any, as pseudo-observations).",
     ),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
     plot: Path | None = typer.Option(
@@ -292,7 +292,7 @@ def reduce_cmd(
         raise AccelcalError(f"--method {method} does not use --first-harmonic")
     if method == "joint":
         options["gauss_newton"] = gauss_newton
-        if record.autocollimator is not None and not gauss_newton:
+        if record.autocollimator is not None:
             options["autocollimator"] = record.autocollimator
             options["autocollimator_sd"] = record.autocollimator_sd
     elif gauss_newton:

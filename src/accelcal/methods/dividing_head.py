@@ -796,7 +796,8 @@ def joint(
         with ``autocollimator``).
     gauss_newton : bool
         Iterate on the exact model (no linearisation): removes the
-        second-order residual of the linear solution.
+        second-order residual of the linear solution. Autocollimator
+        readings enter the iteration as the same pseudo-observations.
     max_iterations : int
         Gauss-Newton iteration limit.
 
@@ -822,6 +823,7 @@ def joint(
     s2 = float(resid @ resid) / op.dof
     cov = s2 * op.cov_unit + op.gauge[:, 1:] @ h1_cov @ op.gauge[:, 1:].T
     dof = op.dof
+    sigma = np.sqrt(s2)  # noise of the normalised readings, before any pseudo-observation
     if autocollimator is not None:
         theta, cov, extra = _with_autocollimator(
             data, u=u, g=g, h1_fixed=first_harmonic is not None, readings=autocollimator,
@@ -837,13 +839,13 @@ def joint(
     cov = cov * np.outer(scale, scale)
     resid_v = resid.reshape(k, n) * k_i[:, None]
     if gauss_newton:
+        pseudo = None
         if autocollimator is not None:
-            raise AccelcalError(
-                "Gauss-Newton iteration with autocollimator readings is not supported; "
-                "give the first harmonic instead, or reduce without iteration"
-            )
+            pseudo = (np.asarray(autocollimator, dtype=float).reshape(-1),
+                      float(autocollimator_sd), sigma if sigma > 0 else autocollimator_sd)
         theta, cov, resid_v, dof, gn_note = _gauss_newton(
-            data, theta, g, h1_cov=h1_cov, op=op, max_iterations=max_iterations
+            data, theta, g, h1_cov=h1_cov, op=op, max_iterations=max_iterations,
+            h1_fixed=autocollimator is None or first_harmonic is not None, pseudo=pseudo,
         )
         notes = (*notes, gn_note)
     notes = (*notes, _FIRST_ORDER_NOTE)
@@ -893,21 +895,32 @@ def _with_autocollimator(data, *, u, g, h1_fixed, readings, sd, s2):
     return theta, cov, (f"autocollimator readings used as pseudo-observations (sd {sd:.3g} rad)")
 
 
-def _gauss_newton(data, theta, g, *, h1_cov, op, max_iterations):
+def _gauss_newton(data, theta, g, *, h1_cov, op, max_iterations, h1_fixed=True, pseudo=None):
     """Refine the joint solution on the exact model, in the output unit.
 
     The model ``U_kj = Psi(beta_kj + d_j) . theta_k`` is solved by
-    Gauss-Newton with ``d = C g + Z z`` (gauge fixed), rows weighted by
-    1/K_I of their sensor.
+    Gauss-Newton with ``d = C g + Z z`` (the gauge: the mean, and the first
+    harmonic when ``h1_fixed``), rows weighted by 1/K_I of their sensor.
+    ``pseudo = (readings, sd, sigma)`` adds the autocollimator readings as
+    pseudo-observations of the free part ``Z' d`` (standard uncertainty
+    ``sd``; ``sigma`` is the noise of the normalised readings, which weighs
+    the two kinds of row), as in the linear solution; the covariance is
+    then that of the whitened system.
     """
     alpha, phi = data.positions, data.mounts
     k, n = phi.size, alpha.size
-    c, z = gauge_basis(alpha, True)
+    c, z = gauge_basis(alpha, h1_fixed)
     beta = data.angles()
     w = 1.0 / theta[1:5 * k:5]
     th = theta[:5 * k].copy()
     zz = z.T @ theta[5 * k:]
-    d_fixed = c @ g
+    d_fixed = c @ g[:c.shape[1]]
+    m = z.shape[1]
+    if pseudo is not None:
+        readings, sd, sigma = pseudo
+        z_meas = z.T @ readings  # independent of the readings' zero (z is orthogonal to 1)
+        # pseudo rows in the units of the normalised readings: weight sigma / sd
+        prior = np.concatenate([np.zeros((m, 5 * k)), np.eye(m)], axis=1) * (sigma / sd)
     converged = False
     for _ in range(max(1, int(max_iterations))):
         d = d_fixed + z @ zz
@@ -917,12 +930,15 @@ def _gauss_newton(data, theta, g, *, h1_cov, op, max_iterations):
         f = np.einsum("knp,kp->kn", p, t)
         fprime = (t[:, 1:2] * np.cos(gam) - t[:, 2:3] * np.sin(gam)
                   + t[:, 3:4] * np.cos(2 * gam) + t[:, 4:5] * np.sin(2 * gam))
-        jac = np.zeros((k, n, 5 * k + z.shape[1]))
+        jac = np.zeros((k, n, 5 * k + m))
         for i in range(k):
             jac[i, :, 5 * i:5 * i + 5] = p[i]
         jac[:, :, 5 * k:] = fprime[:, :, None] * z[None]
         jac = (jac * w[:, None, None]).reshape(k * n, -1)
         res = ((data.outputs - f) * w[:, None]).reshape(-1)
+        if pseudo is not None:
+            jac = np.concatenate([jac, prior])
+            res = np.concatenate([res, (z_meas - zz) * (sigma / sd)])
         step = np.linalg.lstsq(jac, res, rcond=None)[0]
         th = th + step[:5 * k]
         zz = zz + step[5 * k:]
@@ -936,17 +952,20 @@ def _gauss_newton(data, theta, g, *, h1_cov, op, max_iterations):
     resid_v = data.outputs - f
     res_w = (resid_v * w[:, None]).reshape(-1)
     dof = op.dof
-    s2 = float(res_w @ res_w) / dof
     _q, r = np.linalg.qr(jac)
     rinv = np.linalg.inv(r)
     to_full = np.zeros((5 * k + n, jac.shape[1]))
     to_full[:5 * k, :5 * k] = np.eye(5 * k)
     to_full[5 * k:, 5 * k:] = z
+    # the weighted rows are in normalised units: their variance is s2 (estimated
+    # here), or sigma^2 (the linear solution's) when pseudo rows fix the scale
+    s2 = float(res_w @ res_w) / dof if pseudo is None else pseudo[2] ** 2
     new_cov = s2 * to_full @ (rinv @ rinv.T) @ to_full.T
-    # keep the first-harmonic term of the linear solution (same gauge sensitivity to first order)
     scale = np.concatenate([np.repeat(1.0 / w, 5), np.ones(n)])
-    new_cov = new_cov + (op.gauge[:, 1:] * scale[:, None]) @ h1_cov @ \
-        (op.gauge[:, 1:] * scale[:, None]).T
+    if h1_fixed:
+        # the first-harmonic term of the linear solution (same gauge sensitivity to first order)
+        new_cov = new_cov + (op.gauge[:, 1:] * scale[:, None]) @ h1_cov @ \
+            (op.gauge[:, 1:] * scale[:, None]).T
     note = "Gauss-Newton on the exact model " + ("converged" if converged else
                                                  f"stopped after {max_iterations} iterations")
     return np.concatenate([th, d]), new_cov, resid_v, dof, note
