@@ -135,6 +135,8 @@ def test_methods_are_never_pooled(db):
         1e-6 / np.sqrt(2), rel=1e-6)
     assert stats[("dividing-head/single", "K_F")].repeatability == pytest.approx(
         2e-6 / np.sqrt(2), rel=1e-6)
+    # two calibrations: no drift (a slope through two points has no uncertainty)
+    assert np.isnan(stats[("dividing-head/joint", "K_F")].drift_per_year)
     only = store.stats("SN-1", "dividing-head/single")
     assert {s.method for s in only} == {"dividing-head/single"}
     assert len(only) == 3

@@ -76,9 +76,10 @@ class CoefficientStats:
         well above it means the coefficient moves more than each calibration
         claims.
     drift_per_year : float
-        Slope of a straight-line fit against the calibration dates.
+        Slope of a straight-line fit against the calibration dates (NaN with
+        fewer than 3 calibrations).
     drift_std : float
-        Standard uncertainty of the slope (NaN with fewer than 3 dates).
+        Standard uncertainty of the slope (NaN with fewer than 3 calibrations).
     """
 
     method: str
@@ -328,13 +329,16 @@ def _utc(date: str) -> str:
 
 
 def _drift(years: np.ndarray, x: np.ndarray) -> tuple[float, float]:
-    """Least-squares slope of x against time and its standard uncertainty."""
-    if len(x) < 2 or np.ptp(years) == 0:
+    """Least-squares slope of x against time and its standard uncertainty.
+
+    NaN for fewer than three calibrations at distinct dates: a slope through
+    two points has no uncertainty to judge it by (two calibrations minutes
+    apart would give a meaningless "drift per year").
+    """
+    if len(x) < 3 or np.unique(years).size < 2:
         return math.nan, math.nan
     A = np.column_stack([np.ones_like(years), years])
     coef, *_ = np.linalg.lstsq(A, x, rcond=None)
-    if len(x) < 3:
-        return float(coef[1]), math.nan
     resid = x - A @ coef
     cov = np.linalg.inv(A.T @ A) * (resid @ resid) / (len(x) - 2)
     return float(coef[1]), float(np.sqrt(cov[1, 1]))
