@@ -331,6 +331,43 @@ def _is_uniform(alpha: np.ndarray) -> bool:
     return bool(np.allclose(steps, 2 * np.pi / alpha.size, rtol=0, atol=1e-9))
 
 
+def residual_noise_variances(operator: np.ndarray, residuals: np.ndarray, *,
+                             pooled: bool = False) -> np.ndarray:
+    """Unbiased noise variance of each sensor from the residuals of a linear reduction.
+
+    For residuals ``r = R u`` of independent readings with variance ``s_l^2``
+    on sensor l, ``E|r_k|^2 = sum_l M_kl s_l^2`` with ``M_kl = ||R_kl||_F^2``;
+    solving that K x K system gives unbiased ``s^2`` even where the
+    reduction spends degrees of freedom on the head error. One pooled
+    variance ``sum_k |r_k|^2 / sum_kl M_kl`` is returned for every sensor
+    when ``pooled`` or where the system has no non-negative solution (a
+    quiet sensor's own share of its residual can be small).
+
+    Parameters
+    ----------
+    operator : numpy.ndarray, shape (K, n, K, n)
+        Residual operator ``R`` (sensor, position, sensor, reading).
+    residuals : numpy.ndarray, shape (..., K, n)
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., K)
+
+    References
+    ----------
+    .. [1] docs/dividing-head.md, the four-sensor covariance; Dong2014 eq. (30)
+       for the single-sensor case (M diagonal, n - 5).
+    """
+    moments = np.einsum("kjlm,kjlm->kl", operator, operator)
+    rss = np.einsum("...kn,...kn->...k", residuals, residuals)
+    common = rss.sum(axis=-1) / moments.sum()
+    if pooled:
+        return np.broadcast_to(common[..., None], rss.shape).copy()
+    s2 = np.linalg.solve(moments, rss[..., None])[..., 0]
+    bad = ~(np.isfinite(s2) & (s2 >= 0)).all(axis=-1)
+    return np.where(bad[..., None], common[..., None], s2)
+
+
 @dataclass(frozen=True)
 class FourOperator:
     """Linear operators of the corrected four-sensor reduction for one design.
@@ -414,12 +451,10 @@ class FourOperator:
         return cls(coef, resid, d_hi, cov_unit, _alias_jacobian(phi))
 
     def noise_variances(self, residuals: np.ndarray) -> np.ndarray:
-        """Unbiased noise variance of each sensor's normalised outputs from the step-4 residuals.
+        """Noise variance of each sensor's normalised outputs from the step-4 residuals.
 
-        Each sensor's residual carries every sensor's noise through the
-        separated head error: ``E|r_k|^2 = sum_l M_kl s_l^2`` with
-        ``M_kl = ||resid[k][:, block l]||_F^2``; solving that K x K system
-        gives ``s_l^2`` (clipped at zero).
+        See :func:`residual_noise_variances` (each sensor's residual carries
+        every sensor's noise through the separated head error).
 
         Parameters
         ----------
@@ -430,10 +465,7 @@ class FourOperator:
         numpy.ndarray, shape (..., K)
         """
         k, n = self.resid.shape[:2]
-        blocks = self.resid.reshape(k, n, k, n)  # [sensor k, position, sensor l, reading]
-        moments = np.einsum("kjlm,kjlm->kl", blocks, blocks)
-        rss = np.einsum("...kn,...kn->...k", residuals, residuals)
-        return np.clip(np.linalg.solve(moments, rss[..., None])[..., 0], 0.0, None)
+        return residual_noise_variances(self.resid.reshape(k, n, k, n), residuals)
 
     def propagated_covariance(self, variances: np.ndarray) -> np.ndarray:
         """Covariance of ``[step-4 estimates of all sensors, d_hi]`` from the readings' noise.
@@ -489,7 +521,7 @@ def four(
         head error carries into every sensor's fit and understates the
         scatter (about 1.4 times for four sensors at 24 positions).
         ``propagated``: the readings' noise (each sensor's variance estimated
-        without bias from all residuals, :meth:`FourOperator.noise_variances`)
+        without bias from all residuals, :func:`residual_noise_variances`)
         propagated exactly through the linear steps 1-5, with the
         covariances between sensors and with the head error in
         ``HeadReduction.covariance``. Both add the first-harmonic term.

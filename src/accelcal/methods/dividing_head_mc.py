@@ -48,6 +48,7 @@ from accelcal.methods.dividing_head import (
     gauge_basis,
     joint_design,
     psi,
+    residual_noise_variances,
     scale_factors,
     single_operator,
 )
@@ -218,12 +219,12 @@ def noise_levels(data: HeadData, method: str) -> np.ndarray:
 
     The residuals ``r = R u'`` of the method's linear reduction (normalised
     outputs ``u'``; for ``joint`` the fit without autocollimator readings,
-    whose residual sets the reduction's own noise level) have
-    ``E[r_k' r_k] = sum_j ||R_kj||_F^2 s_j^2``; this linear system gives
-    unbiased variances ``s_j^2`` even where the reduction spends degrees of
-    freedom on the head error (``four``: harmonics >= 2). ``joint`` pools
-    the sensors, as its formal covariance does (``r'r / dof``); so do the
-    others where the system has no non-negative solution.
+    whose residual sets the reduction's own noise level) give unbiased
+    variances by :func:`~accelcal.methods.dividing_head.residual_noise_variances`
+    even where the reduction spends degrees of freedom on the head error
+    (``four``: harmonics >= 2). ``joint`` pools the sensors, as its formal
+    covariance does (``r'r / dof``); so do the others where the system has
+    no non-negative solution.
     Scaled back by each sensor's fitted scale factor.
     """
     alpha, phi = data.positions, data.mounts
@@ -240,11 +241,7 @@ def noise_levels(data: HeadData, method: str) -> np.ndarray:
         res_op = JointOperator.build(alpha, phi).resid.reshape(k, n, k, n)
     u = (data.outputs / k_i[:, None]).reshape(-1)
     r = np.einsum("knm,m->kn", res_op.reshape(k, n, k * n), u)
-    rr = (r**2).sum(axis=1)
-    weights = (res_op**2).sum(axis=(1, 3))  # ||R_kj||_F^2
-    s2 = np.linalg.lstsq(weights, rr, rcond=None)[0]
-    if method == "joint" or not (np.isfinite(s2).all() and (s2 >= 0).all()):
-        s2 = np.full(k, rr.sum() / weights.sum())
+    s2 = residual_noise_variances(res_op, r, pooled=method == "joint")
     return np.sqrt(s2) * np.abs(k_i)
 
 
