@@ -855,9 +855,8 @@ def joint(
     s2 = float(resid @ resid) / op.dof
     cov = s2 * op.cov_unit + op.gauge[:, 1:] @ h1_cov @ op.gauge[:, 1:].T
     dof = op.dof
-    sigma = np.sqrt(s2)  # noise of the normalised readings, before any pseudo-observation
     if autocollimator is not None:
-        theta, cov, extra = _with_autocollimator(
+        theta, cov, extra, sigma = _with_autocollimator(
             data, u=u, g=g, h1_fixed=first_harmonic is not None, readings=autocollimator,
             sd=autocollimator_sd, s2=s2,
         )
@@ -874,7 +873,7 @@ def joint(
         pseudo = None
         if autocollimator is not None:
             pseudo = (np.asarray(autocollimator, dtype=float).reshape(-1),
-                      float(autocollimator_sd), sigma if sigma > 0 else autocollimator_sd)
+                      float(autocollimator_sd), sigma)
         theta, cov, resid_v, dof, gn_note = _gauss_newton(
             data, theta, g, h1_cov=h1_cov, op=op, max_iterations=max_iterations,
             h1_fixed=autocollimator is None or first_harmonic is not None, pseudo=pseudo,
@@ -895,7 +894,11 @@ def joint(
 
 
 def _with_autocollimator(data, *, u, g, h1_fixed, readings, sd, s2):
-    """Weighted joint fit with autocollimator pseudo-observations on the free part of d."""
+    """Weighted joint fit with autocollimator pseudo-observations on the free part of d.
+
+    Returns the estimates, their covariance, a note, and the noise ``sigma`` of
+    the normalised readings that weighs the data rows against the readings.
+    """
     alpha, phi = data.positions, data.mounts
     k, n = phi.size, alpha.size
     r = np.asarray(readings, dtype=float).reshape(-1)
@@ -924,7 +927,8 @@ def _with_autocollimator(data, *, u, g, h1_fixed, readings, sd, s2):
     theta = to_full @ sol
     theta[5 * k:] += c @ gc
     cov = to_full @ (rinv @ rinv.T) @ to_full.T
-    return theta, cov, (f"autocollimator readings used as pseudo-observations (sd {sd:.3g} rad)")
+    return (theta, cov, f"autocollimator readings used as pseudo-observations (sd {sd:.3g} rad)",
+            sigma)
 
 
 def _gauss_newton(data, theta, g, *, h1_cov, op, max_iterations, h1_fixed=True, pseudo=None):
