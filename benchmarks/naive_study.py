@@ -3,7 +3,7 @@
 Each trial is reduced by the public one-record functions
 (:func:`accelcal.methods.dividing_head.single`, ``four``, ``joint``) in a
 Python loop, exactly as a user would script it. It draws its random numbers
-as :meth:`accelcal.methods.dividing_head_study.HeadStudy.draw` does (one
+as :meth:`accelcal.methods.dividing_head.HeadStudy.draw` does (one
 sub-block of at most ``SUB_BLOCK`` trials from seed block 0), so for the
 same seed it sees the same trials as the vectorised study and must give
 the same RMS errors and mean formal SDs.
@@ -11,8 +11,15 @@ the same RMS errors and mean formal SDs.
 
 import numpy as np
 
-from accelcal.methods.dividing_head import COEFFICIENTS, HeadData, four, joint, single
-from accelcal.methods.dividing_head_study import SUB_BLOCK, HeadStudy
+from accelcal.methods.dividing_head import (
+    COEFFICIENTS,
+    SUB_BLOCK,
+    HeadData,
+    HeadStudy,
+    four,
+    joint,
+    single,
+)
 from accelcal.montecarlo import block_generator
 
 

@@ -110,7 +110,7 @@ def study_rig():
 def bench_study(trials: int = 2**18, naive_trials: int = 200, **_) -> None:
     """Study throughput against drawing the same random numbers and a per-trial loop."""
     sys.path.insert(0, str(Path(__file__).parent))
-    from accelcal.methods.dividing_head_study import (
+    from accelcal.methods.dividing_head import (
         STUDY_BLOCK,
         SUB_BLOCK,
         HeadStudy,
@@ -163,14 +163,14 @@ def bench_study(trials: int = 2**18, naive_trials: int = 200, **_) -> None:
 
 
 def _all_methods(rig):
-    from accelcal.methods.dividing_head_study import _applicable
+    from accelcal.methods.dividing_head.study import _applicable
 
     return _applicable(rig)[0], 0.0
 
 
 def bench_dask(trials: int = 10**7, repeat: int = 2, **_) -> None:
     """One study on a local Dask cluster of 1 and of 2 worker processes (cluster start included)."""
-    from accelcal.methods.dividing_head_study import run_study
+    from accelcal.methods.dividing_head import run_study
 
     rig, results, best = study_rig(), {}, {}
     for r in range(repeat):
@@ -196,7 +196,7 @@ _MEMORY_CHILD = """
 import resource, sys, time
 sys.path.insert(0, {bench!r})
 from run import study_rig
-from accelcal.methods.dividing_head_study import run_study
+from accelcal.methods.dividing_head import run_study
 trials, step, last = {trials}, max(1, {trials} // 20), [0]
 start = time.perf_counter()
 

@@ -41,12 +41,13 @@ def _lab(serial) -> dict:
 
 def make(directory) -> list[Path]:
     """Write the example files into ``directory``; return their paths."""
-    from accelcal.calibration import head_records, lab_info
+    from accelcal.calibration import lab_info
     from accelcal.defaults import default_model
-    from accelcal.io.dividing_head import read_head_record, write_head_record
-    from accelcal.methods.dividing_head import reduce
+    from accelcal.io.formats.dividing_head import read_head_record, write_head_record
+    from accelcal.io.formats.shaker import write_records
+    from accelcal.io.formats.vibrafuge import write_vibrafuge
+    from accelcal.methods.dividing_head import HeadData, options_from_record, reduce
     from accelcal.methods.transverse import axial_sensitivity
-    from accelcal.methods.vre_records import write_vibrafuge
     from accelcal.rigs import vibrafuge
     from accelcal.rigs.dividing_head import (
         DONG2014_FIRST_HARMONIC,
@@ -56,7 +57,7 @@ def make(directory) -> list[Path]:
         dong2014_models,
         simulate,
     )
-    from accelcal.rigs.shaker import ShakerRig, write_records
+    from accelcal.rigs.shaker import ShakerRig
     from accelcal.units import ARCSEC
 
     out = Path(directory)
@@ -92,11 +93,9 @@ def make(directory) -> list[Path]:
     written.append(out / "model.json")
 
     head = read_head_record(out / "indexing_head.csv")
-    result = reduce(head.data(), "joint", first_harmonic=tuple(head.first_harmonic),
-                    first_harmonic_sd=head.first_harmonic_sd)
+    result = reduce(HeadData.from_record(head), "joint", **options_from_record(head, "joint"))
     info = lab_info([out / "indexing_head.csv"], sensors=4)
-    record = head_records(result, info, sensor_names=head.sensors,
-                          input_files=[out / "indexing_head.csv"])[0]
+    record = result.to_records(info, input_files=[out / "indexing_head.csv"])[0]
     record.save(out / "calibration_record.json")
     written.append(out / "calibration_record.json")
     return written

@@ -11,22 +11,17 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from accelcal import AccelcalError
-from accelcal.calibration import (
-    head_records,
-    lab_info,
-    record_paths,
-    save_records,
-    transverse_record,
-    vre_record,
-)
+from accelcal.calibration import lab_info, record_paths, save_records
 from accelcal.cli import main
 from accelcal.defaults import default_model
 from accelcal.io.calibration_record import CalibrationRecord
-from accelcal.io.dividing_head import read_head_record, write_head_record
+from accelcal.io.formats.dividing_head import read_head_record, write_head_record
+from accelcal.io.formats.shaker import read_records, write_records
+from accelcal.io.formats.vibrafuge import read_vibrafuge, write_vibrafuge
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata, read_lab_metadata
 from accelcal.methods import transverse, vre
-from accelcal.methods.dividing_head import HeadData, reduce
-from accelcal.methods.vre_records import read_vibrafuge, reduce_run, write_vibrafuge
+from accelcal.methods.dividing_head import HeadData, options_from_record, reduce
+from accelcal.methods.vre import reduce_run
 from accelcal.model import ErrorModel
 from accelcal.rigs import vibrafuge
 from accelcal.rigs.dividing_head import (
@@ -36,7 +31,7 @@ from accelcal.rigs.dividing_head import (
     dong2014_models,
     simulate,
 )
-from accelcal.rigs.shaker import ShakerRig, read_records, write_records
+from accelcal.rigs.shaker import ShakerRig
 from accelcal.units import ARCSEC
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -73,8 +68,7 @@ def test_head_round_trip_file_equals_memory(tmp_path, suffix):
     memory = reduce(HeadData.build(rig.positions, run.outputs, rig.mounts), "joint",
                     first_harmonic=DONG2014_FIRST_HARMONIC, first_harmonic_sd=5e-7)
     rec = read_head_record(path)
-    from_file = reduce(rec.data(), "joint", first_harmonic=tuple(rec.first_harmonic),
-                       first_harmonic_sd=rec.first_harmonic_sd)
+    from_file = reduce(HeadData.from_record(rec), "joint", **options_from_record(rec, "joint"))
     for a, b in zip(memory.sensors, from_file.sensors, strict=True):
         np.testing.assert_allclose(b.values, a.values, rtol=RTOL, atol=ATOL)
         # Variances are ~1e-12 V^2; structurally zero covariances are rounding
@@ -82,7 +76,7 @@ def test_head_round_trip_file_equals_memory(tmp_path, suffix):
         np.testing.assert_allclose(b.covariance, a.covariance, rtol=1e-9, atol=1e-21)
     info = lab_info([path], sensors=4)
     assert info == _info()
-    recs = head_records(from_file, info, sensor_names=rec.sensors, input_files=[path])
+    recs = from_file.to_records(info, input_files=[path])
     assert [r.serial for r in recs] == SERIALS
     assert all(r.date == LAB["date"] and r.operator == "J. Smith" for r in recs)
     assert all(r.method == "dividing-head/joint" for r in recs)
@@ -119,10 +113,13 @@ def test_shaker_round_trip_file_equals_memory(tmp_path, suffix):
     memory = transverse.identify(records)
     (back,) = read_records(tmp_path / "sweep")
     from_file = transverse.identify(back)
-    np.testing.assert_allclose(from_file.values, memory.values, rtol=RTOL, atol=1e-20)
-    np.testing.assert_allclose(from_file.covariance, memory.covariance, rtol=1e-9)
+    np.testing.assert_allclose(from_file.estimate.values, memory.estimate.values, rtol=RTOL,
+                               atol=1e-20)
+    np.testing.assert_allclose(from_file.estimate.covariance, memory.estimate.covariance,
+                               rtol=1e-9)
     info = lab_info(paths)
-    rec = transverse_record(from_file, info, amplitude=back.amplitude, input_files=paths)
+    (rec,) = from_file.to_records(info, input_files=paths)
+    assert rec.notes[0] == f"shaker vibration amplitude {back.amplitude:g} g"
     assert rec.serial == "SN-9"
     assert rec.names == ("Ko", "Kp", "Koo", "Kpp", "Kop")
     assert rec.units["Koo"] == "g/g^2"
@@ -146,7 +143,7 @@ def test_vibrafuge_round_trip_file_equals_memory(tmp_path, suffix):
     np.testing.assert_array_equal(got.uncertainty, mem.uncertainty)
     fit = vre.identify(got.overload, got.amplitude, got.vre, got.uncertainty,
                        direction=got.direction)
-    rec = vre_record(fit, lab_info([path]), input_files=[path])
+    (rec,) = fit.to_records(lab_info([path]), input_files=[path])
     assert rec.serial == "SN-7"
     assert rec.names == ("K2", "K3", "K0_asym", "K1_asym")
     np.testing.assert_array_equal(rec.estimates, fit.estimate.values)
@@ -160,8 +157,8 @@ def test_vre_record_leaves_out_unidentifiable_terms_and_notes_combinations():
     truth = default_model()
     pred, _ = vre.vector_vre(truth, vre.along_ia(b), amp)
     fit = vre.identify(b, amp, pred, np.full(5, 1e-8), terms=("K2", "K3", "K1_asym"))
-    assert set(fit.unidentifiable) == {"K2", "K3"}
-    rec = vre_record(fit, _info(["SN-1"]))
+    assert set(fit.unidentified()) == {"K2", "K3"}
+    (rec,) = fit.to_records(_info(["SN-1"]))
     assert rec.names == ("K1_asym",)
     assert any(n.startswith("not identifiable from this design: K2") for n in rec.notes)
     assert any("determined combination" in n and "K3" in n for n in rec.notes)
@@ -182,8 +179,9 @@ def test_lab_info_merges_files_and_overrides(tmp_path):
     with pytest.raises(AccelcalError, match="give 4 non-empty serial"):
         lab_info([tmp_path / "a.csv"], sensors=4, serial="w,x")
     write_head_record(tmp_path / "c.csv", rig.positions, run.outputs, rig.mounts)
-    with pytest.raises(AccelcalError, match="give --serial"):
+    with pytest.raises(AccelcalError, match="no serial number") as info:
         lab_info([tmp_path / "c.csv"], sensors=4)
+    assert info.value.parameter == "serial"
 
 
 @pytest.mark.parametrize(("meta", "match"), [

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 from accelcal.cli import main
-from accelcal.demo import SERIALS, head_models, run
+from accelcal.demo import SERIALS, run
 from accelcal.io.calibration_record import CalibrationRecord
-from accelcal.io.dividing_head import read_head_record
+from accelcal.io.formats.dividing_head import read_head_record
 from accelcal.methods.dividing_head import HeadData, reduce
+from accelcal.methods.dividing_head.demo import head_models
 from accelcal.rigs.dividing_head import DONG2014_TABLE1, DividingHeadRig, simulate
 from accelcal.store import Store
 

@@ -8,15 +8,19 @@ import pytest
 
 from accelcal.cli import main
 from accelcal.errors import AccelcalError
-from accelcal.methods.dividing_head import COEFFICIENTS, HeadData, four, joint, single
-from accelcal.methods.dividing_head_study import (
+from accelcal.methods.dividing_head import (
+    COEFFICIENTS,
     STUDY_METHODS,
     SUB_BLOCK,
+    HeadData,
     HeadStudy,
     SensorBank,
-    _sin_cos_small,
+    four,
+    joint,
     run_study,
+    single,
 )
+from accelcal.methods.dividing_head.study_bank import sin_cos_small
 from accelcal.model import ErrorModel
 from accelcal.montecarlo import block_generator
 from accelcal.rigs.dividing_head import (
@@ -181,7 +185,7 @@ def test_study_outputs_match_the_rig_for_every_model_term():
 def test_small_angle_sin_cos_agree_with_numpy(scale):
     """Taylor branch (|d| <= 1e-2) and numpy branch: within 2 ulp of np.sin / np.cos."""
     d = np.random.default_rng(1).uniform(-scale, scale, (40, 24))
-    s, c = _sin_cos_small(d)
+    s, c = sin_cos_small(d)
     np.testing.assert_array_max_ulp(s, np.sin(d), maxulp=2)
     np.testing.assert_array_max_ulp(c, np.cos(d), maxulp=2)
 
@@ -203,12 +207,13 @@ def test_study_across_sub_blocks_matches_rms_of_trials():
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--trials", "0"], "--trials 0: give at least 2 trials"),
-        (["--trials", "-5"], "--trials -5: give at least 2 trials"),
-        (["--trials", "10", "--workers", "0"], "--workers 0 must be a positive"),
+        (["--trials", "0"], "--trials: a study needs at least 2 trials, got 0"),
+        (["--trials", "-5"], "--trials: a study needs at least 2 trials, got -5"),
+        (["--trials", "10", "--workers", "0"], "--workers: must be a positive integer, got 0"),
         (["--trials", "10", "--workers", "2", "--scheduler", "tcp://127.0.0.1:9"],
-         "either --workers or --scheduler"),
-        (["--trials", "10", "--chunk", "0"], "--chunk 0 must be a positive"),
+         "--workers: give either workers or a scheduler, not both"),
+        (["--trials", "10", "--chunk", "0"], "--chunk: must be a positive number of trials"),
+        (["--trials", "10", "--timeout", "0"], "--timeout: must be a positive number of seconds"),
     ],
 )
 def test_study_cli_bad_input(args, message, capsys):

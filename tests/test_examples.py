@@ -12,11 +12,11 @@ import pytest
 from accelcal.cli import main
 from accelcal.defaults import default_model
 from accelcal.io.calibration_record import CalibrationRecord
-from accelcal.io.dividing_head import read_head_record
+from accelcal.io.formats.dividing_head import read_head_record
+from accelcal.io.formats.shaker import read_records
+from accelcal.io.formats.vibrafuge import read_vibrafuge
 from accelcal.io.records import read_record
-from accelcal.methods.vre_records import read_vibrafuge
 from accelcal.model import ErrorModel
-from accelcal.rigs.shaker import read_records
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "examples" / "data"

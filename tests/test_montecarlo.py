@@ -104,13 +104,14 @@ def test_progress_reports_every_trial():
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"trials": 0}, "trials must be a positive integer"),
-        ({"trials": -5}, "trials must be a positive integer"),
-        ({"trials": 2.5}, "trials must be a positive integer"),
-        ({"seed": -1}, "seed -1 must be a non-negative integer"),
-        ({"block_size": 0}, "block_size must be a positive integer"),
-        ({"workers": 0}, "workers must be a positive integer"),
-        ({"workers": 2, "scheduler": "tcp://127.0.0.1:1"}, "either --workers or --scheduler"),
+        # the library names its parameters (the command line maps them to its options)
+        ({"trials": 0}, "trials: must be a positive integer"),
+        ({"trials": -5}, "trials: must be a positive integer"),
+        ({"trials": 2.5}, "trials: must be a positive integer"),
+        ({"seed": -1}, "seed: -1 must be a non-negative integer"),
+        ({"block_size": 0}, "block_size: must be a positive integer"),
+        ({"workers": 0}, "workers: must be a positive integer"),
+        ({"workers": 2, "scheduler": "tcp://127.0.0.1:1"}, "either workers or a scheduler"),
     ],
 )
 def test_bad_arguments(kwargs, message):

@@ -6,8 +6,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from accelcal import AccelcalError
+from accelcal.fitting import least_squares
 from accelcal.io.records import read_record, write_record
-from accelcal.results import Estimate, least_squares
+from accelcal.results import Estimate
 from accelcal.signal.periods import whole_period_mean, whole_period_samples
 
 

@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 from accelcal.cli import main
+from accelcal.io.formats.shaker import read_records, write_records
 from accelcal.io.records import read_record, write_record
 from accelcal.methods import transverse as tr
 from accelcal.model import ErrorModel
-from accelcal.rigs.shaker import ShakerRig, read_records, write_records
+from accelcal.rigs.shaker import ShakerRig
 
 
 def run(capsys, *args):

@@ -33,9 +33,11 @@ def test_contract_noise_free_recovers_truth(*, ko, kp, koo, kpp, kop, route, gra
     truth = _truth(ko, kp, koo, kpp, kop)
     rig = ShakerRig(amplitude=amp, gravity=gravity, phase=phase, rest=True,
                     **{**RIG, "periods": periods})
-    est = tr.identify(rig.simulate(truth, THETA), route=route)
+    red = tr.identify(rig.simulate(truth, THETA), route=route)
+    est = red.estimate
     assert est.names == NAMES
-    assert est.method == f"transverse-{route}"
+    assert red.method == est.method == f"transverse-{route}"
+    assert red.family == "transverse"
     # noise-free: exact to rounding of the sine fits; output ~ k_i * 50 * A_v^2 * 5e-5
     # mV against coefficients ~1e-4: absolute 1e-12 on each coefficient
     np.testing.assert_allclose(est.values, [ko, kp, koo, kpp, kop], rtol=0, atol=1e-12)
@@ -54,13 +56,13 @@ def test_shaker_transverse_motion_is_separated(*, ko, kp, koo, kpp, kop, ratio, 
                     measure_transverse=True, **RIG)
     rec = rig.simulate(truth, THETA)
     base = truth.replace(Ko=0.0, Kp=0.0, Koo=0.0, Kpp=0.0, Kop=0.0)
-    est = tr.identify(rec, route="2w", base=base)
+    est = tr.identify(rec, route="2w", base=base).estimate
     np.testing.assert_allclose(est.values, [ko, kp, koo, kpp, kop], rtol=0, atol=1e-12)
     # without the measured motion (its IA part is >= 0.29 of it) the result is
     # wrong by far more than rounding
     blind = ShakerRig(amplitude=5.0, gravity=1.0, transverse_ratio=ratio,
                       transverse_direction=direction, transverse_phase=tphase, **RIG)
-    est_blind = tr.identify(blind.simulate(truth, THETA), route="2w", base=base)
+    est_blind = tr.identify(blind.simulate(truth, THETA), route="2w", base=base).estimate
     assert np.max(np.abs(est_blind.values - est.values)) > 1e-9
 
 
@@ -81,7 +83,7 @@ def test_covariance_matches_monte_carlo_scatter():
         assert np.all(np.abs(err) < 5 * stated / np.sqrt(trials))
     # the single-record Estimate carries the same covariance
     one = rig.simulate(truth, THETA, rng=np.random.default_rng(1))
-    est = tr.identify(one, route="dc")
+    est = tr.identify(one, route="dc").estimate
     v1, c1 = tr.identify_arrays(one, route="dc")
     np.testing.assert_allclose(est.values, v1, rtol=1e-9, atol=1e-18)
     np.testing.assert_allclose(est.covariance, c1, rtol=1e-9)
@@ -94,10 +96,10 @@ def test_w_route_needs_gravity_for_second_order_terms():
     rec0 = ShakerRig(amplitude=5.0, **RIG).simulate(truth, THETA)
     with pytest.raises(AccelcalError, match="rank"):
         tr.identify(rec0, route="w")
-    est = tr.identify(rec0, route="w", terms=("Ko", "Kp"))
+    est = tr.identify(rec0, route="w", terms=("Ko", "Kp")).estimate
     np.testing.assert_allclose(est.values, [2e-4, -1e-4], rtol=0, atol=1e-12)
     rec1 = ShakerRig(amplitude=5.0, gravity=1.0, **RIG).simulate(truth, THETA)
-    np.testing.assert_allclose(tr.identify(rec1, route="w").values,
+    np.testing.assert_allclose(tr.identify(rec1, route="w").estimate.values,
                                [2e-4, -1e-4, 3e-5, -2e-5, 1e-5], rtol=0, atol=1e-12)
 
 

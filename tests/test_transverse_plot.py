@@ -6,7 +6,7 @@ import numpy as np
 
 import accelcal.signal.sinefit
 from accelcal.methods import transverse as tr
-from accelcal.plotting.transverse import figure4, polar_figure
+from accelcal.methods.transverse.figures import figure4, polar_figure
 
 
 def test_figure4_written_and_shows_the_papers_features(tmp_path):

@@ -147,12 +147,14 @@ def test_rows_and_columns():
 
 @pytest.mark.parametrize(
     ("kind", "trials", "seed", "match"),
-    [("bogus", 10, 0, "--uncertainty"), ("mc", 0, 0, "--trials"), ("mc", -3, 0, "--trials"),
-     ("mc", 2.5, 0, "--trials"), ("mc", 10, -1, "--seed")],
+    [("bogus", 10, 0, "uncertainty"), ("mc", 0, 0, "trials"), ("mc", -3, 0, "trials"),
+     ("mc", 2.5, 0, "trials"), ("mc", 10, -1, "seed")],
 )
 def test_check_options_rejects_bad_input(kind, trials, seed, match):
-    with pytest.raises(AccelcalError, match=match):
+    with pytest.raises(AccelcalError, match=f"^{match}: ") as info:
         check_options(kind, trials, seed)
+    assert info.value.parameter == match
+    assert info.value.message_for().startswith(f"--{match}: ")
 
 
 def test_propagate_rejects_bad_input():

@@ -1,4 +1,4 @@
-"""Monte Carlo uncertainty of the shaker identification (accelcal.methods.transverse_mc)."""
+"""Monte Carlo uncertainty of the shaker identification (accelcal.methods.transverse.mc)."""
 
 from dataclasses import replace
 
@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from accelcal.errors import AccelcalError
-from accelcal.methods.transverse import GUANTANG_FIG4, identify
-from accelcal.methods.transverse_mc import transverse_uncertainty
+from accelcal.methods.transverse import GUANTANG_FIG4, identify, transverse_uncertainty
 from accelcal.rigs.shaker import ShakerRig
 
 THETA = np.deg2rad(np.arange(0.0, 360.0, 30.0))
@@ -35,19 +34,20 @@ def test_formal_and_mc_agree_without_reference_noise(route, rig):
     # covariance it uses as weights, so the formal covariance is exact; the
     # Monte Carlo SD agrees within 4 standard errors 4/sqrt(2 (M - 1)) = 2 %
     records = _records(1, **rig)
-    est = identify(records, route=route)
-    mc = transverse_uncertainty(records, est, route=route, trials=TRIALS, seed=2)
+    red = identify(records, route=route)
+    mc = transverse_uncertainty(records, red, trials=TRIALS, seed=2)
     assert np.all(np.abs(mc.mc_std / mc.formal_std - 1) < 4 / np.sqrt(2 * (TRIALS - 1)))
     assert np.all(np.abs(mc.mc_bias) < 4 * mc.mc_std / np.sqrt(TRIALS))
 
 
 def test_noise_free_records_reproduce_the_estimate():
     records = _records(0, noise=0.0)
-    est = identify(records)
+    red = identify(records)
+    est = red.estimate
     np.testing.assert_allclose(est.values, [GUANTANG_FIG4.Ko, GUANTANG_FIG4.Kp,
                                             GUANTANG_FIG4.Koo, GUANTANG_FIG4.Kpp,
                                             GUANTANG_FIG4.Kop], rtol=1e-9, atol=1e-15)
-    mc = transverse_uncertainty(records, est, route="2w", trials=100, seed=0)
+    mc = transverse_uncertainty(records, red, trials=100, seed=0)
     # rounding-level weights: the propagated error stays at rounding level
     assert np.all(mc.mc_std < 1e-9 * np.abs(est.values))
 
@@ -58,10 +58,10 @@ def test_reference_calibration_adds_the_predicted_variance():
     # reference reading low by 1 + e gives k_o (1 + e) and k_oo (1 + e)^2:
     # extra variance k_o^2 u^2 and k_oo^2 (4 u^2 + 2 u^4).
     records = _records(3, noise=1e-5)
-    est = identify(records)
+    red = identify(records)
+    est = red.estimate
     u_ref = 0.01
-    mc = transverse_uncertainty(records, est, route="2w", trials=TRIALS, seed=4,
-                                reference_sd=u_ref)
+    mc = transverse_uncertainty(records, red, trials=TRIALS, seed=4, reference_sd=u_ref)
     factor = np.array([u_ref**2] * 2 + [4 * u_ref**2 + 2 * u_ref**4] * 3)
     predicted = mc.formal_std**2 + est.values**2 * factor
     # variance standard error ~ var sqrt(2/M) = 1 %; 4 standard errors
@@ -69,6 +69,7 @@ def test_reference_calibration_adds_the_predicted_variance():
     assert np.all(mc.mc_std[:4] > 2 * mc.formal_std[:4])
 
 
+@pytest.mark.slow
 def test_coverage_with_reference_channel_noise():
     # A noisy measured transverse motion: ref_ia enters the w phasor with the
     # known coefficient 1 (times K1), so its noise is as large in the output
@@ -83,8 +84,9 @@ def test_coverage_with_reference_channel_noise():
     inside_mc, inside_formal, ratio = [], [], []
     for i in range(experiments):  # each Monte Carlo run is vectorised over its trials
         records = _one(stacked, i)
-        est = identify(records)
-        mc = transverse_uncertainty(records, est, route="2w", trials=1000, seed=i)
+        red = identify(records)
+        est = red.estimate
+        mc = transverse_uncertainty(records, red, trials=1000, seed=i)
         inside_mc.append((mc.ci_low <= truth) & (truth <= mc.ci_high))
         inside_formal.append(np.abs(est.values - truth) <= 1.959964 * est.std)
         ratio.append(mc.mc_std / mc.formal_std)
@@ -120,11 +122,11 @@ def test_weights_without_the_reference_share_understate_k_o():
 
 def test_reproducible_and_bad_input():
     records = _records(6)
-    est = identify(records)
-    a = transverse_uncertainty(records, est, route="2w", trials=2000, seed=9, reference_sd=0.01)
-    b = transverse_uncertainty(records, est, route="2w", trials=2000, seed=9, reference_sd=0.01)
+    red = identify(records)
+    a = transverse_uncertainty(records, red, trials=2000, seed=9, reference_sd=0.01)
+    b = transverse_uncertainty(records, red, trials=2000, seed=9, reference_sd=0.01)
     np.testing.assert_array_equal(a.ci_high, b.ci_high)
     with pytest.raises(AccelcalError, match="reference"):
-        transverse_uncertainty(records, est, route="2w", trials=10, seed=0, reference_sd=-1)
-    with pytest.raises(AccelcalError, match="route"):
-        transverse_uncertainty(records, est, route="3w", trials=10, seed=0)
+        transverse_uncertainty(records, red, trials=10, seed=0, reference_sd=-1)
+    with pytest.raises(AccelcalError, match="not a shaker identification"):
+        transverse_uncertainty(records, replace(red, family="vre"), trials=10, seed=0)

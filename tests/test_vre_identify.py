@@ -6,8 +6,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from accelcal import AccelcalError, ErrorModel
-from accelcal.methods.vre import VRE_TERMS, along_ia, identify, vector_vre
-from accelcal.methods.vre_records import reduce_run
+from accelcal.methods.vre import VRE_TERMS, along_ia, identify, reduce_run, vector_vre
+from accelcal.outputs import describe
 from accelcal.rigs.vibrafuge import simulate
 
 PAPER_B = np.repeat([1.0, 2.0, 4.0], 6)
@@ -33,7 +33,7 @@ def test_contract_noise_free_simulation_recovers_the_truth(model):
                    duration=0.1, phase=0.4, noise=0.0)
     meas = reduce_run(run)
     fit = identify(meas.overload, meas.amplitude, meas.vre)
-    assert fit.unidentifiable == ()
+    assert fit.unidentified() == ()
     for name in ("K2", "K3", "K0_asym", "K1_asym"):
         # VRE exact to ~1e-15 g; the design's sensitivity to K0' is ~1 g/g, so
         # 1e-12 g absolute or 1e-7 relative covers rounding with margin
@@ -72,16 +72,16 @@ def test_single_overload_cannot_separate_k2_and_k3():
     b, a = np.full(6, 2.0), np.arange(5.0, 11.0)
     y = vector_vre(model, along_ia(b), a)[0]
     fit = identify(b, a, y + np.random.default_rng(1).normal(0, 1e-12, 6))
-    assert fit.unidentifiable == ("K2", "K3")
+    assert fit.unidentified() == ("K2", "K3")
     assert np.isnan(fit.estimate["K2"])
     assert np.isnan(fit.estimate.std_of("K3"))
     assert fit.estimate["K0_asym"] == pytest.approx(model.K0_asym, rel=1e-4)
     assert fit.estimate["K1_asym"] == pytest.approx(model.K1_asym, rel=1e-4)
-    ((weights, value, std),) = fit.combinations
-    assert weights == pytest.approx({"K2": 1.0, "K3": 6.0})
-    assert value == pytest.approx(model.K2 + 6.0 * model.K3, rel=1e-7)
-    assert 0 < std < 1e-11
-    assert any("K2 + 6 K3" in note for note in fit.estimate.notes)
+    (combo,) = fit.combinations
+    assert dict(combo.weights) == pytest.approx({"K2": 1.0, "K3": 6.0})
+    assert combo.value == pytest.approx(model.K2 + 6.0 * model.K3, rel=1e-7)
+    assert 0 < combo.std < 1e-11
+    assert any("K2 + 6 K3" in note for note in describe(fit))
 
 
 def test_amplitudes_at_or_below_the_overload_say_nothing_of_asymmetry():
@@ -91,7 +91,7 @@ def test_amplitudes_at_or_below_the_overload_say_nothing_of_asymmetry():
     a = np.tile([1.0, 2.0, 3.0, 4.0], 2)
     y = vector_vre(model, along_ia(b), a)[0] + np.random.default_rng(2).normal(0, 1e-12, 8)
     fit = identify(b, a, y)
-    assert set(fit.unidentifiable) == {"K0_asym", "K1_asym"}
+    assert set(fit.unidentified()) == {"K0_asym", "K1_asym"}
     assert fit.combinations == ()
     assert fit.estimate["K2"] == pytest.approx(model.K2, rel=1e-6)
 
@@ -112,14 +112,14 @@ def test_vector_design_identifies_every_rectifying_term():
     y = vector_vre(model, bvec, Amp[:, 0], D)[0]
     fit = identify(bvec, Amp[:, 0], y + rng.normal(0, 1e-13, y.size), direction=D,
                    terms=VRE_TERMS)
-    assert fit.unidentifiable == ()
+    assert fit.unidentified() == ()
     for t in VRE_TERMS:
         assert fit.estimate[t] == pytest.approx(terms[t], rel=1e-4, abs=1e-10)
     # along IA alone the cross terms cannot be seen
     ia = np.all(D == [1, 0, 0], axis=1)
     fit_ia = identify(bvec[ia], Amp[ia, 0], y[ia] + rng.normal(0, 1e-13, ia.sum()),
                       terms=VRE_TERMS)
-    assert set(fit_ia.unidentifiable) == {"Koo", "Kpp", "Kio", "Kip", "Kop"}
+    assert set(fit_ia.unidentified()) == {"Koo", "Kpp", "Kio", "Kip", "Kop"}
 
 
 def test_fixed_terms_are_subtracted():
@@ -129,8 +129,10 @@ def test_fixed_terms_are_subtracted():
     y = vector_vre(model, along_ia(b), a)[0] + np.random.default_rng(3).normal(0, 1e-12, 6)
     fit = identify(b, a, y, terms=("K2", "K0_asym", "K1_asym"), fixed={"K3": model.K3})
     assert fit.estimate["K2"] == pytest.approx(model.K2, rel=1e-6)
-    assert {"coefficient": "K3", "estimate": model.K3, "std": 0.0, "unit": "g/g^3",
-            "status": "fixed"} in fit.rows()
+    assert fit.fixed == {"K3": model.K3}
+    fixed_row = {"coefficient": "K3", "estimate": model.K3, "std": 0.0, "unit": "g/g^3",
+                 "status": "fixed"}
+    assert any(fixed_row.items() <= row.items() for row in fit.rows())
 
 
 @pytest.mark.parametrize(

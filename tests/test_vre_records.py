@@ -10,8 +10,8 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 
 from accelcal import AccelcalError, default_model
-from accelcal.methods.vre import vector_vre
-from accelcal.methods.vre_records import read_vibrafuge, reduce_run, write_vibrafuge
+from accelcal.io.formats.vibrafuge import read_vibrafuge, write_vibrafuge
+from accelcal.methods.vre import reduce_run, vector_vre
 from accelcal.rigs.vibrafuge import point_sampling_bound, simulate
 
 # Every term of the default model acts (K4 and the asymmetry made large so

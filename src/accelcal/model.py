@@ -23,45 +23,19 @@ References
 .. [IEEE1293] IEEE Std 1293-2018, model equation with K4.
 """
 
-import difflib
 import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io import model_file
+from accelcal.terms import TERMS, Term, term_unit, unknown_term_message
 from accelcal.units import OUTPUT_UNITS, OutputUnit
 
+__all__ = ["TERMS", "ErrorModel", "Term", "term_unit", "unknown_term_message"]
 
-class Term(NamedTuple):
-    """Description of one coefficient of :class:`ErrorModel`."""
-
-    unit: str
-    """Unit; ``{out}`` stands for the model's output unit."""
-    description: str
-
-
-TERMS: dict[str, Term] = {
-    "K0": Term("g", "bias"),
-    "K1": Term("{out}/g", "scale factor"),
-    "K2": Term("g/g^2", "second-order nonlinearity"),
-    "K3": Term("g/g^3", "third-order nonlinearity"),
-    "K4": Term("g/g^4", "fourth-order nonlinearity"),
-    "Ko": Term("g/g", "cross-axis sensitivity, output axis"),
-    "Kp": Term("g/g", "cross-axis sensitivity, pendulum axis"),
-    "Koo": Term("g/g^2", "cross-axis nonlinearity, output axis"),
-    "Kpp": Term("g/g^2", "cross-axis nonlinearity, pendulum axis"),
-    "Kio": Term("g/g^2", "cross-coupling, input x output axis"),
-    "Kip": Term("g/g^2", "cross-coupling, input x pendulum axis"),
-    "Kop": Term("g/g^2", "cross-coupling, output x pendulum axis"),
-    "K0_asym": Term("g", "bias asymmetry K0'"),
-    "K1_asym": Term("g/g", "scale-factor asymmetry K1'"),
-    "sigma": Term("g", "output noise standard deviation"),
-}
-"""Every coefficient of the model, in the order used in files and tables.
-These names are used everywhere: Python, files and the command line."""
 
 _GUANTANG = {
     "k_i": "K1",
@@ -80,15 +54,6 @@ _GUANTANG = {
 
 _DONG2014 = ("K_F", "K_I", "K_O", "K_IO", "K_II")
 """Dong2014 eq. (5) coefficients, all in the output unit (volts)."""
-
-
-def unknown_term_message(name: str, valid) -> str:
-    """Message for an unknown coefficient name, with the closest valid names."""
-    valid = list(valid)
-    by_lower = {v.lower(): v for v in valid}
-    close = [by_lower[c] for c in difflib.get_close_matches(name.lower(), list(by_lower), n=2)]
-    hint = f" (did you mean {' or '.join(close)}?)" if close else ""
-    return f"unknown term {name!r}{hint}; valid terms are: {', '.join(valid)}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -374,36 +339,38 @@ class ErrorModel:
         }
 
     # -------------------------------------------------------------- files
-    def to_json(self) -> str:
-        """The model as the text of a model file (see :mod:`accelcal.io.model_file`)."""
-        from accelcal.io.model_file import dumps_model
+    def to_dict(self, description: str | None = None) -> dict:
+        """The model as the JSON-ready contents of a model file (:mod:`accelcal.io.model_file`)."""
+        return model_file.model_to_dict(self, description)
 
-        return dumps_model(self)
+    @classmethod
+    def from_dict(cls, data, *, source: str = "<dict>") -> "ErrorModel":
+        """Validate decoded model-file contents and build the model; errors name ``source``."""
+        coefficients, unit = model_file.validate(data, source=source)
+        try:
+            return cls.from_terms(coefficients, output_unit=unit)
+        except model_file.ModelFileError:
+            raise
+        except ValueError as exc:
+            raise model_file.ModelFileError(f"{source}: {exc}") from None
+
+    def to_json(self) -> str:
+        """The model as the text of a model file (JSON; floats round-trip exactly)."""
+        return model_file.dumps(self.to_dict())
 
     @classmethod
     def from_json(cls, text: str, *, source: str = "<string>") -> "ErrorModel":
         """Parse the text of a model file; errors name ``source``."""
-        from accelcal.io.model_file import loads_model
-
-        return loads_model(text, source=source)
+        return cls.from_dict(model_file.loads(text, source=source), source=source)
 
     def save(self, path) -> None:
         """Write the model file atomically (nothing half-written on failure)."""
-        from accelcal.io.model_file import write_model
-
-        write_model(self, path)
+        model_file.write_text(path, self.to_json())
 
     @classmethod
     def load(cls, path) -> "ErrorModel":
         """Read and validate a model file."""
-        from accelcal.io.model_file import read_model
-
-        return read_model(path)
-
-
-def term_unit(name: str, output_unit: str) -> str:
-    """Unit of term ``name`` for a model whose output is in ``output_unit``."""
-    return TERMS[name].unit.format(out=output_unit)
+        return cls.from_json(model_file.read_text(path), source=str(path))
 
 
 def _real(name: str, value) -> float:

@@ -38,17 +38,22 @@ References
 """
 
 import functools
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.limits import shown
 
 DEFAULT_BLOCK_SIZE = 4096
 DEFAULT_MAX_KEPT = 2**17
 SCHEDULER_TIMEOUT_S = 10.0
 """Seconds to wait for a Dask scheduler to answer before giving up."""
+_SCHEDULER = re.compile(
+    r"(?:(?:tcp|tls|ws|wss|ucx)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>\d{1,5})"
+)
 
 
 def block_generator(seed: int, block: int) -> np.random.Generator:
@@ -235,7 +240,8 @@ def run(
     workers : int, optional
         Start a Dask local cluster with this many worker processes.
     scheduler : str, optional
-        Address of an existing Dask scheduler (``tcp://host:8786``).
+        Address of an existing Dask scheduler: ``host:port``, or with a
+        scheme ``tcp``, ``tls``, ``ws``, ``wss`` or ``ucx`` (``tcp://host:8786``).
     progress : callable, optional
         ``progress(done, total)`` called as trials complete.
     timeout : float
@@ -249,18 +255,22 @@ def run(
     ------
     AccelcalError
         For a non-positive trial count or sizes, both ``workers`` and
-        ``scheduler``, an output of the wrong shape, Dask not installed, or
-        a scheduler that does not answer within ``timeout`` seconds.
+        ``scheduler``, a malformed ``scheduler`` address, an output of the
+        wrong shape, Dask not installed, or a scheduler that does not answer
+        within ``timeout`` seconds.
     """
     _check_positive_int("trials", trials)
     _check_positive_int("block_size", block_size)
     _check_positive_int("blocks_per_task", blocks_per_task)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise AccelcalError(f"seed {seed!r} must be a non-negative integer")
+        raise AccelcalError(f"{seed!r} must be a non-negative integer", parameter="seed")
     if workers is not None and scheduler is not None:
-        raise AccelcalError("give either --workers or --scheduler, not both")
+        raise AccelcalError("give either workers or a scheduler, not both",
+                            parameter="workers")
     if workers is not None:
         _check_positive_int("workers", workers)
+    if scheduler is not None:
+        _check_scheduler(scheduler)
     names = tuple(names)
     n_blocks = -(-trials // block_size)
     stride = max(1, -(-trials // max_kept)) if keep_samples else 0
@@ -406,6 +416,16 @@ def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
             cluster.close()
 
 
+def _check_scheduler(address) -> None:
+    """Refuse what is not a Dask scheduler address (``[tcp|tls|ws|wss|ucx://]host:port``)."""
+    match = isinstance(address, str) and _SCHEDULER.fullmatch(address)
+    if not match or not 0 < int(match["port"]) < 65536:
+        raise AccelcalError(
+            f"{shown(address)} is not a Dask scheduler address; give host:port or "
+            "tcp://host:port (e.g. tcp://10.0.0.5:8786)", parameter="scheduler",
+        )
+
+
 def _check_positive_int(name: str, value) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
-        raise AccelcalError(f"{name} must be a positive integer, got {value!r}")
+        raise AccelcalError(f"must be a positive integer, got {value!r}", parameter=name)

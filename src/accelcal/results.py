@@ -1,29 +1,52 @@
-"""Results of reductions: estimates with covariance, residuals and provenance.
+"""What a reduction found: one :class:`Reduction` type for every method.
 
-Coefficients are values and estimators are separate: every reduction returns
-an :class:`Estimate`, a frozen record of what it found, never a half-filled
-mutable object. Tables and reports are built from these, not from printed
-strings.
+Coefficients are values and estimators are separate: every reduction
+(indexing head single/four/joint/tumble, IEEE 1293 tumble, transverse
+identification, VRE identification, and every method added later) returns
+a frozen :class:`Reduction`. It holds, per sensor, an :class:`Estimate`
+(coefficients with units, covariance, residuals, degrees of freedom), the
+parameters shared by the sensors (e.g. the head's angle errors), the
+combinations a deficient design still determines, typed
+:class:`Assumption` s (fields, not sentences), and provenance. Tables, JSON,
+calibration records, figures and report sections are produced from these
+fields by one code path each (:mod:`accelcal.outputs`,
+:mod:`accelcal.calibration`, :mod:`accelcal.report.sections`), never from
+printed text.
+
+References
+----------
+.. [1] python-control ``TimeResponseData`` (one result type for every
+   simulation function, with ``to_pandas()`` and ``plot()``).
+.. [2] JCGM 100:2008 (GUM) secs. 4.2, 6.2 (standard uncertainty, degrees
+   of freedom, expanded uncertainty).
 """
 
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from accelcal.identifiability import Combination, Identifiability
+
+
+def _frozen(a) -> np.ndarray:
+    arr = np.array(a, dtype=float)
+    arr.setflags(write=False)
+    return arr
+
 
 @dataclass(frozen=True)
 class Estimate:
-    """Estimated parameters with their covariance.
+    """Estimated parameters of one sensor (or of the rig) with their covariance.
 
     Parameters
     ----------
     names : tuple of str
         Parameter names, in the order of ``values``.
     values : numpy.ndarray
-        Estimates, shape ``(p,)``.
+        Estimates, shape ``(p,)``; NaN where a parameter is not identifiable.
     covariance : numpy.ndarray
-        Covariance of the estimates, shape ``(p, p)``; NaN where a quantity
-        is not identifiable.
+        Covariance of the estimates, shape ``(p, p)``; NaN rows and columns
+        where a parameter is not identifiable.
     units : dict
         Unit of each parameter by name.
     method : str
@@ -33,9 +56,9 @@ class Estimate:
     dof : int
         Degrees of freedom of the residuals (observations minus parameters).
     notes : tuple of str
-        Caveats: unidentifiable parameters, errata applied, assumptions.
+        Caveats for people to read; no code reads them.
     provenance : dict
-        Inputs' description (file names, hashes, settings).
+        Inputs' description (settings).
     """
 
     names: tuple[str, ...]
@@ -49,19 +72,19 @@ class Estimate:
     provenance: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        values = np.asarray(self.values, dtype=float)
-        cov = np.asarray(self.covariance, dtype=float)
+        values = _frozen(self.values)
+        cov = _frozen(self.covariance)
         p = len(self.names)
         if values.shape != (p,) or cov.shape != (p, p):
             raise ValueError(
                 f"Estimate: {p} names need values of shape ({p},) and covariance ({p}, {p}); "
                 f"got {values.shape} and {cov.shape}"
             )
-        values.setflags(write=False)
-        cov.setflags(write=False)
         object.__setattr__(self, "values", values)
         object.__setattr__(self, "covariance", cov)
         object.__setattr__(self, "names", tuple(self.names))
+        if self.residuals is not None:
+            object.__setattr__(self, "residuals", _frozen(self.residuals))
 
     @property
     def std(self) -> np.ndarray:
@@ -94,73 +117,246 @@ class Estimate:
 
         return pd.DataFrame(self.rows()).set_index("coefficient")
 
+    def residual_sigma(self) -> float:
+        """Residual standard deviation ``sqrt(r'r / dof)`` (0 without residuals or dof)."""
+        if self.residuals is None or not self.dof:
+            return 0.0
+        return float(np.sqrt(np.sum(self.residuals**2) / self.dof))
 
-def least_squares(design, y, names, units, method, *, sigma=None, notes=(), provenance=None):
-    """Ordinary (or weighted) linear least squares with covariance.
 
-    Solves ``y ~ design @ x``. With ``sigma`` (known standard deviation of
-    each observation, scalar or shape ``(n,)``) the fit is weighted and the
-    covariance is ``(A' W A)^-1``; without it the residual variance
-    ``s^2 = r'r / (n - p)`` scales ``(A'A)^-1``.
+@dataclass(frozen=True)
+class Assumption:
+    """One assumption a reduction made, as a field (never parsed from text).
 
-    Parameters
+    Attributes
     ----------
-    design : array_like, shape (n, p)
-    y : array_like, shape (n,)
-    names, units, method, notes, provenance
-        Passed to :class:`Estimate`.
-    sigma : float or array_like, optional
-        Known observation standard deviations.
-
-    Returns
-    -------
-    Estimate
-
-    Raises
-    ------
-    accelcal.errors.AccelcalError
-        If the design is rank deficient (the message gives the rank) or has
-        no residual degrees of freedom when ``sigma`` is not known.
-
-    References
-    ----------
-    .. [1] Golub G. H., Van Loan C. F., Matrix Computations, 4th ed., sec. 5.3.
+    name : str
+        Machine name, e.g. ``"first_harmonic"``, ``"covariance"``,
+        ``"amplitude"``; the method's docs list the names it sets.
+    value : object
+        The value: a number, a tuple of numbers, a string or a bool.
+    unit : str
+        Unit of a numeric value ('' otherwise).
+    text : str
+        The same for people (shown in tables, records and reports).
     """
-    from accelcal.errors import AccelcalError
 
-    A = np.asarray(design, dtype=float)
-    y = np.asarray(y, dtype=float)
-    n, p = A.shape
-    if sigma is not None:
-        w = 1.0 / np.broadcast_to(np.asarray(sigma, dtype=float), (n,))
-        Aw, yw = A * w[:, None], y * w
-    else:
-        Aw, yw = A, y
-    # QR keeps the conditioning of A rather than squaring it as A'A would.
-    q, r = np.linalg.qr(Aw)
-    diag = np.abs(np.diag(r))
-    tol = diag.max(initial=0.0) * max(n, p) * np.finfo(float).eps
-    rank = int((diag > tol).sum())
-    if rank < p:
-        raise AccelcalError(
-            f"{method}: the design has rank {rank} < {p} unknowns ({', '.join(names)}); "
-            "add positions or amplitudes that separate them, or fix some terms"
-        )
-    x = np.linalg.solve(r, q.T @ yw)
-    resid = y - A @ x
-    rinv = np.linalg.inv(r)
-    cov_unit = rinv @ rinv.T
-    dof = n - p
-    if sigma is None:
-        if dof <= 0:
-            raise AccelcalError(
-                f"{method}: {n} observations for {p} unknowns leave no degrees of freedom to "
-                "estimate the noise; add observations or give the noise level"
-            )
-        cov = cov_unit * float(resid @ resid) / dof
-    else:
-        cov = cov_unit
-    return Estimate(
-        names=tuple(names), values=x, covariance=cov, units=dict(units), method=method,
-        residuals=resid, dof=dof, notes=tuple(notes), provenance=dict(provenance or {}),
-    )
+    name: str
+    value: object
+    unit: str = ""
+    text: str = ""
+
+    def as_dict(self) -> dict:
+        """JSON-ready form (tuples as lists)."""
+        value = list(self.value) if isinstance(self.value, tuple) else self.value
+        return {"name": self.name, "value": value, "unit": self.unit, "text": self.text}
+
+
+STATUSES = ("fitted", "not identifiable", "fixed")
+"""Status of a coefficient row: estimated, not separable by the design, or held fixed."""
+
+
+@dataclass(frozen=True)
+class Reduction:
+    """The result of any reduction: what the data say about each sensor.
+
+    Attributes
+    ----------
+    family : str
+        The method's package under :mod:`accelcal.methods` (``"dividing-head"``,
+        ``"tumble"``, ``"transverse"``, ``"vre"``, ...): the key of
+        :data:`accelcal.methods.REGISTRY`, which finds its figures.
+    method : str
+        The reduction's full name, as calibration records and the store
+        carry it (``"dividing-head/joint"``, ``"tumble-fourier"``,
+        ``"transverse-2w"``, ``"vre-identify"``).
+    sensors : tuple of Estimate
+        One per sensor: coefficients with units, covariance, residuals, dof.
+    sensor_names : tuple of str
+        Labels of the sensors (record-file columns, ``U1``...).
+    shared : Estimate or None
+        Parameters common to all sensors (e.g. the head's angle errors, rad).
+    covariance : numpy.ndarray or None
+        Full covariance of ``[sensor 1 coefficients, ..., shared]`` where the
+        sensors are correlated (joint reductions); None when independent.
+    dof : int
+        Degrees of freedom of the variance estimate behind the covariance
+        (0 when the noise was given, not estimated).
+    combinations : tuple of Combination
+        Estimates of the combinations of non-identifiable coefficients that
+        the design determines (with their sensor index).
+    identifiability : Identifiability or None
+        Rank, condition number, null space of the design (sensor 1's, when
+        the sensors share one design).
+    assumptions : tuple of Assumption
+        What the reduction took as given.
+    fixed : dict
+        Coefficients held at given values (name -> value), for every sensor.
+    observations : dict
+        The data the fit used, as named read-only arrays (the abscissae of
+        residual plots and the like); each method's docs list the names.
+    models : tuple
+        Per sensor, the :class:`~accelcal.model.ErrorModel` the estimates
+        define, or None where they do not define one.
+    quantities : dict
+        Overrides of :data:`accelcal.engineering.QUANTITIES` by coefficient
+        (e.g. ``{"Ko": "transverse"}`` for a shaker test).
+    nominal : dict
+        Nominal values of coefficients (name -> value) for ppm deviations.
+    provenance : dict
+        Settings and inputs (JSON-ready values).
+    notes : tuple of str
+        Further caveats for people; no code reads them.
+    """
+
+    family: str
+    method: str
+    sensors: tuple[Estimate, ...]
+    sensor_names: tuple[str, ...] = ()
+    shared: Estimate | None = None
+    covariance: np.ndarray | None = None
+    dof: int = 0
+    combinations: tuple[Combination, ...] = ()
+    identifiability: Identifiability | None = None
+    assumptions: tuple[Assumption, ...] = ()
+    fixed: dict = field(default_factory=dict)
+    observations: dict = field(default_factory=dict)
+    models: tuple = ()
+    quantities: dict = field(default_factory=dict)
+    nominal: dict = field(default_factory=dict)
+    provenance: dict = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        sensors = tuple(self.sensors)
+        if not sensors:
+            raise ValueError("Reduction: at least one sensor estimate is needed")
+        names = tuple(self.sensor_names) or tuple(f"U{k + 1}" for k in range(len(sensors)))
+        if len(names) != len(sensors):
+            raise ValueError(f"Reduction: {len(names)} sensor names for {len(sensors)} sensors")
+        object.__setattr__(self, "sensors", sensors)
+        object.__setattr__(self, "sensor_names", names)
+        if self.covariance is not None:
+            object.__setattr__(self, "covariance", _frozen(self.covariance))
+        obs = {k: (_frozen(v) if not isinstance(v, str) else v)
+               for k, v in self.observations.items()}
+        object.__setattr__(self, "observations", obs)
+        models = tuple(self.models) or (None,) * len(sensors)
+        object.__setattr__(self, "models", models)
+        for name in ("combinations", "assumptions", "notes"):
+            object.__setattr__(self, name, tuple(getattr(self, name)))
+
+    # ------------------------------------------------------------- access
+    @property
+    def n_sensors(self) -> int:
+        """Number of sensors."""
+        return len(self.sensors)
+
+    @property
+    def estimate(self) -> Estimate:
+        """The one sensor's estimate (the first sensor's when there are several)."""
+        return self.sensors[0]
+
+    def value(self, name: str, sensor: int = 0) -> float:
+        """Estimate of coefficient ``name`` of sensor ``sensor``."""
+        return self.sensors[sensor][name]
+
+    def std(self, name: str, sensor: int = 0) -> float:
+        """Standard uncertainty of coefficient ``name`` of sensor ``sensor``."""
+        return self.sensors[sensor].std_of(name)
+
+    def residuals(self) -> np.ndarray:
+        """Residuals of every sensor, stacked: shape ``(K, n)`` (data unit)."""
+        return np.stack([np.asarray(e.residuals) for e in self.sensors])
+
+    def assumption(self, name: str) -> Assumption | None:
+        """The assumption called ``name``, or None when the reduction made none."""
+        return next((a for a in self.assumptions if a.name == name), None)
+
+    def assumed(self, name: str, default=None):
+        """The value of assumption ``name`` (``default`` when absent)."""
+        a = self.assumption(name)
+        return default if a is None else a.value
+
+    def status(self, name: str, sensor: int = 0) -> str:
+        """``"fitted"``, ``"not identifiable"`` or ``"fixed"`` for one coefficient."""
+        if name in self.fixed:
+            return "fixed"
+        est = self.sensors[sensor]
+        i = est.names.index(name)
+        return "fitted" if np.isfinite(est.values[i]) else "not identifiable"
+
+    def unidentified(self, sensor: int = 0) -> tuple[str, ...]:
+        """Coefficients of ``sensor`` that the design does not determine."""
+        est = self.sensors[sensor]
+        return tuple(n for n, v in zip(est.names, est.values, strict=True) if not np.isfinite(v))
+
+    def scale_factor(self, sensor: int = 0) -> float | None:
+        """The sensor's scale factor in output unit per g (``K_I`` or ``K1``), or None.
+
+        Estimated (a finite ``K_I`` or ``K1`` coefficient) or given (the
+        ``scale_factor`` assumption).
+        """
+        est = self.sensors[sensor]
+        for name in ("K_I", "K1"):
+            if name in est.names and np.isfinite(est[name]):
+                return est[name]
+        value = self.assumed("scale_factor")
+        return float(value) if isinstance(value, int | float) else None
+
+    # ------------------------------------------------------------- outputs
+    def rows(self, *, engineering: bool = True) -> list[dict]:
+        """One row per sensor and coefficient (and per fixed coefficient).
+
+        Keys: ``sensor, coefficient, estimate, std, unit, status, dof`` and,
+        where a coefficient has engineering units (:mod:`accelcal.engineering`),
+        ``eng_estimate, eng_std, eng_unit`` (the first of them) and
+        ``engineering`` (all of them, as a list of dicts).
+        """
+        from accelcal.outputs import reduction_rows
+
+        return reduction_rows(self, engineering=engineering)
+
+    def to_frame(self):
+        """The rows as a pandas DataFrame indexed by sensor and coefficient (pandas lazily)."""
+        import pandas as pd
+
+        rows = [{k: v for k, v in r.items() if k != "engineering"} for r in self.rows()]
+        return pd.DataFrame(rows).set_index(["sensor", "coefficient"])
+
+    def to_dict(self) -> dict:
+        """Everything as JSON-ready data (NaN as None): see :func:`accelcal.outputs.to_dict`."""
+        from accelcal.outputs import to_dict
+
+        return to_dict(self)
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as JSON text."""
+        import json
+
+        return json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
+
+    def to_records(self, info, *, input_files=(), date: str | None = None) -> list:
+        """One calibration record per sensor (:func:`accelcal.calibration.records`)."""
+        from accelcal.calibration import records
+
+        return records(self, info, input_files=input_files, date=date)
+
+    def figures(self, **context) -> list:
+        """The method's figures: ``(stem, title, matplotlib figure, caption)`` tuples.
+
+        ``context`` passes what the reduction does not hold (e.g. ``truth``,
+        a simulated head error to draw beside the separated one).
+        """
+        from accelcal.methods import figures_of
+
+        return figures_of(self, **context)
+
+    def plot(self, directory, **context) -> list:
+        """Write :meth:`figures` to ``directory`` as PNG and SVG; return the paths."""
+        from accelcal.plotting import save_figure
+
+        paths = []
+        for stem, _title, fig, _caption in self.figures(**context):
+            paths += save_figure(fig, directory, stem)
+        return paths

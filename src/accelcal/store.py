@@ -21,9 +21,11 @@ References
    spread under the same conditions) and of drift.
 """
 
+import contextlib
 import hashlib
 import math
 import os
+import urllib.parse
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,6 +33,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
+from accelcal.io.limits import check_label, shown, shown_path
 
 SCHEMA_VERSION = 1
 DEFAULT_DB_ENV = "ACCELCAL_DB"
@@ -53,7 +56,71 @@ def _url(db: str | os.PathLike | None) -> str:
     if db is None:
         return default_url()
     text = os.fspath(db)
-    return text if "://" in text else f"sqlite:///{Path(text).resolve()}"
+    if "://" in text:
+        return text
+    try:
+        return f"sqlite:///{Path(text).resolve()}"
+    except (OSError, ValueError) as exc:
+        raise AccelcalError(f"the store path {shown(text)} cannot be used: {exc}") from None
+
+
+def _prepare_sqlite_file(path: Path) -> bool:
+    """Make the directory of an SQLite store; return whether the file is new.
+
+    Raises
+    ------
+    AccelcalError
+        If ``path`` is a directory or its directory cannot be made.
+    """
+    try:
+        if path.is_dir():
+            raise AccelcalError(
+                f"the records store {shown_path(path)} is a directory; give a file name")
+        new = not path.exists()
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise AccelcalError(
+            f"cannot create the records store {shown_path(path)}: {exc.strerror or exc}; "
+            "choose a writable location"
+        ) from None
+    return new
+
+
+def _exists(path: Path) -> bool:
+    """Whether an SQLite store file exists (an unusable path is refused)."""
+    try:
+        return path.exists()
+    except OSError as exc:
+        raise AccelcalError(
+            f"cannot read the records store {shown_path(path)}: {exc.strerror or exc}") from None
+
+
+def _remove_sqlite_files(path: Path) -> None:
+    """Remove an SQLite file this process created, with its journal files."""
+    for suffix in ("", "-journal", "-wal", "-shm"):
+        with contextlib.suppress(OSError):
+            os.unlink(f"{path}{suffix}")
+
+
+def _connect_readonly(path: Path):
+    """A read-only SQLite connection to ``path``.
+
+    ``mode=ro`` first; where SQLite cannot read that way because it cannot
+    create the shared-memory file of a write-ahead-logged store (read-only
+    media), ``immutable=1``: nothing can change such a store while it is read.
+    """
+    import sqlite3
+
+    uri = f"file:{urllib.parse.quote(str(path))}?mode=ro"
+    conn = sqlite3.connect(uri, uri=True, timeout=60)
+    try:
+        conn.execute("SELECT count(*) FROM sqlite_master").fetchone()
+    except sqlite3.OperationalError as exc:
+        conn.close()
+        if "readonly" not in str(exc) and "unable to open" not in str(exc):
+            raise
+        conn = sqlite3.connect(uri + "&immutable=1", uri=True, timeout=60)
+    return conn
 
 
 @dataclass(frozen=True)
@@ -100,28 +167,55 @@ class Store:
     ----------
     db : str or path-like, optional
         SQLAlchemy URL, or a path to an SQLite file; default :func:`default_url`.
+    readonly : bool
+        Only read: an SQLite file is opened read-only (``mode=ro``; on
+        read-only media, where SQLite cannot make its shared-memory file
+        beside a write-ahead-logged store, ``immutable=1``), nothing is
+        created or migrated, and a store that does not exist yet reads as
+        empty. Commands that only read (``records list``, ``history``,
+        ``stats``, ``report --history``) use it, so a store on read-only
+        media can be read.
+
+    Raises
+    ------
+    AccelcalError
+        For a malformed address, a file that is not a database, a store
+        that cannot be created or opened (its location unwritable, a full
+        disk), or one written by a newer accelcal. A new SQLite file that
+        could not be initialised is removed again.
     """
 
-    def __init__(self, db=None) -> None:
+    def __init__(self, db=None, *, readonly: bool = False) -> None:
         import sqlalchemy as sa
 
         self.url = _url(db)
+        self.readonly = readonly
+        self._absent = False
         try:
             sa.make_url(self.url)
         except (sa.exc.ArgumentError, ValueError):
             raise AccelcalError(
-                f"the store {self.url!r} is neither a database URL nor a file path; give e.g. "
-                "records.sqlite or postgresql+psycopg://user@host/db"
+                f"the store {shown(self.url)} is neither a database URL nor a file path; give "
+                "e.g. records.sqlite or postgresql+psycopg://user@host/db"
             ) from None
+        created = None
         # No connection pool: a command opens the store for a few statements,
         # and every connection is closed as soon as it is released.
         if self.url.startswith("sqlite:///"):
-            Path(self.url.removeprefix("sqlite:///")).parent.mkdir(parents=True, exist_ok=True)
-            self.engine = sa.create_engine(
-                self.url, connect_args={"timeout": 60}, poolclass=sa.pool.NullPool
-            )
-            sa.event.listen(self.engine, "connect", _sqlite_on_connect)
-            sa.event.listen(self.engine, "begin", _sqlite_on_begin)
+            path = Path(self.url.removeprefix("sqlite:///"))
+            if readonly:
+                self._absent = not _exists(path)
+                self.engine = sa.create_engine(
+                    "sqlite://", creator=lambda: _connect_readonly(path),
+                    poolclass=sa.pool.NullPool,
+                )
+            else:
+                created = path if _prepare_sqlite_file(path) else None
+                self.engine = sa.create_engine(
+                    self.url, connect_args={"timeout": 60}, poolclass=sa.pool.NullPool
+                )
+                sa.event.listen(self.engine, "connect", _sqlite_on_connect)
+                sa.event.listen(self.engine, "begin", _sqlite_on_begin)
         else:
             try:
                 self.engine = sa.create_engine(self.url, poolclass=sa.pool.NullPool)
@@ -131,12 +225,20 @@ class Store:
                     "'accelcal[postgresql]' and use postgresql+psycopg://..."
                 ) from None
         self._tables = _tables(sa)
+        if self._absent:
+            return
         try:
-            self._migrate()
-        except sa.exc.OperationalError as exc:
-            raise AccelcalError(
-                f"cannot open the records store {self._shown_url()}: {exc.orig}"
-            ) from None
+            with self._errors("open"):
+                if readonly:
+                    with self.engine.connect() as conn:
+                        self._absent = self._version(conn) == 0
+                else:
+                    self._migrate()
+        except AccelcalError:
+            self.engine.dispose()
+            if created is not None:
+                _remove_sqlite_files(created)
+            raise
 
     def close(self) -> None:
         """Release the database engine."""
@@ -151,7 +253,37 @@ class Store:
     def _shown_url(self) -> str:
         import sqlalchemy as sa
 
-        return sa.make_url(self.url).render_as_string(hide_password=True)
+        return shown_path(sa.make_url(self.url).render_as_string(hide_password=True))
+
+    @contextlib.contextmanager
+    def _errors(self, action: str):
+        """Turn a database failure into an AccelcalError naming the store (one line)."""
+        import sqlalchemy as sa
+
+        try:
+            yield
+        except sa.exc.IntegrityError:
+            raise
+        except sa.exc.DBAPIError as exc:
+            reason = " ".join(str(exc.orig).split()) or type(exc.orig).__name__
+            raise AccelcalError(
+                f"cannot {action} the records store {self._shown_url()}: {reason}"
+            ) from None
+
+    def _version(self, conn) -> int:
+        """The schema version of the store (0 for none); refuses a newer one."""
+        import sqlalchemy as sa
+
+        if not sa.inspect(conn).has_table("schema_info"):
+            return 0
+        info = self._tables["schema_info"]
+        version = conn.execute(sa.select(info.c.version)).scalar_one_or_none() or 0
+        if version > SCHEMA_VERSION:
+            raise AccelcalError(
+                f"the records store {self._shown_url()} has schema version {version}, "
+                f"newer than this accelcal ({SCHEMA_VERSION}); upgrade accelcal"
+            )
+        return version
 
     def _migrate(self) -> None:
         import sqlalchemy as sa
@@ -161,27 +293,25 @@ class Store:
             if conn.dialect.name == "postgresql":
                 # Serialise concurrent first opens of the same database.
                 conn.execute(sa.text("SELECT pg_advisory_xact_lock(1293836)"))
-            if not sa.inspect(conn).has_table("schema_info"):
-                version = 0
-            else:
-                version = conn.execute(sa.select(info.c.version)).scalar_one_or_none() or 0
-            if version > SCHEMA_VERSION:
-                raise AccelcalError(
-                    f"the records store {self._shown_url()} has schema version {version}, "
-                    f"newer than this accelcal ({SCHEMA_VERSION}); upgrade accelcal"
-                )
-            for target in range(version + 1, SCHEMA_VERSION + 1):
+            for target in range(self._version(conn) + 1, SCHEMA_VERSION + 1):
                 _MIGRATIONS[target](conn, meta)
                 conn.execute(sa.delete(info))
                 conn.execute(sa.insert(info).values(version=target))
 
+    def _select(self, query) -> list[dict]:
+        """The rows of a read query (none from a store that does not exist yet)."""
+        if self._absent:
+            return []
+        with self._errors("read"), self.engine.connect() as conn:
+            return [dict(r) for r in conn.execute(query).mappings().all()]
+
     @property
     def schema_version(self) -> int:
-        """The store's schema version."""
+        """The store's schema version (0 for a store that does not exist yet)."""
         import sqlalchemy as sa
 
-        with self.engine.connect() as conn:
-            return conn.execute(sa.select(self._tables["schema_info"].c.version)).scalar_one()
+        rows = self._select(sa.select(self._tables["schema_info"].c.version))
+        return rows[0]["version"] if rows else 0
 
     def add(self, record: CalibrationRecord) -> int:
         """Add a record in one transaction; return its id.
@@ -196,8 +326,11 @@ class Store:
         text = record.to_json()
         uid = hashlib.sha256(text.encode()).hexdigest()
         cal, coef = self._tables["calibrations"], self._tables["coefficients"]
+        if self.readonly:
+            raise AccelcalError("this store was opened read-only (readonly=True); it cannot add "
+                                "records")
         try:
-            with self.engine.begin() as conn:
+            with self._errors("write to"), self.engine.begin() as conn:
                 row_id = conn.execute(
                     sa.insert(cal).values(
                         uid=uid, serial=record.serial, method=record.method,
@@ -223,23 +356,19 @@ class Store:
         cal = self._tables["calibrations"]
         query = sa.select(cal.c.id, cal.c.serial, cal.c.method, cal.c.date, cal.c.software)
         if serial is not None:
-            query = query.where(cal.c.serial == serial)
-        with self.engine.connect() as conn:
-            rows = conn.execute(query.order_by(cal.c.date, cal.c.id)).mappings().all()
-        return [dict(r) for r in rows]
+            query = query.where(cal.c.serial == check_label(serial, "serial number"))
+        return self._select(query.order_by(cal.c.date, cal.c.id))
 
     def record(self, record_id: int) -> CalibrationRecord:
         """The full record with id ``record_id``."""
         import sqlalchemy as sa
 
         cal = self._tables["calibrations"]
-        with self.engine.connect() as conn:
-            text = conn.execute(
-                sa.select(cal.c.record_json).where(cal.c.id == record_id)
-            ).scalar_one_or_none()
-        if text is None:
+        rows = self._select(sa.select(cal.c.record_json).where(cal.c.id == record_id))
+        if not rows:
             raise AccelcalError(f"no record with id {record_id} in the store")
-        return CalibrationRecord.from_json(text, source=f"store record {record_id}")
+        return CalibrationRecord.from_json(rows[0]["record_json"],
+                                           source=f"store record {record_id}")
 
     def history(self, serial: str, method: str | None = None) -> list[dict]:
         """Every coefficient of every calibration of ``serial``, oldest first.
@@ -257,6 +386,9 @@ class Store:
         """
         import sqlalchemy as sa
 
+        check_label(serial, "serial number")
+        if method is not None:
+            check_label(method, "method")
         cal, coef = self._tables["calibrations"], self._tables["coefficients"]
         query = (
             sa.select(cal.c.id, cal.c.date, cal.c.method, coef.c.name, coef.c.unit,
@@ -267,8 +399,7 @@ class Store:
         )
         if method is not None:
             query = query.where(cal.c.method == method)
-        with self.engine.connect() as conn:
-            rows = [dict(r) for r in conn.execute(query).mappings().all()]
+        rows = self._select(query)
         if not rows:
             by = f" by method {method!r}" if method is not None else ""
             raise AccelcalError(

@@ -50,11 +50,11 @@ from accelcal.errors import AccelcalError
 from accelcal.montecarlo import run
 
 UNCERTAINTY_KINDS = ("formal", "mc")
-"""``--uncertainty`` choices: formal (least-squares covariance) or mc (GUM-S1)."""
+"""Uncertainty kinds: formal (least-squares covariance) or mc (GUM-S1)."""
 
 
 def check_options(kind: str, trials: int, seed: int) -> None:
-    """Check ``--uncertainty``, ``--trials`` and ``--seed``.
+    """Check the ``kind`` of uncertainty, ``trials`` and ``seed``.
 
     Raises
     ------
@@ -64,12 +64,14 @@ def check_options(kind: str, trials: int, seed: int) -> None:
     """
     if kind not in UNCERTAINTY_KINDS:
         raise AccelcalError(
-            f"--uncertainty {kind!r} is unknown; choose one of {', '.join(UNCERTAINTY_KINDS)}"
+            f"{kind!r} is unknown; choose one of {', '.join(UNCERTAINTY_KINDS)}",
+            parameter="uncertainty",
         )
     if isinstance(trials, bool) or not isinstance(trials, (int, np.integer)) or trials <= 0:
-        raise AccelcalError(f"--trials {trials!r} must be a positive integer (e.g. 10000)")
+        raise AccelcalError(f"{trials!r} must be a positive integer (e.g. 10000)",
+                            parameter="trials")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise AccelcalError(f"--seed {seed!r} must be a non-negative integer")
+        raise AccelcalError(f"{seed!r} must be a non-negative integer", parameter="seed")
 
 
 def interval_keys(coverage: float) -> tuple[str, str]:

@@ -9,6 +9,13 @@ their functions so that ``accelcal --help`` starts quickly.
 
 import sys
 
+OPTION_NAMES: dict[str, str] = {
+    "rotation_axis": "--axis",  # accelcal tumble
+    "angles_rad": "--angles",  # accelcal tumble identify
+}
+"""Library parameter -> command-line option, where the option is not ``--`` plus the
+parameter's name with ``-`` for ``_`` (see :meth:`accelcal.errors.AccelcalError.message_for`)."""
+
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``accelcal`` console script."""
@@ -21,7 +28,7 @@ def main(argv: list[str] | None = None) -> None:
     try:
         code = command.main(args=argv, prog_name="accelcal", standalone_mode=False)
     except AccelcalError as exc:
-        _die(str(exc))
+        _die(exc.message_for(OPTION_NAMES))
     except (KeyboardInterrupt, typer.Abort):
         print("accelcal: aborted", file=sys.stderr)
         sys.exit(130)

@@ -13,8 +13,14 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
+from accelcal.io.limits import shown
 
 FORMATS = ("table", "csv", "json")
+
+MAX_GRID_VALUES = 100_000
+"""Most values a list or range option may give: far more rows than a table is
+read for, yet evaluated and printed in seconds by every command that takes a
+grid; a range such as 0:1e12:1 would never end."""
 
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _RANGE = re.compile(rf"^\s*({_NUMBER})\s*:\s*({_NUMBER})\s*:\s*({_NUMBER})\s*$")
@@ -42,12 +48,13 @@ def parse_grid(text: str, what: str) -> list[float]:
     ------
     AccelcalError
         For an empty list, a malformed item, a zero step, a step pointing away
-        from ``stop``, or a non-finite value; the message names ``what``.
+        from ``stop``, a non-finite value, or more than :data:`MAX_GRID_VALUES`
+        values; the message names ``what``.
     """
     items = [item.strip() for item in text.split(",")]
     if not text.strip() or any(not item for item in items):
         raise AccelcalError(
-            f"{what}: {text!r} is empty or has an empty item; give numbers or "
+            f"{what}: {shown(text)} is empty or has an empty item; give numbers or "
             "start:stop:step ranges separated by commas"
         )
     values: list[float] = []
@@ -58,7 +65,7 @@ def parse_grid(text: str, what: str) -> list[float]:
         match = _RANGE.match(item)
         if not match:
             raise AccelcalError(f"{what}: {item!r} is not a range start:stop:step (e.g. 5:10:1)")
-        start, stop, step = (float(g) for g in match.groups())
+        start, stop, step = (parse_number(g, f"{what}: range {item!r}") for g in match.groups())
         if step == 0.0:
             raise AccelcalError(f"{what}: range {item!r} has a zero step")
         span = (stop - start) / step
@@ -66,17 +73,25 @@ def parse_grid(text: str, what: str) -> list[float]:
             raise AccelcalError(
                 f"{what}: range {item!r} is empty (the step goes away from stop)"
             )
-        count = math.floor(span + 1e-9) + 1
+        count = math.floor(span + 1e-9) + 1 if math.isfinite(span) else math.inf
+        if count > MAX_GRID_VALUES - len(values):
+            raise AccelcalError(
+                f"{what}: range {shown(item)} gives {count:,} values; at most "
+                f"{MAX_GRID_VALUES:,} are allowed, give a larger step"
+            )
         values.extend(start + k * step for k in range(count))
+    if len(values) > MAX_GRID_VALUES:
+        raise AccelcalError(
+            f"{what}: {len(values):,} values; at most {MAX_GRID_VALUES:,} are allowed")
     return values
 
 
 def load_model(path: Path | None):
     """The model in ``path``, or the embedded default when ``path`` is None."""
     from accelcal.defaults import default_model
-    from accelcal.io.model_file import read_model
+    from accelcal.model import ErrorModel
 
-    return default_model() if path is None else read_model(path)
+    return default_model() if path is None else ErrorModel.load(path)
 
 
 def check_format(fmt: str) -> str:
@@ -95,17 +110,21 @@ def render(
 ) -> str:
     """Render rows (dicts with the same keys) as CSV, JSON or a readable table.
 
-    CSV and JSON keep full precision (shortest round-trip repr); the table
-    shows 7 significant digits. A NaN (a quantity that could not be
-    determined) is ``null`` in JSON, ``nan`` in CSV and ``n/a`` in the table.
+    CSV and JSON keep full precision (shortest round-trip repr). The table
+    shows 7 significant digits, except that a value with a standard
+    uncertainty beside it (``estimate`` and ``std``, ``eng_estimate`` and
+    ``eng_std``) keeps every digit down to a tenth of that uncertainty
+    (:func:`accelcal.formatting.format_value`). A NaN (a quantity that could
+    not be determined) is ``null`` in JSON, ``nan`` in CSV and ``n/a`` in the
+    table. A list-valued column (``engineering``) is kept in JSON only.
     ``headers`` relabels columns in the table only (e.g. to add units); CSV
     and JSON keys stay machine names.
     """
     check_format(fmt)
-    columns = list(rows[0]) if rows else []
     if fmt == "json":
-        rows_json = [{k: _plain(v) for k, v in r.items()} for r in rows]
+        rows_json = [{k: _json_value(v) for k, v in r.items()} for r in rows]
         return json.dumps(rows_json, indent=2, allow_nan=False) + "\n"
+    columns = [c for c in (rows[0] if rows else []) if not isinstance(rows[0][c], list)]
     if fmt == "csv":
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
@@ -120,7 +139,7 @@ def render(
     for c in columns:
         table.add_column((headers or {}).get(c, c), justify="right")
     for r in rows:
-        table.add_row(*[_table_cell(r[c]) for c in columns])
+        table.add_row(*[_table_cell(r[c], r.get(_STD_OF.get(c, ""))) for c in columns])
     buf = io.StringIO()
     Console(file=buf, width=200, force_terminal=False, color_system=None).print(table)
     return buf.getvalue()
@@ -146,10 +165,26 @@ def _csv_cell(value) -> str:
     return repr(value) if isinstance(value, float) else str(value)
 
 
-def _table_cell(value) -> str:
+_STD_OF = {"estimate": "std", "eng_estimate": "eng_std"}
+
+
+def _json_value(value):
+    if isinstance(value, list):
+        return [_json_value(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _json_value(v) for k, v in value.items()}
+    return _plain(value)
+
+
+def _table_cell(value, std=None) -> str:
+    from accelcal.formatting import format_value
+
     value = _plain(value)
     if value is None:
         return "n/a"
     if isinstance(value, float):
+        std = _plain(std)
+        if isinstance(std, float) and std > 0:
+            return format_value(value, std)
         return f"{value:.7g}"
     return str(value)

@@ -21,7 +21,6 @@ app = typer.Typer(
 _ANGLE_UNITS = {"arcsec": "ARCSEC", "as": "ARCSEC", "urad": 1e-6, "mrad": 1e-3, "rad": 1.0,
                 "deg": "DEG"}
 _HARMONIC = re.compile(r"^\s*(\d+)\s*([cs])\s*=\s*(.+)$")
-_METHODS = ("single", "four", "joint", "tumble")
 
 _POSITIONS = typer.Option(24, "--positions", help="Number of equally spaced head positions.")
 _MOUNTS = typer.Option(
@@ -184,7 +183,7 @@ def simulate_cmd(
 
     import numpy as np
 
-    from accelcal.io.dividing_head import write_head_record
+    from accelcal.io.formats.dividing_head import write_head_record
     from accelcal.rigs.dividing_head import simulate
     from accelcal.units import ARCSEC
 
@@ -264,66 +263,44 @@ def reduce_cmd(
     ),
 ) -> None:
     """Reduce a record: estimate and standard uncertainty of each coefficient (volts)."""
-    from accelcal.io.dividing_head import read_head_record
-    from accelcal.methods.dividing_head import reduce
+    from accelcal.io.formats.dividing_head import read_head_record
+    from accelcal.methods.dividing_head import HeadData, options_from_record, reduce
 
     check_format(fmt)
     monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
     level = 0.0 if angle_error_level is None else _angle(
         angle_error_level, "--angle-error-level", "arcsec")
-    if angle_error_level is not None and not (monte_carlo and level >= 0):
-        raise AccelcalError("--angle-error-level is a bound >= 0 used with --uncertainty mc")
-    if monte_carlo and method == "tumble":
-        raise AccelcalError("--uncertainty mc is available for methods single, four and joint")
-    if method not in _METHODS:
-        raise AccelcalError(f"--method {method!r} is unknown; choose one of {', '.join(_METHODS)}")
+    if angle_error_level is not None and not monte_carlo:
+        raise AccelcalError("--angle-error-level is a bound used with --uncertainty mc")
     record = read_head_record(file)
-    data = record.data()
+    data = HeadData.from_record(record)
     info = record_options.lab_info_for(record_out, [file], serial=serial, operator=operator,
                                        sensors=len(record.sensors))
-    h1 = _pair(first_harmonic, "--first-harmonic") if first_harmonic is not None else (
-        None if record.first_harmonic is None else tuple(record.first_harmonic))
-    sd = first_harmonic_sd if first_harmonic_sd is not None else (
-        record.first_harmonic_sd if first_harmonic is None and h1 is not None else 0.0)
-    options = {}
-    if method in ("four", "joint"):
-        options = {"first_harmonic": h1, "first_harmonic_sd": sd}
-    elif first_harmonic is not None or first_harmonic_sd is not None:
-        raise AccelcalError(f"--method {method} does not use --first-harmonic")
-    if method == "joint":
-        options["gauss_newton"] = gauss_newton
-        if record.autocollimator is not None:
-            options["autocollimator"] = record.autocollimator
-            options["autocollimator_sd"] = record.autocollimator_sd
-    elif gauss_newton:
-        raise AccelcalError("--gauss-newton applies to --method joint only")
-    if covariance is not None:
-        if method != "four":
-            raise AccelcalError("--covariance applies to --method four only")
-        options["covariance"] = covariance
+    options = options_from_record(record, method)  # the file's first harmonic and readings
+    if first_harmonic is not None:  # given: replaces the file's value and its uncertainty
+        options["first_harmonic"] = _pair(first_harmonic, "--first-harmonic")
+        options.pop("first_harmonic_sd", None)
+    if first_harmonic_sd is not None:
+        options["first_harmonic_sd"] = first_harmonic_sd
+    options.update(covariance=covariance, gauss_newton=gauss_newton or None)
     result = reduce(data, method, **options)
-    rows = result.rows(list(record.sensors))
+    rows = result.rows()
     if monte_carlo:
-        from accelcal.methods.dividing_head_mc import head_uncertainty
+        from accelcal.methods.dividing_head import head_uncertainty
 
         with uncertainty_options.progress_bar() as progress:
             mc = head_uncertainty(
                 data, result, trials=trials, seed=seed, angle_error_level=level,
                 first_harmonic=options.get("first_harmonic"),
                 first_harmonic_sd=options.get("first_harmonic_sd", 0.0),
-                autocollimator_sd=options.get("autocollimator_sd"),
-                sensor_names=list(record.sensors), progress=progress)
+                autocollimator_sd=options.get("autocollimator_sd"), progress=progress)
         rows = uncertainty_options.merge(rows, mc)
     if plot is not None:
-        from accelcal.plotting.dividing_head import plot_reduction
-
-        plot_reduction(result, plot, sensor_names=record.sensors,
-                       positions=record.positions, truth=_true_angle_error(record))
+        result.plot(plot, truth=_true_angle_error(record))
     if info is not None:
-        from accelcal.calibration import head_records, save_records
+        from accelcal.calibration import save_records
 
-        cal = head_records(result, info, sensor_names=record.sensors, input_files=[file])
-        for p in save_records(cal, record_out):
+        for p in save_records(result.to_records(info, input_files=[file]), record_out):
             typer.echo(f"wrote {p}", err=True)
     emit(rows, fmt,
          title=f"{file}: method {method} (coefficients in {record.output_unit}, "
@@ -383,19 +360,9 @@ def study_cmd(
     bit-identical with or without --workers or --scheduler and for any --chunk.
     """
     from accelcal.cli.progress import DelayedProgress
-    from accelcal.methods.dividing_head_study import run_study
+    from accelcal.methods.dividing_head import run_study
 
     check_format(fmt)
-    if trials < 2:
-        raise AccelcalError(f"--trials {trials}: give at least 2 trials")
-    if chunk is not None and chunk < 1:
-        raise AccelcalError(f"--chunk {chunk} must be a positive number of trials")
-    if workers is not None and workers < 1:
-        raise AccelcalError(f"--workers {workers} must be a positive number of processes")
-    if workers is not None and scheduler is not None:
-        raise AccelcalError("give either --workers or --scheduler, not both")
-    if not timeout > 0:
-        raise AccelcalError(f"--timeout {timeout} must be a positive number of seconds")
     rig = _rig(positions=positions, mounts=mounts, angle_error=angle_error,
                first_harmonic=first_harmonic, noise=noise, eta=eta, models=model,
                repeats=repeats)

@@ -23,10 +23,10 @@ _METHOD_HELP = ("Only calibrations by this method, as 'records list' shows it "
                 "(e.g. dividing-head/joint).")
 
 
-def _store(db: str | None):
+def _store(db: str | None, *, readonly: bool = False):
     from accelcal.store import Store
 
-    return Store(db)
+    return Store(db, readonly=readonly)
 
 
 @app.command("add")
@@ -54,7 +54,7 @@ def list_(
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
 ) -> None:
     """List stored calibrations, oldest first."""
-    with _store(db) as store:
+    with _store(db, readonly=True) as store:
         rows = store.calibrations(serial)
     if not rows and fmt == "table":
         typer.echo("the store holds no calibration" + (f" of {serial}" if serial else ""))
@@ -73,7 +73,7 @@ def history(
     ),
 ) -> None:
     """Every coefficient of every calibration of SERIAL (estimate and standard uncertainty)."""
-    with _store(db) as store:
+    with _store(db, readonly=True) as store:
         rows = store.history(serial, method)
     emit(rows, fmt, title=f"Coefficient history of {serial}")
     if plot is not None:
@@ -94,7 +94,7 @@ def stats(
     """Repeatability (run-to-run SD) and drift (slope per year) of each coefficient, per method."""
     from dataclasses import asdict
 
-    with _store(db) as store:
+    with _store(db, readonly=True) as store:
         rows = [asdict(s) for s in store.stats(serial, method)]
     emit(rows, fmt, title=f"Repeatability and drift of {serial}")
 

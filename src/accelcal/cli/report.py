@@ -30,7 +30,7 @@ def report(
         from accelcal.report.sections import history_section
         from accelcal.store import Store
 
-        with Store(db) as store:
+        with Store(db, readonly=True) as store:
             for serial, method in dict.fromkeys((r.serial, r.method) for r in loaded):
                 section = history_section(store, serial, method=method)
                 if section is not None:

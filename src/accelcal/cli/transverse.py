@@ -73,7 +73,7 @@ def _output(sweeps, fmt: str, summary: bool, title: str) -> None:
 
 
 def _plot(sweeps, directory, linear=None, stem="transverse_polar") -> None:
-    from accelcal.plotting.transverse import save_polar
+    from accelcal.methods.transverse import save_polar
 
     paths = save_polar(sweeps, directory, linear=linear, stem=stem,
                        title=f"Transverse sensitivity ({sweeps[0].estimator})")
@@ -116,19 +116,10 @@ def sweep_cmd(
     """
     import numpy as np
 
-    from accelcal.methods.transverse import (
-        AXIAL_DEFINITIONS,
-        ESTIMATORS,
-        axial_sensitivity,
-        sweep,
-    )
+    from accelcal.methods.transverse import axial_sensitivity, sweep
     from accelcal.rigs.shaker import LinearModel
 
     check_format(fmt)
-    if estimator not in ESTIMATORS:
-        raise AccelcalError(f"--estimator {estimator!r} is not one of {', '.join(ESTIMATORS)}")
-    if axial not in AXIAL_DEFINITIONS:
-        raise AccelcalError(f"--axial {axial!r} is not one of {', '.join(AXIAL_DEFINITIONS)}")
     sensor = _sensor(model_file, paper, linear)
     theta = _angles(angles)
     amps = _amplitudes(amplitude)
@@ -187,8 +178,9 @@ def simulate_cmd(
     """Simulate shaker records and write them as 'shaker' record files."""
     import numpy as np
 
+    from accelcal.io.formats.shaker import write_records
     from accelcal.methods.transverse import axial_sensitivity
-    from accelcal.rigs.shaker import ShakerRig, write_records
+    from accelcal.rigs.shaker import ShakerRig
 
     sensor = _sensor(model_file, paper, linear)
     theta = _angles(angles)
@@ -210,7 +202,7 @@ def simulate_cmd(
 
 
 def _read(data: Path):
-    from accelcal.rigs.shaker import read_records
+    from accelcal.io.formats.shaker import read_records
 
     return read_records(data)
 
@@ -235,21 +227,19 @@ def analyze_cmd(
 ) -> None:
     """Transverse sensitivity from records: sT per angle (amplitude_g, angle_deg, sT, sT_rel)."""
     from accelcal.methods.transverse import (
-        AXIAL_DEFINITIONS,
         estimate_sT,
+        records_axial_sensitivity,
         with_fitted_frequency,
     )
 
     check_format(fmt)
-    if axial not in AXIAL_DEFINITIONS:
-        raise AccelcalError(f"--axial {axial!r} is not one of {', '.join(AXIAL_DEFINITIONS)}")
     sweeps = []
     for rec in _read(data):
         if fit_frequency:
             rec = with_fitted_frequency(rec)  # noqa: PLW2901
         s_I = axial_sensitivity
         if s_I is None:
-            s_I = rec.metadata.get("axial_sensitivity", {}).get(axial)
+            s_I = records_axial_sensitivity(rec, axial)
         if s_I is None:
             raise AccelcalError(
                 f"{data}: the records give no axial sensitivity ({axial}); pass "
@@ -296,18 +286,18 @@ def fit_cmd(
     ),
 ) -> None:
     """Identify k_o, k_p, k_oo, k_pp, k_op (g/g^n) with standard uncertainties."""
-    from accelcal.io.model_file import read_model
     from accelcal.methods.transverse import identify, with_fitted_frequency
+    from accelcal.model import ErrorModel
 
     check_format(fmt)
     monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
     reference_sd = uncertainty_options.relative(
         reference_uncertainty, "--reference-uncertainty", monte_carlo)
     names = [t.strip() for t in terms.split(",") if t.strip()]
-    base = read_model(model_file) if model_file is not None else None
+    base = ErrorModel.load(model_file) if model_file is not None else None
     info = None
     if record_out is not None or serial is not None or operator is not None:
-        from accelcal.calibration import shaker_files
+        from accelcal.io.formats.shaker import shaker_files
 
         inputs = shaker_files(data)
         files = [f for group in inputs.values() for f in group]
@@ -317,27 +307,22 @@ def fit_cmd(
     for rec in _read(data):
         if fit_frequency:
             rec = with_fitted_frequency(rec)  # noqa: PLW2901
-        if rec.theta.size < 3:
-            raise AccelcalError(
-                f"{data}: {rec.theta.size} angle(s) at {rec.amplitude:g} g; a fit needs at "
-                "least 3 distinct direction angles")
-        est = identify(rec, route=route, terms=names, base=base, scale_factor=scale_factor)
-        est_rows = [{"amplitude_g": rec.amplitude, **r, "method": est.method}
-                    for r in est.rows()]
+        red = identify(rec, route=route, terms=names, base=base, scale_factor=scale_factor)
+        red_rows = [{"amplitude_g": rec.amplitude, **r, "method": red.method}
+                    for r in red.rows()]
         if monte_carlo:
-            from accelcal.methods.transverse_mc import transverse_uncertainty
+            from accelcal.methods.transverse import transverse_uncertainty
 
             with uncertainty_options.progress_bar() as progress:
-                mc = transverse_uncertainty(
-                    rec, est, route=route, base=base, scale_factor=scale_factor, trials=trials,
-                    seed=seed, reference_sd=reference_sd, progress=progress)
-            est_rows = uncertainty_options.merge(est_rows, mc)
-        rows += est_rows
+                mc = transverse_uncertainty(rec, red, trials=trials, seed=seed,
+                                            reference_sd=reference_sd, progress=progress)
+            fitted = len(red.estimate.names)  # the fixed terms' rows follow, without MC columns
+            held = dict.fromkeys(mc.columns(0), float("nan"))
+            red_rows = (uncertainty_options.merge(red_rows[:fitted], mc)
+                        + [{**r, **held} for r in red_rows[fitted:]])
+        rows += red_rows
         if info is not None:
-            from accelcal.calibration import transverse_record
-
-            cal.append(transverse_record(est, info, amplitude=rec.amplitude,
-                                         input_files=inputs[rec.amplitude]))
+            cal += red.to_records(info, input_files=inputs[rec.amplitude])
     if info is not None:
         from accelcal.calibration import save_records
 

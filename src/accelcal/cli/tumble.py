@@ -15,9 +15,6 @@ app = typer.Typer(
     no_args_is_help=True,
 )
 
-KIND = "tumble"
-"""Record kind of tumble files (see docs/tumble.md)."""
-
 _AXIS_HELP = (
     "Rotation axis: OA (a_i = cos theta, a_p = sin theta) or PA "
     "(a_i = sin theta, a_o = cos theta, the indexing head)."
@@ -88,7 +85,7 @@ def identify(
             "condition_number": _finite(report.condition_number),
             "condition_number_identifiable": _finite(report.condition_number_identifiable),
             "terms": report.rows(),
-            "combinations": [c.label for c in report.combinations],
+            "combinations": list(report.labels()),
             "suggested_terms": list(report.suggested_terms),
         }
         typer.echo(json.dumps(doc, indent=2))
@@ -120,30 +117,16 @@ def simulate(
     """Write a simulated tumble record (true model and noise in its metadata)."""
     import numpy as np
 
-    from accelcal.io.records import write_record
-    from accelcal.methods.tumble import specific_force
+    from accelcal.io.formats import tumble as tumble_format
+    from accelcal.rigs.tumble import simulate as simulate_tumble
 
     model = load_model(model_file)
-    if points < 1 or repeats < 1:
-        raise AccelcalError("--points and --repeats must be at least 1")
-    if noise is None:
-        noise = model.sigma * abs(model.K1)
-    if not np.isfinite(noise) or noise < 0:
-        raise AccelcalError(f"--noise {noise} must be a finite SD >= 0 (output unit)")
-    model = model.replace(sigma=noise / abs(model.K1))
-    deg = np.repeat(start + 360.0 * np.arange(points) / points, repeats)
-    a_i, a_o, a_p = specific_force(np.radians(deg), axis)
-    output = model.output(a_i, a_o, a_p, rng=np.random.default_rng(seed))
-    unit = model.output_unit
-    meta = {
-        "units": {"angle": "deg", "output": unit},
-        "rotation_axis": axis,
-        "output_unit": unit,
-        "noise_sd": noise,
-        "seed": seed,
-        "true_model": model.terms(),
-    }
-    write_record(out, KIND, meta, {"angle": deg, "output": output})
+    if points < 1:
+        raise AccelcalError(f"--points {points} must be at least 1")
+    positions = np.radians(start + 360.0 * np.arange(points) / points)
+    record = simulate_tumble(positions, model, rotation_axis=axis, noise=noise,
+                             repeats=repeats, seed=seed)
+    tumble_format.write(out, record)
     typer.echo(f"wrote {out}")
 
 
@@ -169,51 +152,29 @@ def reduce(
     """Reduce a tumble record: estimate and standard uncertainty of each coefficient."""
     import sys
 
-    import numpy as np
-
-    from accelcal.io.records import read_record
-    from accelcal.methods.tumble import reduce_tumble
+    from accelcal.io.formats import tumble as tumble_format
+    from accelcal.methods.tumble import combination_label, reduce_tumble
 
     check_format(fmt)
-    meta, cols = read_record(
-        file,
-        KIND,
-        required_metadata=("rotation_axis", "output_unit"),
-        required_columns=("angle", "output"),
-    )
-    angles, repeats, outputs = _group(file, cols["angle"], cols["output"])
+    record = tumble_format.read(file)
+    repeats = record.repeats
     result = reduce_tumble(
-        np.radians(angles),
-        outputs if repeats > 1 else outputs[:, 0],
-        rotation_axis=meta["rotation_axis"],
-        output_unit=meta["output_unit"],
+        record.angles_rad,
+        record.outputs if repeats > 1 else record.outputs[:, 0],
+        rotation_axis=record.rotation_axis,
+        output_unit=record.output_unit,
         terms=_terms(terms),
         route=route,
         sigma=sigma,
         repeats=repeats > 1,
     )
-    est = result.estimate
-    emit(est.rows(), fmt, title=f"Tumble reduction ({result.route}), {file}")
+    route_used = result.assumed("route")
+    emit(result.rows(), fmt, title=f"Tumble reduction ({route_used}), {file}")
     lines = [
-        f"combination {c.combination.label} = {float(c.value):.10g} +- {float(c.std):.3g} "
-        f"{meta['output_unit']}"
+        f"combination {combination_label(c)} = {c.value:.10g} +- {c.std:.3g} {c.unit}"
         for c in result.combinations
     ]
-    lines += [f"note: {n}" for n in est.notes]
+    lines += [f"note: {n}" for n in result.estimate.notes]
     stream = sys.stdout if fmt == "table" else sys.stderr
     for line in lines:
         print(line, file=stream)
-
-
-def _group(path, angle_deg, output):
-    """Rows with the same angle are repeated readings: (angles, R, outputs (N, R))."""
-    import numpy as np
-
-    angles, inverse, counts = np.unique(angle_deg, return_inverse=True, return_counts=True)
-    if counts.min() != counts.max():
-        raise AccelcalError(
-            f"{path}: positions have different numbers of repeated readings "
-            f"({counts.min()} to {counts.max()}); give the same number at every angle"
-        )
-    order = np.argsort(inverse, kind="stable")
-    return angles, int(counts[0]), output[order].reshape(angles.size, int(counts[0]))

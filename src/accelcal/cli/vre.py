@@ -54,8 +54,6 @@ def table(
     check_format(fmt)
     overrides = {k: v for k, v in (("K2", K2), ("K3", K3), ("K4", K4), ("K0_asym", K0_asym),
                                    ("K1_asym", K1_asym)) if v is not None}
-    for name, value in overrides.items():
-        parse_number(repr(value), f"--{name.replace('_asym', '-asym')}")
     model = load_model(model_file).replace(**overrides)
     result = vre_table(model, parse_grid(overload, "--overload"), _amplitudes(amplitude))
     rows = result.rows()
@@ -63,10 +61,12 @@ def table(
         rows = [{k: (None if math.isnan(v) else v) for k, v in r.items()} for r in rows]
     paths = []
     if plot is not None:
-        from accelcal.plotting.vre import plot_vre_table
+        from accelcal.methods.vre import table_figures
+        from accelcal.plotting import save_figure
 
         try:
-            paths = plot_vre_table(result, plot)
+            for stem, _title, fig, _caption in table_figures(result):
+                paths += save_figure(fig, plot, stem)
         except OSError as exc:
             raise AccelcalError(f"--plot {plot}: cannot write the figures ({exc})") from None
     emit(rows, fmt, title="Vibration rectification error (Guan2021 eqs. 9, 21, 23, 25)",
@@ -82,15 +82,6 @@ def _amplitudes(text: str) -> list[float]:
     if negative:
         raise AccelcalError(
             f"--amplitude {negative[0]:g} g is negative; a vibration amplitude is >= 0"
-        )
-    return values
-
-
-def _direction(text: str):
-    values = parse_grid(text, "--direction")
-    if len(values) != 3:
-        raise AccelcalError(
-            f"--direction {text!r} must be 3 components IA,OA,PA (e.g. 1,0,0)"
         )
     return values
 
@@ -125,23 +116,18 @@ def simulate(
     """Simulate static and vibrating records for every (overload, amplitude) pair."""
     import numpy as np
 
-    from accelcal.methods.vre_records import write_vibrafuge
+    from accelcal.io.formats.vibrafuge import write_vibrafuge
     from accelcal.rigs.vibrafuge import simulate as run_sim
     from accelcal.units import DEG
 
     model = load_model(model_file)
     b = np.array(parse_grid(overload, "--overload"))
-    a = np.array(_amplitudes(amplitude))
-    for value, what in ((frequency, "--frequency"), (sample_rate, "--sample-rate"),
-                        (duration, "--duration"), (phase, "--phase"), (quantum, "--quantum")):
-        parse_number(repr(value), what)
-    if noise is not None:
-        parse_number(repr(noise), "--noise")
+    a = np.array(parse_grid(amplitude, "--amplitude"))
     bb, aa = (x.ravel() for x in np.meshgrid(b, a, indexing="ij"))
     run = run_sim(
         model, bb, aa, frequency=frequency, sample_rate=sample_rate, duration=duration,
-        direction=_direction(direction), phase=phase * DEG, noise=noise, quantum=quantum,
-        sampling=sampling, rng=np.random.default_rng(seed),
+        direction=parse_grid(direction, "--direction"), phase=phase * DEG, noise=noise,
+        quantum=quantum, sampling=sampling, rng=np.random.default_rng(seed),
     )
     write_vibrafuge(out, run, provenance={"simulated_model": model.terms(), "seed": seed})
     print(f"wrote {out}: {run.points} points x {run.static.shape[1]} samples "
@@ -151,7 +137,8 @@ def simulate(
 def _read_measurements(files):
     import numpy as np
 
-    from accelcal.methods.vre_records import read_vibrafuge, reduce_run
+    from accelcal.io.formats.vibrafuge import read_vibrafuge
+    from accelcal.methods.vre import reduce_run
 
     if not files:
         raise AccelcalError("give at least one vibrafuge record file")
@@ -160,7 +147,8 @@ def _read_measurements(files):
            for k in ("overload", "amplitude", "vre", "uncertainty")}
     cat["direction"] = np.concatenate(
         [np.broadcast_to(p.direction, (p.amplitude.size, 3)) for p in parts])
-    return parts, cat
+    cat["assumptions"] = [a for p in parts for a in p.assumptions()]
+    return cat
 
 
 @app.command("reduce")
@@ -174,7 +162,7 @@ def reduce(
 ) -> None:
     """Reduce records to VRE (g) with standard uncertainty, from whole-period means."""
     check_format(fmt)
-    _, m = _read_measurements(files)
+    m = _read_measurements(files)
     rows = []
     for k in range(m["amplitude"].size):
         rows.append({"overload_g": float(m["overload"][k, 0]),
@@ -236,6 +224,7 @@ def fit(
     import json
 
     from accelcal.methods.vre import identify
+    from accelcal.outputs import describe
 
     check_format(fmt)
     monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
@@ -253,36 +242,47 @@ def fit(
             raise AccelcalError(f"--fix {item!r} is not NAME=VALUE (e.g. --fix K4=0)")
         fixed[name.strip()] = parse_number(value, f"--fix {name.strip()}")
     info = record_options.lab_info_for(record_out, files, serial=serial, operator=operator)
-    _, m = _read_measurements(files)
+    m = _read_measurements(files)
     result = identify(m["overload"], m["amplitude"], m["vre"], m["uncertainty"],
                       direction=m["direction"], terms=names, fixed=fixed,
-                      provenance={"files": [str(f) for f in files]})
+                      provenance={"files": [str(f) for f in files]},
+                      assumptions=m["assumptions"])
     rows = result.rows()
     if monte_carlo:
-        from accelcal.methods.vre_mc import vre_uncertainty
+        from accelcal.methods.vre import vre_uncertainty
 
         with uncertainty_options.progress_bar() as progress:
-            mc = vre_uncertainty(
-                result, m["overload"], m["amplitude"], m["vre"], m["uncertainty"],
-                direction=m["direction"], trials=trials, seed=seed,
-                amplitude_sd=amplitude_sd, overload_sd=overload_sd,
-                progress=progress)
+            mc = vre_uncertainty(result, trials=trials, seed=seed, amplitude_sd=amplitude_sd,
+                                 overload_sd=overload_sd, progress=progress)
         p = len(mc.names)
         rows = [*uncertainty_options.merge(rows[:p], mc),
                 *({**r, "mc_std": 0.0, "ci95_low": r["estimate"], "ci95_high": r["estimate"]}
                   for r in rows[p:])]
     if info is not None:
-        from accelcal.calibration import save_records, vre_record
+        from accelcal.calibration import save_records
 
-        for p in save_records([vre_record(result, info, input_files=files)], record_out):
+        for p in save_records(result.to_records(info, input_files=files), record_out):
             print(f"wrote {p}", file=sys.stderr)
+    dof = result.estimate.dof
+    notes = describe(result)
     if fmt == "json":
-        clean = [{k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()}
-                 for r in rows]
-        doc = {"coefficients": clean, "dof": result.estimate.dof,
-               "notes": list(result.estimate.notes)}
-        sys.stdout.write(json.dumps(doc, indent=2) + "\n")
+        full = result.to_dict()
+        doc = {"coefficients": _json(rows), "dof": dof, "notes": notes,
+               **{k: full[k] for k in ("family", "method", "combinations", "identifiability",
+                                       "assumptions", "fixed")}}
+        sys.stdout.write(json.dumps(doc, indent=2, allow_nan=False) + "\n")
         return
-    emit(rows, fmt, title=f"VRE identification ({result.estimate.dof} degrees of freedom)")
-    for note in result.estimate.notes:
+    emit(rows, fmt, title=f"VRE identification ({dof} degrees of freedom)")
+    for note in notes:
         print(f"note: {note}", file=sys.stderr)
+
+
+def _json(value):
+    """Rows as JSON-ready values: NaN as None, also inside the ``engineering`` lists."""
+    if isinstance(value, list):
+        return [_json(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _json(v) for k, v in value.items()}
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    return value

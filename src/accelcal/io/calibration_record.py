@@ -38,6 +38,14 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.atomic import write_text_atomic
+from accelcal.io.limits import (
+    MAX_JSON_BYTES,
+    check_label,
+    is_finite_number,
+    load_json,
+    read_bounded,
+    shown,
+)
 from accelcal.model import ErrorModel
 
 FORMAT_VERSION = 1
@@ -47,6 +55,12 @@ _KEYS = {
     "coverage_factor", "coefficients", "covariance", "model", "inputs", "notes",
 }
 _COEFFICIENT_KEYS = {"name", "unit", "estimate", "std", "expanded"}
+_LABELS = (("serial", "serial number", 200), ("method", "method", 200),
+           ("software", "software", 100), ("operator", "operator", 200))
+"""Text fields, what they are called in messages and their longest length: the
+widths of the records store's columns (:mod:`accelcal.store`)."""
+_NAME_LENGTH, _UNIT_LENGTH = 100, 40
+"""Longest coefficient name and unit (the store's column widths)."""
 
 
 def file_sha256(path) -> str:
@@ -109,6 +123,15 @@ class CalibrationRecord:
     def __post_init__(self) -> None:
         if not isinstance(self.serial, str) or not self.serial.strip():
             raise AccelcalError("calibration record: serial must be a non-empty string")
+        for name, what, limit in _LABELS:
+            try:
+                check_label(getattr(self, name), what, file_name=name == "serial", limit=limit)
+            except AccelcalError as exc:
+                raise AccelcalError(f"calibration record: {exc}") from None
+        for name in self.names:
+            check_label(name, "calibration record: coefficient name", limit=_NAME_LENGTH)
+            check_label(self.units.get(name, ""), f"calibration record: unit of {name}",
+                        limit=_UNIT_LENGTH)
         est = np.asarray(self.estimates, dtype=float)
         cov = np.asarray(self.covariance, dtype=float)
         p = len(self.names)
@@ -119,6 +142,12 @@ class CalibrationRecord:
             )
         if not np.isfinite(est).all():
             raise AccelcalError("calibration record: estimates must be finite")
+        if np.isinf(cov).any() or (np.diag(cov) < 0).any():
+            raise AccelcalError(
+                "calibration record: the covariance has infinite entries or negative variances "
+                "(NaN marks an unknown one); the uncertainties could not be determined, check "
+                "the inputs for values out of range"
+            )
         if not (self.coverage_factor > 0 and math.isfinite(self.coverage_factor)):
             raise AccelcalError("calibration record: coverage_factor must be positive")
         _parse_date(self.date, "calibration record")
@@ -165,8 +194,6 @@ class CalibrationRecord:
 
     def to_dict(self) -> dict:
         """The record as a JSON-ready dict in the current format."""
-        from accelcal.io.model_file import model_to_dict
-
         return {
             "format_version": FORMAT_VERSION,
             "kind": KIND,
@@ -184,7 +211,7 @@ class CalibrationRecord:
                 )
             ],
             "covariance": self.covariance.tolist(),
-            "model": model_to_dict(self.model) if self.model is not None else None,
+            "model": self.model.to_dict() if self.model is not None else None,
             "inputs": dict(self.inputs),
             "notes": list(self.notes),
         }
@@ -206,28 +233,34 @@ class CalibrationRecord:
 
     @classmethod
     def from_json(cls, text: str, *, source: str = "<string>") -> "CalibrationRecord":
-        """Parse and validate record text; errors name ``source`` and the field."""
-        try:
-            data = json.loads(text, parse_constant=_no_constant)
-        except ValueError as exc:
-            raise AccelcalError(f"{source}: not a valid calibration record JSON ({exc})") from None
-        return _from_dict(data, source)
+        """Parse and validate record text; errors name ``source`` and the field.
+
+        The JSON is decoded by :func:`accelcal.io.limits.load_json` (bounded
+        size and depth, only finite numbers).
+        """
+        return _from_dict(load_json(text, source), source)
 
     @classmethod
     def load(cls, path) -> "CalibrationRecord":
-        """Read and validate a calibration record file."""
+        """Read and validate a calibration record file.
+
+        At most :data:`~accelcal.io.limits.MAX_JSON_BYTES` are read, so a
+        device or a huge file is refused at once.
+        """
         path = Path(path)
         try:
-            text = path.read_text(encoding="utf-8")
+            text = read_bounded(path, MAX_JSON_BYTES, "calibration record").decode("utf-8")
         except FileNotFoundError:
             raise AccelcalError(f"calibration record {path} not found") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise AccelcalError(f"cannot read calibration record {path}: {exc}") from None
+        except OSError as exc:
+            raise AccelcalError(
+                f"cannot read calibration record {path}: {exc.strerror or exc}") from None
+        except UnicodeDecodeError:
+            raise AccelcalError(f"cannot read calibration record {path}: not UTF-8 text") from None
         return cls.from_json(text, source=str(path))
 
 
 def _from_dict(data, source: str) -> CalibrationRecord:
-    from accelcal.io.model_file import model_from_dict
 
     def fail(msg):
         return AccelcalError(f"{source}: {msg}")
@@ -241,11 +274,12 @@ def _from_dict(data, source: str) -> CalibrationRecord:
     if missing:
         raise fail(f"missing key(s) {', '.join(map(repr, missing))}")
     if data["kind"] != KIND:
-        raise fail(f"kind is {data['kind']!r}, expected {KIND!r}")
+        raise fail(f"kind is {shown(data['kind'])}, expected {KIND!r}")
     version = data["format_version"]
-    if version != FORMAT_VERSION:
+    if isinstance(version, bool) or version != FORMAT_VERSION:
         raise fail(
-            f"format_version {version!r} is not supported (this accelcal reads {FORMAT_VERSION})"
+            f"format_version {shown(version)} is not supported (this accelcal reads "
+            f"{FORMAT_VERSION})"
         )
     for key in ("serial", "method", "date", "software", "operator"):
         if not isinstance(data[key], str):
@@ -257,31 +291,46 @@ def _from_dict(data, source: str) -> CalibrationRecord:
     for i, c in enumerate(coefficients):
         if not isinstance(c, dict) or set(c) != _COEFFICIENT_KEYS:
             raise fail(f"coefficients[{i}] must have exactly the keys {sorted(_COEFFICIENT_KEYS)}")
-        if not isinstance(c["estimate"], (int, float)) or isinstance(c["estimate"], bool):
-            raise fail(f"coefficients[{i}].estimate must be a number")
-        names.append(str(c["name"]))
-        units[str(c["name"])] = str(c["unit"])
+        if not is_finite_number(c["estimate"]):
+            raise fail(f"coefficients[{i}].estimate must be a finite number")
+        for key in ("std", "expanded"):
+            if not (c[key] is None or is_finite_number(c[key])):
+                raise fail(f"coefficients[{i}].{key} must be a finite number or null")
+        for key in ("name", "unit"):
+            if not isinstance(c[key], str):
+                raise fail(f"coefficients[{i}].{key} must be a string")
+        names.append(c["name"])
+        units[c["name"]] = c["unit"]
         values.append(float(c["estimate"]))
+    rows = data["covariance"]
+    if not (isinstance(rows, list) and all(
+            isinstance(row, list) and all(x is None or is_finite_number(x) for x in row)
+            for row in rows)):
+        raise fail("covariance must be a square list of lists of finite numbers (null for unknown)")
     try:
-        cov = np.array(
-            [[math.nan if x is None else float(x) for x in row] for row in data["covariance"]]
-        )
-    except (TypeError, ValueError):
-        raise fail(
-            "covariance must be a square list of lists of numbers (null for unknown)"
-        ) from None
+        cov = np.array([[math.nan if x is None else float(x) for x in row] for row in rows])
+    except ValueError:
+        raise fail("covariance must be a square list of lists of finite numbers (null for unknown)"
+                   ) from None
+    if not is_finite_number(data["coverage_factor"]):
+        raise fail("coverage_factor must be a finite number")
+    if not (isinstance(data["notes"], list) and all(isinstance(n, str) for n in data["notes"])):
+        raise fail("notes must be a list of strings")
     model = None
     if data["model"] is not None:
-        model = model_from_dict(data["model"], source=f"{source}: model")
-    if not isinstance(data["inputs"], dict):
+        model = ErrorModel.from_dict(data["model"], source=f"{source}: model")
+    if not isinstance(data["inputs"], dict) or not all(
+            isinstance(v, str) for v in data["inputs"].values()):
         raise fail("inputs must map file names to hashes")
+    for name in data["inputs"]:
+        check_label(name, f"{source}: input file name", limit=255)
     try:
         return CalibrationRecord(
             serial=data["serial"], method=data["method"], names=tuple(names),
             estimates=np.array(values), covariance=cov, units=units, date=data["date"],
             software=data["software"], operator=data["operator"],
             coverage_factor=float(data["coverage_factor"]), model=model,
-            inputs=dict(data["inputs"]), notes=tuple(map(str, data["notes"])),
+            inputs=dict(data["inputs"]), notes=tuple(data["notes"]),
         )
     except AccelcalError as exc:
         raise fail(str(exc)) from None
@@ -296,5 +345,3 @@ def _parse_date(text: str, where: str) -> _dt.datetime:
         ) from None
 
 
-def _no_constant(name: str):
-    raise ValueError(f"{name} is not allowed")

@@ -1,6 +1,10 @@
 """Laboratory metadata shared by every test's record files.
 
-Four optional metadata fields say who and what was calibrated, and where:
+Four optional metadata fields say who and what was calibrated, and where
+(serial numbers and operators are checked by
+:func:`accelcal.io.limits.check_label`: at most 200 characters, no control
+characters, and no path separator in a serial number, which becomes part of
+file names):
 
 ``serial``
     Serial number of the accelerometer: a string, or (for files holding
@@ -17,7 +21,7 @@ Four optional metadata fields say who and what was calibrated, and where:
 
 Readers call :func:`check_lab_metadata` on a file's metadata, so a malformed
 field is reported with the file name before any reduction;
-:func:`read_lab_metadata` reads only a file's metadata (the first two lines
+:func:`read_lab_metadata` reads only a file's metadata (the first lines
 of a CSV record, the schema of a Parquet record) for the calibration record.
 
 References
@@ -27,12 +31,11 @@ References
 """
 
 import datetime as dt
-import math
-import numbers
 from dataclasses import dataclass
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
+from accelcal.io.limits import check_label, is_finite_number, shown
 
 FIELDS = ("serial", "operator", "date", "local_gravity")
 """Metadata field names this module validates."""
@@ -62,6 +65,18 @@ class LabInfo:
     operator: str = ""
     date: str = ""
     local_gravity: float | None = None
+
+    def __post_init__(self) -> None:
+        """Check the strings that reach file names and reports (:func:`check_label`).
+
+        Raises
+        ------
+        AccelcalError
+            Naming the parameter (``serial`` or ``operator``).
+        """
+        for serial in self.serials or ():
+            check_label(serial, "serial number", file_name=True, parameter="serial")
+        check_label(self.operator, "operator", parameter="operator")
 
     def serial(self, index: int = 0) -> str | None:
         """Serial number of sensor ``index`` (None when the file gives none)."""
@@ -129,20 +144,22 @@ def check_lab_metadata(meta: dict, path, sensors: int | None = None) -> LabInfo:
     date = meta.get("date", "")
     if not isinstance(date, str) or (date and _iso(date) is None):
         raise AccelcalError(
-            f"{path}: metadata 'date' {date!r} is not an ISO 8601 date "
+            f"{path}: metadata 'date' {shown(date)} is not an ISO 8601 date "
             "(e.g. 2026-11-21 or 2026-11-21T09:30:00+00:00)"
         )
     gravity = meta.get("local_gravity")
     if gravity is not None:
         lo, hi = GRAVITY_RANGE
-        if (isinstance(gravity, bool) or not isinstance(gravity, numbers.Real)
-                or not math.isfinite(gravity) or not lo <= gravity <= hi):
+        if not is_finite_number(gravity) or not lo <= gravity <= hi:
             raise AccelcalError(
-                f"{path}: metadata 'local_gravity' {gravity!r} must be the local gravity in "
+                f"{path}: metadata 'local_gravity' {shown(gravity)} must be the local gravity in "
                 f"m/s^2, between {lo} and {hi}"
             )
         gravity = float(gravity)
-    return LabInfo(serials, operator, date, gravity)
+    try:
+        return LabInfo(serials, operator, date, gravity)
+    except AccelcalError as exc:
+        raise AccelcalError(f"{path}: metadata '{exc.parameter}': {exc.message}") from None
 
 
 def read_lab_metadata(path, sensors: int | None = None) -> LabInfo:
@@ -166,7 +183,8 @@ def read_lab_metadata(path, sensors: int | None = None) -> LabInfo:
 def read_metadata(path) -> dict:
     """The metadata of a record file, without reading its data.
 
-    Reads the first two lines of a CSV record or the schema of a Parquet
+    Reads the first three lines of a CSV record (each bounded, see
+    :func:`accelcal.io.records.csv_preamble`) or the schema of a Parquet
     record.
 
     Raises
@@ -174,7 +192,7 @@ def read_metadata(path) -> dict:
     AccelcalError
         For an unreadable file or malformed metadata JSON.
     """
-    from accelcal.io.records import MARKER, parse_metadata
+    from accelcal.io.records import csv_preamble, parquet_metadata
 
     path = Path(path)
     if path.suffix.lower() == ".parquet":
@@ -182,22 +200,15 @@ def read_metadata(path) -> dict:
         import pyarrow.parquet as pq
 
         try:
-            raw = (pq.read_schema(path).metadata or {}).get(b"accelcal")
+            schema = pq.read_schema(path)
         except (OSError, pa.ArrowException) as exc:
             raise AccelcalError(f"cannot read Parquet record {path}: {exc}") from None
-        if raw is None:
-            raise AccelcalError(f"{path}: no 'accelcal' metadata in the Parquet schema")
-        meta = parse_metadata(raw.decode("utf-8", "replace"), f"{path}: Parquet metadata")
-    else:
-        try:
-            with open(path, encoding="utf-8") as fh:
-                marker = fh.readline().rstrip("\r\n")
-                line = fh.readline().rstrip("\r\n")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise AccelcalError(f"cannot read record file {path}: {exc}") from None
-        if marker != MARKER or not line.startswith("# "):
-            raise AccelcalError(f"{path}: not an accelcal record (no marker and metadata line)")
-        meta = parse_metadata(line[2:], f"{path}: line 2 metadata")
+        return parquet_metadata(schema.metadata, path)
+    try:
+        with open(path, "rb") as fh:
+            meta, _ = csv_preamble(fh, path)
+    except OSError as exc:
+        raise AccelcalError(f"cannot read record file {path}: {exc.strerror or exc}") from None
     return meta
 
 

@@ -1,5 +1,11 @@
 """The model file: an :class:`~accelcal.model.ErrorModel` as JSON.
 
+This module knows the format, not the class: it validates decoded contents
+into plain coefficients and writes a model's terms, so that
+:mod:`accelcal.model` uses it without it importing the model back
+(``ErrorModel.to_dict/from_dict/to_json/from_json/save/load`` are the
+entry points).
+
 Format (``format_version`` 1)::
 
     {
@@ -18,13 +24,16 @@ at any level are refused with a message naming them.
 """
 
 import json
-import math
 from pathlib import Path
 
-from accelcal.errors import ModelFileError
+from accelcal.errors import AccelcalError, ModelFileError
 from accelcal.io.atomic import write_text_atomic
-from accelcal.model import TERMS, ErrorModel, term_unit, unknown_term_message
+from accelcal.io.limits import MAX_JSON_BYTES, is_finite_number, load_json, read_bounded, shown
+from accelcal.terms import TERMS, term_unit, unknown_term_message
 from accelcal.units import OUTPUT_UNITS
+
+__all__ = ["FORMAT_VERSION", "KIND", "ModelFileError", "dumps", "loads", "model_to_dict",
+           "read_text", "validate", "write_text"]
 
 FORMAT_VERSION = 1
 KIND = "accelcal.ErrorModel"
@@ -32,8 +41,8 @@ _REQUIRED = ("format_version", "kind", "output_unit", "coefficients")
 _OPTIONAL = ("units", "description")
 
 
-def model_to_dict(model: ErrorModel, description: str | None = None) -> dict:
-    """The model as a JSON-ready dict in the current format."""
+def model_to_dict(model, description: str | None = None) -> dict:
+    """A model's (its ``output_unit``, ``units()``, ``terms()``) JSON-ready dict."""
     data = {
         "format_version": FORMAT_VERSION,
         "kind": KIND,
@@ -46,13 +55,19 @@ def model_to_dict(model: ErrorModel, description: str | None = None) -> dict:
     return data
 
 
-def dumps_model(model: ErrorModel) -> str:
-    """The text of the model file (JSON; floats round-trip exactly)."""
-    return json.dumps(model_to_dict(model), indent=2) + "\n"
+def dumps(data: dict) -> str:
+    """The text of a model file from its dict (JSON; floats round-trip exactly)."""
+    return json.dumps(data, indent=2) + "\n"
 
 
-def model_from_dict(data, *, source: str = "<dict>") -> ErrorModel:
-    """Validate a decoded model file and build the model.
+def validate(data, *, source: str = "<dict>") -> tuple[dict, str]:
+    """Validate a decoded model file: its coefficients and output unit.
+
+    Returns
+    -------
+    coefficients : dict
+        Term name -> number (K1 present, all finite).
+    output_unit : str
 
     Raises
     ------
@@ -68,7 +83,7 @@ def model_from_dict(data, *, source: str = "<dict>") -> ErrorModel:
     unknown = sorted(set(data) - set(_REQUIRED) - set(_OPTIONAL))
     if unknown:
         raise fail(
-            f"unknown key(s) {', '.join(map(repr, unknown))}; allowed keys are "
+            f"unknown key(s) {', '.join(map(shown, unknown))}; allowed keys are "
             f"{', '.join(_REQUIRED + _OPTIONAL)}"
         )
     missing = [k for k in _REQUIRED if k not in data]
@@ -76,7 +91,7 @@ def model_from_dict(data, *, source: str = "<dict>") -> ErrorModel:
         raise fail(f"missing key(s) {', '.join(map(repr, missing))}")
     version = data["format_version"]
     if isinstance(version, bool) or not isinstance(version, int):
-        raise fail(f"format_version must be an integer, got {version!r}")
+        raise fail(f"format_version must be an integer, got {shown(version)}")
     if version > FORMAT_VERSION:
         raise fail(
             f"format_version {version} is newer than this accelcal reads "
@@ -85,10 +100,10 @@ def model_from_dict(data, *, source: str = "<dict>") -> ErrorModel:
     if version < 1:
         raise fail(f"format_version {version} is not a valid version (expected 1)")
     if data["kind"] != KIND:
-        raise fail(f"kind is {data['kind']!r}, expected {KIND!r} (is this a model file?)")
+        raise fail(f"kind is {shown(data['kind'])}, expected {KIND!r} (is this a model file?)")
     unit = data["output_unit"]
     if unit not in OUTPUT_UNITS:
-        raise fail(f"output_unit {unit!r} is not one of {', '.join(OUTPUT_UNITS)}")
+        raise fail(f"output_unit {shown(unit)} is not one of {', '.join(OUTPUT_UNITS)}")
 
     coefficients = data["coefficients"]
     if not isinstance(coefficients, dict):
@@ -97,9 +112,9 @@ def model_from_dict(data, *, source: str = "<dict>") -> ErrorModel:
         if name not in TERMS:
             raise fail(f"coefficients: {unknown_term_message(name, TERMS)}")
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise fail(f"coefficients.{name} must be a number, got {value!r}")
-        if not math.isfinite(value):
-            raise fail(f"coefficients.{name} = {value} is not finite")
+            raise fail(f"coefficients.{name} must be a number, got {shown(value)}")
+        if not is_finite_number(value):
+            raise fail(f"coefficients.{name} = {shown(value)} is not finite")
     if "K1" not in coefficients:
         raise fail("coefficients.K1 (scale factor) is missing; every model file must give it")
 
@@ -112,57 +127,49 @@ def model_from_dict(data, *, source: str = "<dict>") -> ErrorModel:
         expected = term_unit(name, unit)
         if given != expected:
             raise fail(
-                f"units.{name} is {given!r} but a model with output_unit {unit!r} "
+                f"units.{name} is {shown(given)} but a model with output_unit {unit!r} "
                 f"has {name} in {expected!r}; convert the value or fix output_unit"
             )
     description = data.get("description", "")
     if not isinstance(description, str):
         raise fail("description must be a string")
-    try:
-        return ErrorModel.from_terms(coefficients, output_unit=unit)
-    except ModelFileError:
-        raise
-    except ValueError as exc:
-        raise fail(str(exc)) from None
+    return coefficients, unit
 
 
-def loads_model(text: str, *, source: str = "<string>") -> ErrorModel:
-    """Parse model-file text; errors name ``source``."""
-    try:
-        data = json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as exc:
-        raise ModelFileError(
-            f"{source}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
-        ) from None
-    except ValueError as exc:
-        raise ModelFileError(f"{source}: {exc}") from None
-    return model_from_dict(data, source=source)
+def loads(text: str, *, source: str = "<string>"):
+    """Decode model-file text; errors name ``source``.
+
+    Decoded by :func:`accelcal.io.limits.load_json`: bounded size and
+    depth, NaN and Infinity refused.
+    """
+    return load_json(text, source, error=ModelFileError)
 
 
-def read_model(path) -> ErrorModel:
-    """Read and validate a model file.
+def read_text(path) -> str:
+    """The text of a model file (at most :data:`~accelcal.io.limits.MAX_JSON_BYTES`).
 
     Raises
     ------
     ModelFileError
-        If the file is missing, unreadable or invalid; the message names it.
+        If the file is missing, unreadable, too large or not UTF-8; the
+        message names it.
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        return read_bounded(path, MAX_JSON_BYTES, "model file").decode("utf-8")
     except FileNotFoundError:
         raise ModelFileError(
             f"model file {path} not found; create one with 'accelcal model new'"
         ) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ModelFileError(f"cannot read model file {path}: {exc}") from None
-    return loads_model(text, source=str(path))
+    except AccelcalError as exc:
+        raise ModelFileError(exc.message) from None
+    except OSError as exc:
+        raise ModelFileError(f"cannot read model file {path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise ModelFileError(f"cannot read model file {path}: not UTF-8 text") from None
 
 
-def write_model(model: ErrorModel, path) -> None:
-    """Write the model file atomically."""
-    write_text_atomic(path, dumps_model(model))
+def write_text(path, text: str) -> None:
+    """Write model-file text atomically."""
+    write_text_atomic(path, text)
 
-
-def _reject_constant(name: str):
-    raise ValueError(f"{name} is not allowed; coefficients must be finite numbers")

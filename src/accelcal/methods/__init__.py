@@ -1,1 +1,77 @@
-"""Test methods: simulate, reduce and identify, one module per method."""
+"""Test methods: one package each (theory, reduction, Monte Carlo, figures).
+
+Every method package under :mod:`accelcal.methods` returns a
+:class:`~accelcal.results.Reduction` from its reductions and provides, for
+the generic code paths (plots, reports), three names:
+
+``figures(reduction, **context)``
+    The method's figures, read from the Reduction's fields only: a list of
+    ``(stem, title, matplotlib figure, caption)``.
+``report_text(reduction)``
+    A :class:`ReportText`: the report section's title and summary.
+``ERRATA``
+    Short corrections of the method's paper that a report shows, each with
+    its entry in docs/errata.md.
+
+:data:`REGISTRY` maps a Reduction's ``family`` to its package; a new
+method adds one line here.
+"""
+
+import importlib
+from dataclasses import dataclass
+
+REGISTRY = {
+    "dividing-head": "accelcal.methods.dividing_head",
+    "tumble": "accelcal.methods.tumble",
+    "transverse": "accelcal.methods.transverse",
+    "vre": "accelcal.methods.vre",
+}
+"""Method family -> package (imported on first use)."""
+
+
+@dataclass(frozen=True)
+class ReportText:
+    """What a report says about a reduction, besides its numbers.
+
+    Attributes
+    ----------
+    title : str
+        Section title (the serial number is prefixed per sensor).
+    summary : str
+        One paragraph: the test and how it was reduced.
+    sensor_summary : str
+        One sentence for each sensor's own section (the model fitted).
+    paper : str
+        Key of the paper whose errata apply (``""`` for none).
+    """
+
+    title: str
+    summary: str
+    sensor_summary: str = ""
+    paper: str = ""
+
+
+def package(family: str):
+    """The method package of ``family`` (imported lazily).
+
+    Raises
+    ------
+    KeyError
+        For a family that is not in :data:`REGISTRY`.
+    """
+    return importlib.import_module(REGISTRY[family])
+
+
+def figures_of(reduction, **context) -> list:
+    """The figures of a reduction, from its method package."""
+    return package(reduction.family).figures(reduction, **context)
+
+
+def report_text_of(reduction) -> ReportText:
+    """The report text of a reduction, from its method package."""
+    return package(reduction.family).report_text(reduction)
+
+
+def errata_of(reduction) -> tuple[str, ...]:
+    """The errata a report shows beside a reduction."""
+    return tuple(package(reduction.family).ERRATA)

@@ -12,11 +12,11 @@ notes) is HTML-escaped by the template engine (jinja2 autoescaping).
 
 import datetime as dt
 import io
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from accelcal.formatting import format_correlation, format_std, format_unit, format_value, pm
 from accelcal.io.atomic import write_text_atomic
 
 
@@ -65,37 +65,6 @@ def figure_svg(fig) -> str:
     fig.savefig(buf, format="svg")
     text = buf.getvalue()
     return text[text.index("<svg"):]
-
-
-def format_value(value: float, std: float | None = None) -> str:
-    """A value with as many digits as its uncertainty supports (two on the uncertainty)."""
-    if value is None or not math.isfinite(value):
-        return "n/a"
-    if std is None or not math.isfinite(std) or std <= 0:
-        return f"{value:.7g}"
-    magnitude = math.floor(math.log10(abs(value))) if value != 0 else math.floor(math.log10(std))
-    digits = max(2, magnitude - math.floor(math.log10(std)) + 2)
-    return f"{value:#.{digits}g}".rstrip(".")  # '#': keep significant trailing zeros
-
-
-def format_std(std: float) -> str:
-    """An uncertainty with two significant digits."""
-    if std is None or not math.isfinite(std):
-        return "not identified"
-    return f"{std:#.2g}".rstrip(".")
-
-
-def format_unit(unit: str) -> str:
-    """A unit with superscript powers (``V/g^2`` -> ``V/g²``)."""
-    return unit.replace("^2", "²").replace("^3", "³").replace("^4", "⁴")
-
-
-def format_correlation(x: float) -> str:
-    """A correlation coefficient with three decimals (no negative zero; n/a for NaN)."""
-    if x is None or not math.isfinite(x):
-        return "n/a"
-    text = f"{x:.3f}"
-    return "0.000" if text == "-0.000" else text
 
 
 def render_report(sections, *, title: str, subtitle: str = "", generated: str | None = None) -> str:
@@ -164,10 +133,30 @@ def _view(section: Section, number: int) -> dict:
             "notes": list(rec.notes),
             "coefficients": [
                 {"name": n, "unit": rec.units.get(n, ""), "estimate": float(v),
-                 "std": float(s), "expanded": float(u)}
+                 "std": float(s), "expanded": float(u),
+                 "engineering": engineering_text(n, float(v), float(s), rec.units.get(n, ""),
+                                                 scale_factor=_record_scale_factor(rec))}
                 for n, v, s, u in zip(rec.names, rec.estimates, std, rec.expanded, strict=True)
             ],
             "correlation": corr.tolist() if len(rec.names) <= 10 else None,
             "names": list(rec.names),
         }
     return view
+
+
+def engineering_text(name, value, std, unit, *, scale_factor=None, nominal=None,
+                     quantity=None, most: int | None = None) -> str:
+    """``value ± std unit`` in a coefficient's engineering units (the first ``most``)."""
+    from accelcal.engineering import engineering
+
+    eng = engineering(name, value, std, unit, scale_factor=scale_factor, nominal=nominal,
+                      quantity=quantity)
+    return "; ".join(f"{pm(e.estimate, e.std)} {format_unit(e.unit)}" for e in eng[:most])
+
+
+def _record_scale_factor(rec) -> float | None:
+    """A record's scale factor in output unit per g: its K_I or K1, else its model's K1."""
+    for name in ("K_I", "K1"):
+        if name in rec.names:
+            return float(rec.estimates[rec.names.index(name)])
+    return float(rec.model.K1) if rec.model is not None else None

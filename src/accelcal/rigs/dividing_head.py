@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats.dividing_head import check_positions
 from accelcal.model import ErrorModel
 from accelcal.units import DEG
 
@@ -327,19 +328,3 @@ def simulate(rig: DividingHeadRig, seed=None, *, trials: int | None = None) -> S
 def uniform_positions(n: int, start: float = 0.0) -> np.ndarray:
     """``n`` equally spaced nominal angles ``start + 2 pi j / n``, rad."""
     return start + 2.0 * np.pi * np.arange(n) / n
-
-
-def check_positions(alpha: np.ndarray, what: str = "positions") -> None:
-    """Refuse empty, non-finite or duplicated (modulo 2 pi) nominal angles."""
-    if alpha.size == 0:
-        raise AccelcalError(f"no {what} given")
-    if not np.isfinite(alpha).all():
-        raise AccelcalError(f"{what} contain NaN or inf; give finite angles")
-    wrapped = np.sort(np.mod(alpha, 2 * np.pi))
-    gaps = np.diff(np.concatenate([wrapped, wrapped[:1] + 2 * np.pi]))
-    if alpha.size > 1 and gaps.min() < 1e-9:
-        i = int(np.argmin(gaps))
-        raise AccelcalError(
-            f"{what} repeat the angle {np.degrees(wrapped[i]):.9g} deg (modulo 360); "
-            "each position must be given once (put repeated readings in the repeat column)"
-        )

@@ -22,7 +22,9 @@ Two sampling models are offered:
     exactly the continuous mean: no discretisation error.
 
 Noise (white, Gaussian, in g) and quantisation of the output (a step in the
-output unit, rounding to nearest) are optional.
+output unit, rounding to nearest) are optional. The records are a
+:class:`~accelcal.io.formats.vibrafuge.VibrafugeRun` (written and read by
+:mod:`accelcal.io.formats.vibrafuge`).
 
 References
 ----------
@@ -33,81 +35,20 @@ References
    periods).
 """
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats.vibrafuge import VibrafugeRun
 from accelcal.model import ErrorModel
 
 SAMPLING = ("integrating", "point")
 """Sampling models: mean over each sample interval, or instantaneous values."""
 
 
-@dataclass(frozen=True)
-class VibrafugeRun:
-    """Static and vibrating records of one or more vibrafuge test points.
-
-    Attributes
-    ----------
-    static, vibrating : numpy.ndarray, shape (P, n)
-        Output at rest and while vibrating, in ``output_unit``; row ``k`` is
-        test point ``k``; sample ``j`` is at ``t = j / sample_rate``.
-    overload : numpy.ndarray, shape (P, 3)
-        Overload vector of each point in IA, OA, PA, g.
-    amplitude : numpy.ndarray, shape (P,)
-        Vibration amplitude of each point, g.
-    direction : numpy.ndarray, shape (3,)
-        Unit vibration direction in IA, OA, PA.
-    frequency : float
-        Vibration frequency, Hz.
-    sample_rate : float
-        Sample rate of both records, Hz.
-    phase : float
-        Vibration phase at ``t = 0``, rad.
-    scale_factor : float
-        Nominal scale factor K1 (output unit per g) used to express the VRE
-        in g.
-    output_unit : str
-        Unit of the records.
-    sampling : str
-        ``"integrating"``, ``"point"``, or ``"measured"`` for records read
-        from a file of unknown origin.
-    noise : float
-        Standard deviation of the added noise, g (0: none).
-    quantum : float
-        Output quantisation step in ``output_unit`` (0: none).
-    """
-
-    static: np.ndarray
-    vibrating: np.ndarray
-    overload: np.ndarray
-    amplitude: np.ndarray
-    direction: np.ndarray
-    frequency: float
-    sample_rate: float
-    phase: float = 0.0
-    scale_factor: float = 1.0
-    output_unit: str = "g"
-    sampling: str = "measured"
-    noise: float = 0.0
-    quantum: float = 0.0
-
-    @property
-    def t(self) -> np.ndarray:
-        """Sample times, s (start of each sample interval)."""
-        return np.arange(self.static.shape[-1]) / self.sample_rate
-
-    @property
-    def points(self) -> int:
-        """Number of test points."""
-        return self.static.shape[0]
-
-
-def _positive(value, what: str, unit: str) -> float:
+def _positive(value, name: str, unit: str) -> float:
     value = float(value)
     if not (np.isfinite(value) and value > 0):
-        raise AccelcalError(f"{what} = {value} {unit} must be positive and finite")
+        raise AccelcalError(f"{value} {unit} must be positive and finite", parameter=name)
     return value
 
 
@@ -117,13 +58,16 @@ def _grid(overload, amplitude, direction):
     u = np.asarray(direction, dtype=float).reshape(-1)
     for arr, what in ((b, "overload"), (A, "amplitude"), (u, "direction")):
         if not np.isfinite(arr).all():
-            raise AccelcalError(f"{what} has non-finite values (NaN or inf); give finite numbers")
+            raise AccelcalError("has non-finite values (NaN or inf); give finite numbers",
+                                parameter=what)
     if (A < 0).any():
         raise AccelcalError(
-            f"amplitude {A[A < 0].ravel()[0]:g} g is negative; a vibration amplitude is >= 0"
+            f"{A[A < 0].ravel()[0]:g} g is negative; a vibration amplitude is >= 0",
+            parameter="amplitude",
         )
     if u.shape != (3,) or not np.linalg.norm(u) > 0:
-        raise AccelcalError("direction must be a non-zero vector of 3 components (IA, OA, PA)")
+        raise AccelcalError("must be a non-zero vector of 3 components (IA, OA, PA)",
+                            parameter="direction")
     if b.ndim == 2 and b.shape[1] == 3:
         vectors = b
     elif b.ndim <= 1:
@@ -131,7 +75,8 @@ def _grid(overload, amplitude, direction):
         vectors = np.stack([b, np.zeros_like(b), np.zeros_like(b)], axis=1)
     else:
         raise AccelcalError(
-            f"overload must be values along IA or vectors of shape (P, 3); got shape {b.shape}"
+            f"must be values along IA or vectors of shape (P, 3); got shape {b.shape}",
+            parameter="overload",
         )
     try:
         vectors, A = np.broadcast_arrays(vectors, A.reshape(-1)[:, None])
@@ -207,26 +152,30 @@ def simulate(
     """
     vectors, A, u = _grid(overload, amplitude, direction)
     f = _positive(frequency, "frequency", "Hz")
-    fs = _positive(sample_rate, "sample rate", "Hz")
+    fs = _positive(sample_rate, "sample_rate", "Hz")
     T = _positive(duration, "duration", "s")
     if 2 * f >= fs:
-        raise AccelcalError(f"frequency {f} Hz is not below the Nyquist frequency {fs / 2} Hz")
+        raise AccelcalError(f"{f} Hz is not below the Nyquist frequency {fs / 2} Hz",
+                            parameter="frequency")
     if sampling not in SAMPLING:
-        raise AccelcalError(f"sampling {sampling!r} is not one of {', '.join(SAMPLING)}")
+        raise AccelcalError(f"{sampling!r} is not one of {', '.join(SAMPLING)}",
+                            parameter="sampling")
     phase = float(phase)
     if not np.isfinite(phase):
-        raise AccelcalError("phase must be finite (radians)")
+        raise AccelcalError("must be a finite angle", parameter="phase")
     sigma = model.sigma if noise is None else float(noise)
     if not (np.isfinite(sigma) and sigma >= 0):
-        raise AccelcalError(f"noise = {sigma} g must be >= 0 and finite")
+        raise AccelcalError(f"{sigma} g must be >= 0 and finite", parameter="noise")
     if sigma > 0 and rng is None:
         raise AccelcalError("noise > 0 needs a random generator (rng) or seed; or set noise = 0")
     quantum = float(quantum)
     if not (np.isfinite(quantum) and quantum >= 0):
-        raise AccelcalError(f"quantum = {quantum} must be >= 0 and finite (0: no quantisation)")
+        raise AccelcalError(f"{quantum} must be >= 0 and finite (0: no quantisation)",
+                            parameter="quantum")
     n = round(T * fs)
     if n < 1:
-        raise AccelcalError(f"duration {T} s at {fs} Hz gives no samples; record longer")
+        raise AccelcalError(f"{T} s at {fs} Hz gives no samples; record longer",
+                            parameter="duration")
 
     amp = A[:, None] * u  # Eq. (4) [Guan2021]: A_j = A u_j
     theta = (2.0 * np.pi * f * (np.arange(n) / fs) + phase) % (2.0 * np.pi)  # (n,)

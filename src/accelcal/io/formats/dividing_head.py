@@ -1,4 +1,10 @@
-"""Record files of indexing-head tests (kind ``dividing-head``).
+"""Record files of indexing-head tests (kind ``dividing-head``): :class:`HeadRecord`.
+
+The record's data type (:class:`HeadRecord`), its writer and reader, and
+the check of nominal head angles (:func:`check_positions`) that the rig
+and the reductions share. Nothing here depends on the methods or the rig:
+:meth:`accelcal.methods.dividing_head.HeadData.from_record` turns a record
+into reduction data.
 
 A record file (see :mod:`accelcal.io.records`) with columns
 
@@ -37,7 +43,6 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.lab_metadata import check_lab_metadata
 from accelcal.io.records import read_record, write_record
-from accelcal.rigs.dividing_head import check_positions
 from accelcal.units import ARCSEC, DEG, OUTPUT_UNITS
 
 KIND = "dividing-head"
@@ -90,12 +95,6 @@ class HeadRecord:
     first_harmonic: np.ndarray | None = None
     first_harmonic_sd: float = 0.0
     simulation: dict | None = None
-
-    def data(self):
-        """The outputs as validated :class:`~accelcal.methods.dividing_head.HeadData`."""
-        from accelcal.methods.dividing_head import HeadData
-
-        return HeadData.build(self.positions, self.outputs, self.mounts, self.output_unit)
 
     def true_models(self):
         """The simulated truth as ErrorModels (None for measured files)."""
@@ -296,3 +295,19 @@ def _number_list(value, path, field) -> list[float]:
     ):
         raise AccelcalError(f"{path}: metadata '{field}' must be a list of finite numbers")
     return [float(v) for v in value]
+
+
+def check_positions(alpha: np.ndarray, what: str = "positions") -> None:
+    """Refuse empty, non-finite or duplicated (modulo 2 pi) nominal angles."""
+    if alpha.size == 0:
+        raise AccelcalError(f"no {what} given")
+    if not np.isfinite(alpha).all():
+        raise AccelcalError(f"{what} contain NaN or inf; give finite angles")
+    wrapped = np.sort(np.mod(alpha, 2 * np.pi))
+    gaps = np.diff(np.concatenate([wrapped, wrapped[:1] + 2 * np.pi]))
+    if alpha.size > 1 and gaps.min() < 1e-9:
+        i = int(np.argmin(gaps))
+        raise AccelcalError(
+            f"{what} repeat the angle {np.degrees(wrapped[i]):.9g} deg (modulo 360); "
+            "each position must be given once (put repeated readings in the repeat column)"
+        )

@@ -15,6 +15,7 @@ Each set is reduced by the same linear operator as the measured VRE
 (:func:`accelcal.methods.vre.identify`: weighted least squares, restricted
 to the row space of the design when it is rank deficient), vectorised over
 trials with the closed-form columns :func:`accelcal.methods.vre.vre_columns`.
+The measured points come from the identification's observations.
 
 References
 ----------
@@ -28,7 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.methods.vre import VreFit, along_ia, null_space, vre_columns
+from accelcal.identifiability import analyse
+from accelcal.methods.vre.closed_form import vre_columns
+from accelcal.methods.vre.identify import row_space_basis
+from accelcal.results import Reduction
 from accelcal.uncertainty import McUncertainty, propagate
 
 
@@ -89,26 +93,19 @@ class VreSampler:
         return y @ self.operator.T - self.values
 
 
-def _operator(design: np.ndarray, sigma: np.ndarray | None) -> np.ndarray:
-    """The identification's linear operator (row space of a deficient design)."""
-    null, _ = null_space(design, sigma)
-    p = design.shape[1]
+def _operator(design: np.ndarray, sigma: np.ndarray | None, names) -> np.ndarray:
+    """The identification's linear operator (row space of a deficient design), ``(p, n)``."""
+    ident = analyse(design, names, sigma=sigma)
     w = np.ones(design.shape[0]) if sigma is None else 1.0 / sigma
-    if null.shape[1] == 0:
+    if ident.full_rank:
         return np.linalg.pinv(design * w[:, None]) * w
-    q, _ = np.linalg.qr(np.concatenate([null, np.eye(p)], axis=1))
-    row_basis = q[:, null.shape[1]:p]
-    return row_basis @ np.linalg.pinv(design @ row_basis * w[:, None]) * w
+    basis = row_space_basis(ident.null_space)
+    return basis @ np.linalg.pinv(design @ basis * w[:, None]) * w
 
 
 def vre_uncertainty(
-    fit: VreFit,
-    overload,
-    amplitude,
-    vre,
-    uncertainty=None,
+    reduction: Reduction,
     *,
-    direction=(1.0, 0.0, 0.0),
     trials: int,
     seed: int,
     amplitude_sd: float = 0.0,
@@ -120,10 +117,10 @@ def vre_uncertainty(
 
     Parameters
     ----------
-    fit : VreFit
-        The identification of the measured VRE.
-    overload, amplitude, vre, uncertainty, direction
-        The measurements, as given to ``identify`` (g).
+    reduction : Reduction
+        The identification of the measured VRE; its observations
+        (``overload``, ``amplitude``, ``direction``, ``vre`` and, if given,
+        ``uncertainty``) are the measured design.
     trials, seed : int
         Monte Carlo trials (> 0) and root seed.
     amplitude_sd, overload_sd : float
@@ -149,36 +146,34 @@ def vre_uncertainty(
     ----------
     .. [1] JCGM 101:2008 (GUM-S1); Guan2021 eqs. (9), (21).
     """
-    for value, what in ((amplitude_sd, "amplitude"), (overload_sd, "overload")):
+    for value, what in ((amplitude_sd, "amplitude_sd"), (overload_sd, "overload_sd")):
         if not np.isfinite(value) or value < 0:
             raise AccelcalError(
-                f"{what} calibration uncertainty {value} must be a finite fraction >= 0"
+                f"calibration uncertainty {value} must be a finite fraction >= 0",
+                parameter=what,
             )
-    est = fit.estimate
+    est = reduction.estimate
     terms = est.names
-    a = np.asarray(amplitude, dtype=float).reshape(-1)
-    b = np.asarray(overload, dtype=float)
-    b = b.reshape(-1, 3) if b.ndim == 2 else along_ia(b.reshape(-1))
-    d = np.broadcast_to(np.asarray(direction, dtype=float), (a.size, 3)).copy()
-    y = np.asarray(vre, dtype=float).reshape(-1)
-    sigma = None if uncertainty is None else np.asarray(uncertainty, dtype=float).reshape(-1)
+    obs = reduction.observations
+    a, b, d = obs["amplitude"], obs["overload"], obs["direction"]
+    sigma = obs.get("uncertainty")
     if sigma is not None and (sigma <= 0).any():
         sigma = None  # as identify: noise-free points, the residuals set the scale
     cols = vre_columns(b, a, d)
     design = np.stack([np.broadcast_to(cols[k], a.shape) for k in terms], axis=1)
-    y = y - sum((v * cols[k] for k, v in fit.fixed.items()), np.zeros(a.size))
-    op = _operator(design, sigma)
+    y = obs["vre"] - sum((v * cols[k] for k, v in reduction.fixed.items()), np.zeros(a.size))
+    op = _operator(design, sigma, terms)
     values = op @ y
     if sigma is None:
         if est.dof <= 0:
             raise AccelcalError(
-                "--uncertainty mc: the VRE points carry no uncertainty and the fit has no "
-                "residual degree of freedom to estimate the noise; add points"
+                "the VRE points carry no uncertainty and the fit has no residual degree of "
+                "freedom to estimate the noise; add points", parameter="uncertainty",
             )
         noise = np.full(a.size, np.sqrt(float(est.residuals @ est.residuals) / est.dof))
     else:
         noise = sigma
-    sampler = VreSampler(b, a, d, noise, terms, values, op, dict(fit.fixed),
+    sampler = VreSampler(b, a, d, noise, terms, values, op, dict(reduction.fixed),
                          float(amplitude_sd), float(overload_sd))
     inputs = ["VRE noise N(0, u_j) g" if sigma is not None else
               f"VRE noise N(0, {noise[0]:.3g}) g (residual level)"]

@@ -1,6 +1,6 @@
 """Monte Carlo (GUM-S1) uncertainty of cross-axis coefficients identified on a shaker.
 
-The identification (:func:`accelcal.methods.transverse.identify`) regresses
+The identification (:func:`accelcal.methods.transverse.identification.identify`) regresses
 the output's DC, w and 2w components on regressors built from the
 reference channels' phasors. Synthetic observations are drawn, per
 direction angle, from the fitted coefficients (plus the model's fixed
@@ -33,17 +33,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.methods.transverse import (
+from accelcal.io.formats.shaker import ShakerRecords
+from accelcal.methods.transverse.estimators import record_phasors
+from accelcal.methods.transverse.identification import (
     FIT_TERMS,
-    ROUTES,
+    check_route,
     observation_columns,
     observation_covariance,
-    record_phasors,
     regressors,
 )
-from accelcal.model import ErrorModel
-from accelcal.results import Estimate
-from accelcal.rigs.shaker import ShakerRecords
+from accelcal.results import Reduction
 from accelcal.uncertainty import McUncertainty, propagate
 
 _REFS = ("ref", "ref_n", "ref_ia")
@@ -69,7 +68,7 @@ class TransverseSampler:
     terms : tuple of str
         Fitted terms.
     route : str
-        Components used (:data:`accelcal.methods.transverse.ROUTES`).
+        Components used (:data:`accelcal.methods.transverse.identification.ROUTES`).
     scale_factor : float
         K1, output unit per g.
     chol : numpy.ndarray
@@ -132,27 +131,23 @@ class TransverseSampler:
 
 def transverse_uncertainty(
     records: ShakerRecords,
-    estimate: Estimate,
+    reduction: Reduction,
     *,
-    route: str,
-    base: ErrorModel | None = None,
-    scale_factor: float | None = None,
     trials: int,
     seed: int,
     reference_sd: float = 0.0,
     shortest: bool = False,
     progress=None,
 ) -> McUncertainty:
-    """Monte Carlo uncertainty of :func:`accelcal.methods.transverse.identify`.
+    """Monte Carlo uncertainty of :func:`~accelcal.methods.transverse.identification.identify`.
 
     Parameters
     ----------
     records : ShakerRecords
         The records identified (one amplitude, ``(m, n)``).
-    estimate : Estimate
-        The identification of ``records`` with ``route``, ``base``, ``scale_factor``.
-    route, base, scale_factor
-        As given to ``identify``.
+    reduction : Reduction
+        Their identification; its ``route`` and ``scale_factor`` assumptions
+        and its ``fixed`` terms are those the synthetic observations use.
     trials, seed : int
         Monte Carlo trials (> 0) and root seed.
     reference_sd : float
@@ -170,7 +165,8 @@ def transverse_uncertainty(
     Raises
     ------
     AccelcalError
-        For a negative reference uncertainty or an unknown route.
+        For a negative reference uncertainty or a reduction that is not a
+        shaker identification.
 
     References
     ----------
@@ -178,20 +174,23 @@ def transverse_uncertainty(
     """
     if not np.isfinite(reference_sd) or reference_sd < 0:
         raise AccelcalError(
-            f"reference calibration uncertainty {reference_sd} must be a finite fraction >= 0"
+            f"reference calibration uncertainty {reference_sd} must be a finite fraction >= 0",
+            parameter="reference_sd",
         )
-    if route not in ROUTES:
-        raise AccelcalError(f"route {route!r} is not one of {', '.join(ROUTES)}")
+    if reduction.family != "transverse":
+        raise AccelcalError(f"a {reduction.family} reduction is not a shaker identification; "
+                            "give the result of identify", parameter="reduction")
+    route = reduction.assumed("route")
+    check_route(route)
+    k1 = float(reduction.assumed("scale_factor"))
+    estimate = reduction.estimate
     terms = estimate.names
-    k1 = scale_factor if scale_factor is not None else (
-        base.K1 if base is not None else records.scale_factor)
     ph = record_phasors(records)
     phasors = {n: ph[n].phasors[..., 0] for n in _REFS if n in ph}
     # a noise-free reference has a zero covariance: the tiny ridge keeps it factorable
     phasor_chol = {n: np.linalg.cholesky(ph[n].covariance[..., 1:3, 1:3] + 1e-300 * np.eye(2))
                    for n in phasors}
-    known = base.terms() if base is not None else {}
-    values = {t: float(known.get(t, 0.0)) for t in FIT_TERMS if t != "Ki"}
+    values = {t: float(reduction.fixed.get(t, 0.0)) for t in FIT_TERMS if t != "Ki"}
     values.update(dict(zip(terms, estimate.values.tolist(), strict=True)))
     chol = np.linalg.cholesky(observation_covariance(records, ph, route, k1))
     noise_chol = np.linalg.cholesky(observation_covariance(records, ph, route, k1,
@@ -213,4 +212,3 @@ def transverse_uncertainty(
     return propagate(sampler, estimate.values, estimate.std, names=terms, trials=trials,
                      seed=seed, units=dict(estimate.units), shortest=shortest, inputs=inputs,
                      progress=progress)
-

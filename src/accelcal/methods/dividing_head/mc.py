@@ -17,9 +17,9 @@ Synthetic data sets are drawn from the fitted coefficients of every sensor
   the drawn head error plus Gaussian noise of their standard uncertainty.
 
 Each data set is reduced by the same linear operators as the measured data
-(:func:`~accelcal.methods.dividing_head.single_operator`,
-:class:`~accelcal.methods.dividing_head.FourOperator`,
-:class:`~accelcal.methods.dividing_head.JointOperator`), after the same
+(:func:`~accelcal.methods.dividing_head.single.single_operator`,
+:class:`~accelcal.methods.dividing_head.four.FourOperator`,
+:class:`~accelcal.methods.dividing_head.joint.JointOperator`), after the same
 normalisation by each sensor's fitted scale factor, vectorised over trials.
 The error of a trial is measured against its identifiable truth, the fitted
 coefficients with ``K_O* = K_O + K_I d0`` for the trial's mean head error d0
@@ -39,23 +39,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.methods.dividing_head import (
-    COEFFICIENTS,
-    FourOperator,
-    HeadData,
-    HeadReduction,
-    JointOperator,
-    gauge_basis,
-    joint_design,
-    psi,
-    residual_noise_variances,
-    scale_factors,
-    single_operator,
-)
+from accelcal.methods.dividing_head.data import HeadData
+from accelcal.methods.dividing_head.four import FourOperator, residual_noise_variances
+from accelcal.methods.dividing_head.joint import JointOperator, gauge_basis, joint_design
+from accelcal.methods.dividing_head.single import scale_factors, single_operator
+from accelcal.methods.dividing_head.theory import COEFFICIENTS, method_name, psi
+from accelcal.results import Reduction
 from accelcal.uncertainty import McUncertainty, propagate
 
 MC_METHODS = ("single", "four", "joint")
 """Reductions whose Monte Carlo uncertainty is available."""
+_MC_LIST = f"{', '.join(MC_METHODS[:-1])} and {MC_METHODS[-1]}"
 
 
 @dataclass(frozen=True)
@@ -103,12 +97,13 @@ class HeadSampler:
     def __post_init__(self) -> None:
         if self.method not in MC_METHODS:
             raise AccelcalError(
-                f"Monte Carlo uncertainty is available for methods {', '.join(MC_METHODS)}, "
-                f"not {self.method!r}"
+                f"Monte Carlo uncertainty is available for methods {_MC_LIST}, "
+                f"not {self.method!r}", parameter="method"
             )
         level = float(self.angle_error_level)
         if not np.isfinite(level) or level < 0:
-            raise AccelcalError(f"angle-error level must be finite and >= 0 rad, got {level}")
+            raise AccelcalError(f"the angle-error level must be finite and >= 0 rad, got {level}",
+                                parameter="angle_error_level")
         sd = np.broadcast_to(np.asarray(
             0.0 if self.first_harmonic_sd is None else self.first_harmonic_sd, dtype=float), (2,))
         alpha = np.asarray(self.positions, dtype=float)
@@ -163,7 +158,7 @@ class HeadSampler:
         """The method's estimates for outputs ``u`` ``(t, K, n)``, shape ``(t, K, 5)``.
 
         The same operators and the same order of operations as
-        :func:`accelcal.methods.dividing_head.reduce` (linear solution; the
+        :func:`accelcal.methods.dividing_head.reduce.reduce` (linear solution; the
         Gauss-Newton refinement changes estimates only at second order).
         """
         ops = self._ops
@@ -192,7 +187,7 @@ def _autocollimator_operator(alpha, phi, h1_fixed, sigma, sd):
     """Linear map of (normalised outputs, readings) to the joint coefficients with readings.
 
     The weighted design of
-    :func:`accelcal.methods.dividing_head.joint` with autocollimator
+    :func:`accelcal.methods.dividing_head.joint.joint` with autocollimator
     pseudo-observations, for a fixed weight ``sigma`` of the data rows.
     Returns ``(P_u (5K, Kn), P_r (5K, n), shift (5K, 2))`` with
     coefficients ``P_u u + P_r r + shift h1``.
@@ -220,7 +215,7 @@ def noise_levels(data: HeadData, method: str) -> np.ndarray:
     The residuals ``r = R u'`` of the method's linear reduction (normalised
     outputs ``u'``; for ``joint`` the fit without autocollimator readings,
     whose residual sets the reduction's own noise level) give unbiased
-    variances by :func:`~accelcal.methods.dividing_head.residual_noise_variances`
+    variances by :func:`~accelcal.methods.dividing_head.four.residual_noise_variances`
     even where the reduction spends degrees of freedom on the head error
     (``four``: harmonics >= 2). ``joint`` pools the sensors, as its formal
     covariance does (``r'r / dof``); so do the others where the system has
@@ -247,7 +242,7 @@ def noise_levels(data: HeadData, method: str) -> np.ndarray:
 
 def head_uncertainty(
     data: HeadData,
-    result: HeadReduction,
+    result: Reduction,
     *,
     trials: int,
     seed: int,
@@ -265,7 +260,7 @@ def head_uncertainty(
     ----------
     data : HeadData
         The measured data.
-    result : HeadReduction
+    result : Reduction
         Its reduction by ``single``, ``four`` or ``joint``.
     trials, seed : int
         Monte Carlo trials (> 0) and root seed.
@@ -277,7 +272,7 @@ def head_uncertainty(
         Standard uncertainty of the autocollimator readings the ``joint``
         reduction used, rad (None when it used none).
     sensor_names : sequence of str, optional
-        Names of the sensors (default U1, U2, ...).
+        Names of the sensors (default the reduction's).
     shortest : bool
         Shortest coverage interval instead of the symmetric one.
     progress : callable, optional
@@ -287,32 +282,33 @@ def head_uncertainty(
     -------
     McUncertainty
         Names ``"<sensor> <coefficient>"``, sensor-major, in the order of
-        :meth:`HeadReduction.rows`.
+        :meth:`Reduction.rows`.
 
     References
     ----------
     .. [1] JCGM 101:2008 (GUM-S1); [DOMAIN] section 4.
     """
-    if result.method not in MC_METHODS:
+    method = method_name(result)
+    if method not in MC_METHODS:
         raise AccelcalError(
-            f"--uncertainty mc is available for methods {', '.join(MC_METHODS)}, "
-            f"not {result.method}"
+            f"Monte Carlo uncertainty is available for methods {_MC_LIST}, "
+            f"not {method}", parameter="uncertainty"
         )
     coef = np.stack([e.values for e in result.sensors])
-    noise = noise_levels(data, result.method)
+    noise = noise_levels(data, method)
     weight = None
     if autocollimator_sd is not None:
         op = JointOperator.build(data.positions, data.mounts)
         res = op.resid @ (data.outputs / scale_factors(data)[:, None]).reshape(-1)
         weight = float(np.sqrt(res @ res / op.dof))  # the reduction's own weight
     sampler = HeadSampler(
-        data.positions, data.mounts, coef, noise, result.method,
+        data.positions, data.mounts, coef, noise, method,
         angle_error_level=angle_error_level,
         first_harmonic=None if first_harmonic is None else np.asarray(first_harmonic, float),
         first_harmonic_sd=first_harmonic_sd, autocollimator_sd=autocollimator_sd,
         weight_sigma=weight,
     )
-    names = sensor_names or [f"U{k + 1}" for k in range(len(result.sensors))]
+    names = sensor_names or result.sensor_names
     labels = [f"{s} {c}" for s in names for c in COEFFICIENTS]
     units = {f"{s} {c}": result.sensors[0].units[c] for s in names for c in COEFFICIENTS}
     std = np.concatenate([e.std for e in result.sensors])

@@ -1,4 +1,4 @@
-"""Vibrafuge records: files of kind ``vibrafuge`` and their reduction to VRE.
+"""Vibrafuge records: files of kind ``vibrafuge`` and their data type :class:`VibrafugeRun`.
 
 A record file (see :mod:`accelcal.io.records`) of kind ``vibrafuge`` holds
 one or more test points, each with a static and a vibrating record sampled
@@ -20,19 +20,14 @@ Metadata fields: ``sample_rate_hz``, ``frequency_hz`` (vibration),
 laboratory fields ``serial``, ``operator``, ``date``, ``local_gravity``
 (:mod:`accelcal.io.lab_metadata`; pass them in ``provenance`` to write them).
 
-The VRE of a point is ``(mean_vibrating - mean_static) / scale_factor``,
-both means over whole periods of the vibration (the record need not start
-at phase zero; the partial period at the end is left out), with standard
-uncertainty ``sqrt(u_v^2 + u_s^2) / |scale_factor|`` from each record's
-residual noise after removing the periodic signal by synchronous averaging
-(all harmonics, which the asymmetry term has), or after removing harmonics
-0..8 when the span holds fewer than two repeats of the sampled phases
-(:func:`accelcal.signal.periods.whole_period_mean`).
+The simulator (:mod:`accelcal.rigs.vibrafuge`) produces a
+:class:`VibrafugeRun`; the VRE method
+(:func:`accelcal.methods.vre.reduce_run`) reduces one.
 
 References
 ----------
 .. [Guan2021] Guan W., Metrology & Measurement Technology 41(3), 2021,
-   sec. 2 (VRE as the difference of whole-period means).
+   sec. 2 (static and vibrating records of a vibrafuge test point).
 .. [IEEE1057] IEEE Std 1057-2017, sec. 4.1.
 """
 
@@ -45,8 +40,6 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.lab_metadata import check_lab_metadata
 from accelcal.io.records import read_record, write_record
-from accelcal.rigs.vibrafuge import VibrafugeRun
-from accelcal.signal.periods import whole_period_mean
 from accelcal.units import OUTPUT_UNITS
 
 KIND = "vibrafuge"
@@ -55,92 +48,65 @@ KIND = "vibrafuge"
 SAMPLE_RATE_RTOL = 1e-9
 """Relative tolerance for a time column to match ``sample_rate_hz``."""
 
-HARMONICS = 8
-"""Harmonics of the vibration removed before estimating the noise level when
-the synchronous estimate is not available. The asymmetry term has harmonics
-of every order; leaving some in makes the uncertainty conservative, never
-biases the mean."""
-
 
 @dataclass(frozen=True)
-class VreMeasurement:
-    """VRE of each test point of a run, with standard uncertainty.
+class VibrafugeRun:
+    """Static and vibrating records of one or more vibrafuge test points.
 
     Attributes
     ----------
+    static, vibrating : numpy.ndarray, shape (P, n)
+        Output at rest and while vibrating, in ``output_unit``; row ``k`` is
+        test point ``k``; sample ``j`` is at ``t = j / sample_rate``.
     overload : numpy.ndarray, shape (P, 3)
-        Overload vectors, g.
+        Overload vector of each point in IA, OA, PA, g.
     amplitude : numpy.ndarray, shape (P,)
-        Vibration amplitudes, g.
+        Vibration amplitude of each point, g.
     direction : numpy.ndarray, shape (3,)
-        Vibration direction.
-    vre : numpy.ndarray, shape (P,)
-        Measured VRE, g.
-    uncertainty : numpy.ndarray, shape (P,)
-        Standard uncertainty of the VRE from the records' noise, g.
-    static_mean, vibrating_mean : numpy.ndarray, shape (P,)
-        Whole-period means, output unit.
-    periods, samples, discarded : int
-        Whole periods and samples used, samples left out at the end.
+        Unit vibration direction in IA, OA, PA.
+    frequency : float
+        Vibration frequency, Hz.
+    sample_rate : float
+        Sample rate of both records, Hz.
+    phase : float
+        Vibration phase at ``t = 0``, rad.
+    scale_factor : float
+        Nominal scale factor K1 (output unit per g) used to express the VRE
+        in g.
+    output_unit : str
+        Unit of the records.
+    sampling : str
+        ``"integrating"``, ``"point"``, or ``"measured"`` for records read
+        from a file of unknown origin.
+    noise : float
+        Standard deviation of the added noise, g (0: none).
+    quantum : float
+        Output quantisation step in ``output_unit`` (0: none).
     """
 
+    static: np.ndarray
+    vibrating: np.ndarray
     overload: np.ndarray
     amplitude: np.ndarray
     direction: np.ndarray
-    vre: np.ndarray
-    uncertainty: np.ndarray
-    static_mean: np.ndarray
-    vibrating_mean: np.ndarray
-    periods: int
-    samples: int
-    discarded: int
+    frequency: float
+    sample_rate: float
+    phase: float = 0.0
+    scale_factor: float = 1.0
+    output_unit: str = "g"
+    sampling: str = "measured"
+    noise: float = 0.0
+    quantum: float = 0.0
 
-    def rows(self) -> list[dict]:
-        """One dict per point (for tables and CSV/JSON output)."""
-        return [
-            {"point": k, "overload_g": float(b[0]), "overload_oa_g": float(b[1]),
-             "overload_pa_g": float(b[2]), "amplitude_g": float(a), "vre_g": float(v),
-             "u_vre_g": float(u)}
-            for k, (b, a, v, u) in enumerate(
-                zip(self.overload, self.amplitude, self.vre, self.uncertainty, strict=True))
-        ]
+    @property
+    def t(self) -> np.ndarray:
+        """Sample times, s (start of each sample interval)."""
+        return np.arange(self.static.shape[-1]) / self.sample_rate
 
-
-def reduce_run(run: VibrafugeRun, *, harmonics: int = HARMONICS) -> VreMeasurement:
-    """Reduce static and vibrating records to VRE with standard uncertainty.
-
-    Parameters
-    ----------
-    run : VibrafugeRun
-        Records of one or more points (simulated or read from a file).
-    harmonics : int
-        Harmonics of the vibration frequency removed before estimating the
-        noise (affects the uncertainty only).
-
-    Returns
-    -------
-    VreMeasurement
-
-    Raises
-    ------
-    AccelcalError
-        For records shorter than one period, or without a whole-period span.
-
-    References
-    ----------
-    .. [1] Guan2021, sec. 2: VRE = whole-period mean vibrating minus static.
-    """
-    fs, f = run.sample_rate, run.frequency
-    vib = whole_period_mean(run.vibrating, fs, f, harmonics=harmonics, what="vibrating record")
-    sta = whole_period_mean(run.static, fs, f, harmonics=harmonics, what="static record")
-    k1 = run.scale_factor
-    vre = (np.atleast_1d(vib.mean) - np.atleast_1d(sta.mean)) / k1  # Eq. (9)/(21) [Guan2021]
-    u = np.hypot(np.atleast_1d(vib.std), np.atleast_1d(sta.std)) / abs(k1)
-    return VreMeasurement(
-        overload=run.overload, amplitude=run.amplitude, direction=run.direction, vre=vre,
-        uncertainty=u, static_mean=np.atleast_1d(sta.mean), vibrating_mean=np.atleast_1d(vib.mean),
-        periods=vib.periods, samples=vib.samples, discarded=vib.discarded,
-    )
+    @property
+    def points(self) -> int:
+        """Number of test points."""
+        return self.static.shape[0]
 
 
 def write_vibrafuge(path, run: VibrafugeRun, *, provenance: dict | None = None) -> None:
@@ -153,7 +119,8 @@ def write_vibrafuge(path, run: VibrafugeRun, *, provenance: dict | None = None) 
     run : VibrafugeRun
         The records.
     provenance : dict, optional
-        Extra JSON-serialisable metadata (e.g. the simulated model's terms).
+        Extra JSON-serialisable metadata (e.g. the simulated model's terms,
+        the laboratory fields).
     """
     P, n = run.static.shape
     meta = {

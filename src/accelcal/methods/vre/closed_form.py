@@ -1,4 +1,4 @@
-"""Vibration rectification error (VRE) with asymmetry under overload and vibration.
+"""Closed forms of the vibration rectification error (VRE) under overload and vibration.
 
 A vibrafuge (centrifuge plus shaker) applies an overload ``b`` and a
 sinusoidal vibration ``A sin(theta)`` together. The VRE is the whole-period
@@ -26,7 +26,7 @@ direction ``u``. Every polynomial term of the model averages in closed form
 term needs the formulas above, with ``A_i = |A u_i|`` and ``b = b_i``.
 :func:`vre_columns` gives the VRE per unit of every coefficient, which is
 both the closed form (:func:`vector_vre`) and the design matrix of the
-identification (:func:`identify`).
+identification (:func:`accelcal.methods.vre.identify`).
 
 References
 ----------
@@ -37,14 +37,12 @@ References
    of b and for the multi-axis case).
 """
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.model import TERMS, ErrorModel, unknown_term_message
-from accelcal.results import Estimate, least_squares
+from accelcal.model import ErrorModel
 
 VRE_TERMS = ("K2", "K3", "K4", "Koo", "Kpp", "Kio", "Kip", "Kop", "K0_asym", "K1_asym")
 """Coefficients that produce a rectification error. The bias, the scale
@@ -382,244 +380,3 @@ def vector_vre(model: ErrorModel, overload, amplitude, direction=(1.0, 0.0, 0.0)
     cols = vre_columns(overload, amplitude, direction)
     by_term = {name: getattr(model, name) * col for name, col in cols.items()}
     return sum(by_term.values()), by_term  # Eq. (23) [Guan2021]
-
-
-# ---------------------------------------------------------------- identification
-@dataclass(frozen=True)
-class VreFit:
-    """Coefficients identified from measured VRE.
-
-    Attributes
-    ----------
-    estimate : accelcal.results.Estimate
-        Every requested coefficient; NaN value and covariance for the ones
-        the design cannot identify.
-    unidentifiable : tuple of str
-        Requested coefficients the design cannot separate.
-    combinations : tuple of (dict, float, float)
-        For the unidentifiable ones, the linear combinations the data do
-        determine: ``({name: weight}, value, std)``.
-    fixed : dict
-        Coefficients held at given values (not fitted).
-    """
-
-    estimate: Estimate
-    unidentifiable: tuple[str, ...]
-    combinations: tuple[tuple[dict, float, float], ...]
-    fixed: dict
-
-    def rows(self) -> list[dict]:
-        """One row per coefficient: name, estimate, std, unit, status."""
-        rows = []
-        for row in self.estimate.rows():
-            name = row["coefficient"]
-            status = "not identifiable" if name in self.unidentifiable else "fitted"
-            rows.append({**row, "status": status})
-        rows.extend(
-            {"coefficient": name, "estimate": value, "std": 0.0,
-             "unit": TERMS[name].unit, "status": "fixed"}
-            for name, value in self.fixed.items()
-        )
-        return rows
-
-
-def _check_terms(terms, fixed) -> tuple[tuple[str, ...], dict]:
-    terms = tuple(terms)
-    fixed = dict(fixed or {})
-    for name in (*terms, *fixed):
-        if name not in VRE_TERMS:
-            if name in TERMS:
-                raise AccelcalError(
-                    f"{name} produces no rectification error (it averages out over a period) "
-                    f"and cannot be fitted from VRE; fit some of {', '.join(VRE_TERMS)}"
-                )
-            raise AccelcalError(unknown_term_message(name, VRE_TERMS))
-    both = sorted(set(terms) & set(fixed))
-    if both:
-        raise AccelcalError(f"{', '.join(both)} both fitted and fixed; give each once")
-    if len(set(terms)) != len(terms) or not terms:
-        raise AccelcalError("give at least one coefficient to fit, each once")
-    return terms, {k: float(v) for k, v in fixed.items()}
-
-
-def identify(
-    overload,
-    amplitude,
-    vre,
-    uncertainty=None,
-    *,
-    direction=(1.0, 0.0, 0.0),
-    terms=PAPER_TERMS,
-    fixed=None,
-    provenance=None,
-) -> VreFit:
-    """Least-squares identification of VRE coefficients from a (b, A) design.
-
-    Parameters
-    ----------
-    overload : array_like, shape (n,) or (n, 3)
-        Overload of each measurement (along IA, or a vector in IA/OA/PA), g.
-    amplitude : array_like, shape (n,)
-        Vibration amplitude, g.
-    vre : array_like, shape (n,)
-        Measured VRE, g.
-    uncertainty : array_like, shape (n,), optional
-        Standard uncertainty of each VRE, g. When given (all > 0) the fit is
-        weighted and the covariance is ``(A' W A)^-1``; otherwise the
-        residual variance scales it.
-    direction : array_like, shape (3,) or (n, 3)
-        Vibration direction(s) in IA/OA/PA.
-    terms : sequence of str
-        Coefficients to fit, from :data:`VRE_TERMS` (default: the paper's
-        K2, K3, K0', K1').
-    fixed : dict, optional
-        Coefficients held at known values; their VRE is subtracted first.
-    provenance : dict, optional
-        Stored in the estimate.
-
-    Returns
-    -------
-    VreFit
-        With the coefficients the design cannot separate listed in
-        ``unidentifiable`` (NaN estimates) and the combinations of them that
-        it does determine.
-
-    Raises
-    ------
-    AccelcalError
-        For bad input, or a design that identifies nothing.
-
-    Notes
-    -----
-    A coefficient is identifiable when its unit vector lies in the row
-    space of the design (it is orthogonal to the design's null space). With
-    a single overload, the K2 and K3 columns (A^2/2 and 3 b A^2/2) are
-    proportional: only ``K2 + 3 b K3`` is determined. With every amplitude
-    at or below the overload, K0' and K1' produce no VRE at all.
-
-    References
-    ----------
-    .. [1] Guan2021, eqs. (9), (21), (24) (the model fitted).
-    .. [2] Golub G. H., Van Loan C. F., Matrix Computations, 4th ed.,
-       sec. 5.5 (rank-deficient least squares).
-    """
-    terms, fixed = _check_terms(terms, fixed)
-    A = _amplitude(amplitude, "amplitude").reshape(-1)
-    y = _finite(vre, "vre").reshape(-1)
-    b = _finite(overload, "overload")
-    b = b.reshape(-1, 3) if b.ndim == 2 else along_ia(b.reshape(-1))
-    n = A.size
-    if n == 0 or b.shape[0] != n or y.size != n:
-        raise AccelcalError(
-            f"overload ({b.shape[0]}), amplitude ({n}) and vre ({y.size}) must have the same "
-            "non-zero number of measurements"
-        )
-    sigma = None
-    if uncertainty is not None:
-        sigma = _finite(uncertainty, "uncertainty").reshape(-1)
-        if sigma.size != n:
-            raise AccelcalError(f"uncertainty has {sigma.size} values for {n} measurements")
-        if (sigma <= 0).any():
-            sigma = None  # noise-free data: fall back to the residual scale
-    cols = vre_columns(b, A, direction)
-    y = y - sum((fixed[k] * cols[k] for k in fixed), np.zeros(n))
-    design = np.stack([np.broadcast_to(cols[t], (n,)) for t in terms], axis=1)
-    units = {t: TERMS[t].unit for t in terms}
-    method = "vre-identify"
-    prov = {"measurements": n, **(provenance or {})}
-    null, identifiable = null_space(design, sigma)
-    if null.shape[1] == 0:
-        est = least_squares(design, y, terms, units, method, sigma=sigma, provenance=prov)
-        unident, combos = (), ()
-    else:
-        est, unident, combos = _fit_deficient(design, y, terms, units, sigma, null,
-                                              ~identifiable, prov)
-    if sigma is not None and est.dof > 0:
-        # With known uncertainties the covariance is (A'WA)^-1, not rescaled:
-        # chi^2/dof near 1 says the stated uncertainties fit the residuals.
-        chi2 = float(np.sum((est.residuals / sigma) ** 2))
-        note = f"weighted by the VRE uncertainties; chi^2/dof = {chi2 / est.dof:.3g}"
-        est = dataclasses.replace(est, notes=(*est.notes, note))
-    return VreFit(est, unident, combos, fixed)
-
-
-def _scaled(design, sigma):
-    w = np.ones(design.shape[0]) if sigma is None else 1.0 / sigma
-    aw = design * w[:, None]
-    scale = np.linalg.norm(aw, axis=0)
-    return aw, np.where(scale > 0, scale, 1.0)
-
-
-def null_space(design, sigma) -> tuple[np.ndarray, np.ndarray]:
-    """Null space of the design: ``(unscaled, identifiable)``.
-
-    The rank is decided on the column-equilibrated (and weighted) design, so
-    that coefficients of very different magnitude are treated alike.
-    ``unscaled`` holds unit null vectors in coefficient coordinates;
-    ``identifiable`` flags the coefficients orthogonal to all of them.
-    """
-    aw, scale = _scaled(design, sigma)
-    _, sv, vt = np.linalg.svd(aw / scale, full_matrices=True)
-    tol = max(aw.shape) * np.finfo(float).eps * 1e3 * (sv[0] if sv.size else 0.0)
-    rank = int((sv > tol).sum()) if sv.size and sv[0] > 0 else 0
-    scaled_null = vt[rank:].T
-    identifiable = np.abs(scaled_null).max(axis=1, initial=0.0) < 1e-8
-    null = scaled_null / scale[:, None]
-    norms = np.linalg.norm(null, axis=0)
-    return null / np.where(norms > 0, norms, 1.0), identifiable
-
-
-def _fit_deficient(design, y, terms, units, sigma, null, bad, prov):  # noqa: PLR0917
-    """Fit the estimable part of a rank-deficient design; NaN for the rest."""
-    method = "vre-identify"
-    p = len(terms)
-    if null.shape[1] == p:
-        raise AccelcalError(
-            f"{method}: the design identifies none of {', '.join(terms)} (every amplitude is "
-            "zero?); add amplitudes above the overload"
-        )
-    # Row-space basis: orthonormal complement of the null space.
-    q, _ = np.linalg.qr(np.concatenate([null, np.eye(p)], axis=1))
-    row_basis = q[:, null.shape[1]:p]
-    z = least_squares(design @ row_basis, y, [f"z{i}" for i in range(row_basis.shape[1])],
-                      {}, method, sigma=sigma)
-    full_values = row_basis @ z.values
-    full_cov = row_basis @ z.covariance @ row_basis.T
-    values, cov = full_values.copy(), full_cov.copy()
-    values[bad] = np.nan
-    cov[bad, :] = np.nan
-    cov[:, bad] = np.nan
-    unident = tuple(t for t, k in zip(terms, bad, strict=True) if k)
-    combos = []
-    sub = np.flatnonzero(bad)
-    # Combinations of the unidentifiable coefficients the data determine:
-    # vectors on those coordinates orthogonal to the null space.
-    ns = null[sub]
-    _, sv, vt = np.linalg.svd(ns.T, full_matrices=True)
-    rank = int((sv > 1e-9).sum())
-    for w_sub in vt[rank:]:
-        w = np.zeros(p)
-        w[sub] = w_sub / w_sub[np.flatnonzero(np.abs(w_sub) > 1e-12)[0]]
-        keep = np.abs(w) > 1e-12
-        weights = {t: float(c) for t, c, k in zip(terms, w, keep, strict=True) if k}
-        combos.append((weights, float(w @ full_values), float(np.sqrt(w @ full_cov @ w))))
-    notes = [
-        (f"not identifiable with this (b, A) design: {', '.join(unident)}; "
-         "fix some of them or add overloads/amplitudes that separate them")
-    ]
-    notes += [f"identified combination: {describe_combination(w)} = {v:.6g} +/- {s:.2g}"
-              for w, v, s in combos]
-    est = Estimate(names=terms, values=values, covariance=cov, units=units, method=method,
-                   residuals=z.residuals, dof=z.dof, notes=tuple(notes), provenance=prov)
-    return est, unident, tuple(combos)
-
-
-def describe_combination(weights: dict) -> str:
-    """Text of a linear combination, e.g. ``K2 + 6 K3``."""
-    parts = []
-    for name, w in weights.items():
-        sign = "-" if w < 0 else "+"
-        mag = "" if abs(abs(w) - 1.0) < 1e-12 else f"{abs(w):.6g} "
-        parts.append(f"{sign} {mag}{name}")
-    text = " ".join(parts)
-    return text[2:] if text.startswith("+ ") else text

@@ -1,0 +1,51 @@
+"""Numbers as people read them: digits the uncertainty supports, units with powers.
+
+Shared by the command line's tables and the HTML report, so both round the
+same way: an estimate keeps every digit down to one tenth of its standard
+uncertainty (the uncertainty itself is shown with two significant digits,
+GUM 7.2.6), so a table never rounds away what the data resolve.
+
+References
+----------
+.. [GUM] JCGM 100:2008, Evaluation of measurement data - Guide to the
+   expression of uncertainty in measurement, sec. 7.2.6.
+"""
+
+import math
+
+
+def format_value(value: float, std: float | None = None) -> str:
+    """A value with as many digits as its uncertainty supports (two on the uncertainty)."""
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    if std is None or not math.isfinite(std) or std <= 0:
+        return f"{value:.7g}"
+    magnitude = math.floor(math.log10(abs(value))) if value != 0 else math.floor(math.log10(std))
+    digits = max(2, magnitude - math.floor(math.log10(std)) + 2)
+    return f"{value:#.{digits}g}".rstrip(".")  # '#': keep significant trailing zeros
+
+
+def format_std(std: float) -> str:
+    """An uncertainty with two significant digits."""
+    if std is None or not math.isfinite(std):
+        return "not identified"
+    return f"{std:#.2g}".rstrip(".")
+
+
+def pm(value: float, std: float) -> str:
+    """``value ± std`` with the digits the uncertainty supports."""
+    return f"{format_value(value, std)} ± {format_std(std)}"
+
+
+def format_unit(unit: str) -> str:
+    """A unit with superscript powers and micro signs (``ug/g^2`` -> ``µg/g²``)."""
+    text = unit.replace("^2", "²").replace("^3", "³").replace("^4", "⁴")
+    return "µ" + text[1:] if text.startswith("u") and text[1:2] in ("g", "r") else text
+
+
+def format_correlation(x: float) -> str:
+    """A correlation coefficient with three decimals (no negative zero; n/a for NaN)."""
+    if x is None or not math.isfinite(x):
+        return "n/a"
+    text = f"{x:.3f}"
+    return "0.000" if text == "-0.000" else text

@@ -1,0 +1,239 @@
+"""Input limits: bounded reads, one safe JSON loader, checked user strings.
+
+Every file accelcal reads and every string a user gives passes through
+here, so that no input can exhaust the stack, the memory or the time of a
+run, and no string can break a file name, a one-line message or a report:
+
+- :func:`read_bounded` reads at most a stated number of bytes, so a huge
+  file, a device such as ``/dev/zero`` or a pipe ends at once with a
+  message instead of filling the memory;
+- :func:`load_json` refuses text over :data:`MAX_JSON_BYTES`, nesting
+  deeper than :data:`MAX_JSON_DEPTH` (the standard decoder recurses once
+  per level and would raise ``RecursionError``), ``NaN``/``Infinity`` and
+  numbers that overflow to infinity;
+- :func:`check_label` bounds a user string (serial number, operator,
+  method) to :data:`MAX_LABEL_LENGTH` characters without control
+  characters, and a string that becomes part of a file name to one without
+  path separators.
+"""
+
+import json
+import math
+import os
+import re
+import stat
+from itertools import accumulate
+
+from accelcal.errors import AccelcalError
+
+MAX_JSON_BYTES = 16 * 2**20
+"""Largest JSON text read (16 MiB): a model file is about 1 kB, a calibration
+record with a 100 x 100 covariance about 250 kB, a record file's metadata
+line a few kB; 16 MiB leaves room for 60 times the largest of these."""
+
+MAX_JSON_DEPTH = 64
+"""Deepest nesting of JSON arrays and objects accepted. accelcal's own files
+nest at most 5 levels; 64 stays far below Python's recursion limit (1000)."""
+
+MAX_LABEL_LENGTH = 200
+"""Longest serial number, operator or method name, in characters: the width
+of the records store's ``serial`` and ``method`` columns, and well below the
+255-byte limit of a file name that a serial number becomes part of."""
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
+"""Control characters (C0, DEL, C1), line and paragraph separators and
+bidirectional overrides: none belongs in a label, a file name or a report."""
+
+_STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"', re.DOTALL)
+
+
+def shown(value, limit: int = 40) -> str:
+    """A value as a message shows it, cut to about ``limit`` characters.
+
+    A string is quoted (``'x'``), anything else is shown as JSON (``null``,
+    ``true``), so that a message stays one short line whatever the value.
+    """
+    text = repr(value) if isinstance(value, str) else json.dumps(value, default=repr)
+    if len(text) <= limit:
+        return text
+    size = f" ({len(value)} characters)" if isinstance(value, str) else ""
+    return f"{text[:limit]}...{size}"
+
+
+def shown_path(path) -> str:
+    """A path or address for a one-line message: a long one keeps its start and end."""
+    text = str(path)
+    return text if len(text) <= 160 else f"{text[:100]}...{text[-50:]}"
+
+
+def read_bounded(path, limit: int, what: str) -> bytes:
+    """The bytes of ``path``, refusing a file larger than ``limit`` bytes.
+
+    The size of a regular file is checked before reading; anything else (a
+    device, a pipe) is read up to ``limit + 1`` bytes, so the call always
+    ends after at most ``limit + 1`` bytes.
+
+    Parameters
+    ----------
+    path : path-like
+    limit : int
+        Largest size accepted, bytes.
+    what : str
+        What the file is, for the message (``"model file"``).
+
+    Raises
+    ------
+    AccelcalError
+        If the file is larger than ``limit``.
+    OSError
+        If the file cannot be opened or read (callers say which file).
+    """
+    with open(path, "rb") as fh:
+        data = read_rest(fh, limit)
+    if data is None:
+        raise AccelcalError(
+            f"{what} {path} is larger than {_size(limit)}; is it the right file?"
+        )
+    return data
+
+
+def read_rest(fh, limit: int) -> bytes | None:
+    """The rest of a binary file, or None if it is longer than ``limit`` bytes.
+
+    A regular file's size is checked before reading; anything else is read
+    in pieces up to ``limit + 1`` bytes. Memory is never taken for more than
+    the file holds, whatever ``limit`` is.
+    """
+    info = os.fstat(fh.fileno())
+    if stat.S_ISREG(info.st_mode):
+        rest = max(info.st_size - fh.tell(), 0)
+        return None if rest > limit else fh.read(rest)
+    chunks, size = [], 0
+    while size <= limit:
+        chunk = fh.read(min(2**20, limit + 1 - size))
+        if not chunk:
+            break
+        chunks.append(chunk)
+        size += len(chunk)
+    return None if size > limit else b"".join(chunks)
+
+
+def load_json(text: str, where: str, *, error: type[AccelcalError] = AccelcalError):
+    """Decode JSON text with bounded size and depth; only finite numbers.
+
+    Parameters
+    ----------
+    text : str
+        The JSON text.
+    where : str
+        What is decoded (a file, a line), prefixed to every message.
+    error : type, optional
+        The :class:`AccelcalError` subclass to raise.
+
+    Returns
+    -------
+    object
+        The decoded value.
+
+    Raises
+    ------
+    AccelcalError
+        (or ``error``) for text over :data:`MAX_JSON_BYTES` characters,
+        nesting deeper than :data:`MAX_JSON_DEPTH`, invalid JSON, ``NaN``,
+        ``Infinity`` or a number too large for a float.
+    """
+    if len(text) > MAX_JSON_BYTES:
+        raise error(f"{where}: JSON text is larger than {_size(MAX_JSON_BYTES)}")
+    if json_depth(text) > MAX_JSON_DEPTH:
+        raise error(f"{where}: JSON nests deeper than {MAX_JSON_DEPTH} levels")
+    try:
+        return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float)
+    except json.JSONDecodeError as exc:
+        raise error(
+            f"{where}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
+        ) from None
+    except ValueError as exc:  # a refused constant or number, an over-long integer
+        raise error(f"{where}: {exc}") from None
+
+
+def json_depth(text: str) -> int:
+    """Deepest nesting of arrays and objects in JSON ``text`` (brackets in strings ignored).
+
+    Linear in the length of the text and without recursion, so it can be
+    asked of any text before decoding it.
+    """
+    brackets = re.findall(r"[\[\]{}]", _STRING.sub("", text))
+    return max(accumulate(1 if b in "[{" else -1 for b in brackets), default=0)
+
+
+def check_label(value, what: str, *, file_name: bool = False, limit: int = MAX_LABEL_LENGTH,
+                parameter: str | None = None) -> str:
+    """Check a user string that goes into records, reports or file names.
+
+    Parameters
+    ----------
+    value : object
+        The string to check.
+    what : str
+        What it is, for the message (``"serial number"``).
+    file_name : bool
+        It becomes part of a file name: no path separator (slash or backslash) either.
+    limit : int
+        Longest length accepted, characters.
+    parameter : str, optional
+        The Python parameter that gave it, for the error.
+
+    Returns
+    -------
+    str
+        ``value`` unchanged.
+
+    Raises
+    ------
+    AccelcalError
+        For a non-string, an over-long string, a control character or (with
+        ``file_name``) a path separator.
+    """
+    if not isinstance(value, str):
+        raise AccelcalError(f"{what} must be a string, got {shown(value)}", parameter=parameter)
+    if len(value) > limit:
+        raise AccelcalError(
+            f"{what} {shown(value)} is longer than {limit} characters; shorten it",
+            parameter=parameter,
+        )
+    if _CONTROL.search(value):
+        raise AccelcalError(
+            f"{what} {shown(value)} contains a control character (such as a line break "
+            "or a tab); remove it", parameter=parameter,
+        )
+    if file_name and ("/" in value or "\\" in value):
+        raise AccelcalError(
+            f"{what} {shown(value)} contains a path separator (/ or \\), which cannot be "
+            "part of a file name; use another character", parameter=parameter,
+        )
+    return value
+
+
+def is_finite_number(value) -> bool:
+    """A JSON number that is a finite float (``true``/``false`` and huge integers are not)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an integer beyond the float range
+        return False
+
+
+def _size(n: int) -> str:
+    return f"{n / 2**20:g} MiB" if n >= 2**20 else f"{n} bytes"
+
+
+def _refuse_constant(name: str):
+    raise ValueError(f"{name} is not allowed; numbers must be finite")
+
+
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text} is not allowed; numbers must be finite (too large for a float)")
+    return value

@@ -1,0 +1,118 @@
+"""Indexing (dividing) head: reductions of accelerometers turned in gravity (Dong2014, corrected).
+
+Data: nominal head angles, sensor outputs and mount phases
+(:class:`HeadData`, e.g. :meth:`HeadData.from_record` of a
+``dividing-head`` record file). Every reduction returns a
+:class:`~accelcal.results.Reduction` (family ``dividing-head``; fields in
+:mod:`accelcal.methods.dividing_head.result`):
+
+* ``single`` (:func:`single`): each sensor alone; the head error biases
+  every coefficient.
+* ``four`` (:func:`four`): Dong2014's separation of the head error, as
+  corrected in [DOMAIN] section 4 (steps 0-7).
+* ``joint`` (:func:`joint`): one least-squares problem for all sensors and
+  all per-position head errors with the gauge fixed; optional
+  autocollimator readings and Gauss-Newton iteration on the exact model.
+* ``tumble`` (:func:`tumble`): the IEEE 1293 multipoint reduction of each
+  sensor, mapped to Dong2014's coefficients.
+
+:func:`reduce` runs any of them by name (the one place that checks which
+options a method takes). Monte Carlo: :func:`head_uncertainty` (GUM-S1
+uncertainty of a reduction of measured data) and :func:`run_study` (formal
+SDs against actual errors over simulated experiments). Modules: ``theory``
+(basis, alias, names), ``data``, ``single``, ``four``, ``joint``,
+``reduce``, ``result``, ``mc``, ``study`` (``study_kernel``,
+``study_bank``), ``figures``, ``report``.
+
+References
+----------
+.. [Dong2014] Dong C., Liu Q., Ren S., Test methods of four integrated
+   accelerometers on an indexing head, 2014, eqs. (5)-(31).
+.. [DOMAIN] accelcal domain notes, section 4 (corrected expansions and
+   reduction steps 0-7; joint least squares).
+"""
+
+from accelcal.methods.dividing_head.data import HeadData
+from accelcal.methods.dividing_head.figures import figures
+from accelcal.methods.dividing_head.four import (
+    FOUR_COVARIANCES,
+    FourOperator,
+    four,
+    residual_noise_variances,
+)
+from accelcal.methods.dividing_head.joint import (
+    JointOperator,
+    gauge_basis,
+    identifiability,
+    joint,
+    joint_design,
+    null_space_dim,
+)
+from accelcal.methods.dividing_head.mc import (
+    MC_METHODS,
+    HeadSampler,
+    head_uncertainty,
+    noise_levels,
+)
+from accelcal.methods.dividing_head.reduce import OPTIONS, options_from_record, reduce, tumble
+from accelcal.methods.dividing_head.report import ERRATA, report_text
+from accelcal.methods.dividing_head.single import scale_factors, single, single_operator
+from accelcal.methods.dividing_head.study import (
+    STUDY_BLOCK,
+    STUDY_METHODS,
+    StudyResult,
+    run_study,
+)
+from accelcal.methods.dividing_head.study_bank import SensorBank
+from accelcal.methods.dividing_head.study_kernel import SUB_BLOCK, HeadStudy
+from accelcal.methods.dividing_head.theory import (
+    COEFFICIENTS,
+    FAMILY,
+    METHODS,
+    coefficient_units,
+    first_harmonic_alias,
+    method_name,
+    psi,
+)
+
+__all__ = [
+    "COEFFICIENTS",
+    "ERRATA",
+    "FAMILY",
+    "FOUR_COVARIANCES",
+    "MC_METHODS",
+    "METHODS",
+    "OPTIONS",
+    "STUDY_BLOCK",
+    "STUDY_METHODS",
+    "SUB_BLOCK",
+    "FourOperator",
+    "HeadData",
+    "HeadSampler",
+    "HeadStudy",
+    "JointOperator",
+    "SensorBank",
+    "StudyResult",
+    "coefficient_units",
+    "figures",
+    "first_harmonic_alias",
+    "four",
+    "gauge_basis",
+    "head_uncertainty",
+    "identifiability",
+    "joint",
+    "joint_design",
+    "method_name",
+    "noise_levels",
+    "null_space_dim",
+    "options_from_record",
+    "psi",
+    "reduce",
+    "report_text",
+    "residual_noise_variances",
+    "run_study",
+    "scale_factors",
+    "single",
+    "single_operator",
+    "tumble",
+]

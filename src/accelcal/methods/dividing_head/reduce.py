@@ -1,0 +1,171 @@
+"""One entry point for every indexing-head reduction: :func:`reduce`.
+
+:func:`reduce` is the one place that knows which options each method
+takes (:data:`OPTIONS`); :func:`options_from_record` gives the options a record
+file supplies (its measured first harmonic and autocollimator readings).
+The ``tumble`` method maps the IEEE 1293 multipoint reduction of
+:mod:`accelcal.methods.tumble` to Dong2014's coefficients.
+
+References
+----------
+.. [Dong2014] Dong C., Liu Q., Ren S., Test methods of four integrated
+   accelerometers on an indexing head, 2014, eq. (5).
+.. [IEEE1293] IEEE Std 1293-2018, multipoint tumble test.
+.. [DOMAIN] accelcal domain notes, sections 4-5.
+"""
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+from accelcal.io.formats.dividing_head import HeadRecord
+from accelcal.methods.dividing_head.data import HeadData
+from accelcal.methods.dividing_head.four import four
+from accelcal.methods.dividing_head.joint import joint
+from accelcal.methods.dividing_head.result import K_O_STAR, head_reduction
+from accelcal.methods.dividing_head.single import single
+from accelcal.methods.dividing_head.theory import COEFFICIENTS, METHODS, coefficient_units, psi
+from accelcal.results import Estimate, Reduction
+
+OPTIONS = {
+    "single": (),
+    "four": ("first_harmonic", "first_harmonic_sd", "covariance"),
+    "joint": ("first_harmonic", "first_harmonic_sd", "mean_error", "autocollimator",
+              "autocollimator_sd", "gauss_newton", "max_iterations"),
+    "tumble": (),
+}
+"""The options (keyword arguments) each method takes."""
+
+
+def check_options(method: str, options: dict) -> dict:
+    """The options given (not None) after checking that ``method`` takes them.
+
+    Raises
+    ------
+    AccelcalError
+        For an unknown method, or an option the method does not take.
+    """
+    if method not in METHODS:
+        raise AccelcalError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}",
+                            parameter="method")
+    given = {k: v for k, v in options.items() if v is not None}
+    for name in given:
+        if name not in OPTIONS[method]:
+            users = [m for m in METHODS if name in OPTIONS[m]]
+            where = f"method {' or '.join(users)} only" if users else "no method"
+            raise AccelcalError(f"applies to {where}, not {method}", parameter=name)
+    return given
+
+
+def reduce(data: HeadData, method: str, **options) -> Reduction:
+    """Run ``method`` (``single``, ``four``, ``joint`` or ``tumble``) on ``data``.
+
+    ``options`` are passed to the method (:data:`OPTIONS`; an option given
+    as None counts as not given): ``first_harmonic``, ``first_harmonic_sd``;
+    for ``four`` also ``covariance``; for ``joint`` also ``mean_error``,
+    ``autocollimator``, ``autocollimator_sd``, ``gauss_newton``,
+    ``max_iterations``. ``tumble`` uses the IEEE 1293 multipoint Fourier
+    reduction of :mod:`accelcal.methods.tumble` on each sensor, with the
+    head axis along PA.
+
+    Returns
+    -------
+    Reduction
+        Family ``dividing-head``, method ``dividing-head/<method>``.
+
+    Raises
+    ------
+    AccelcalError
+        For an unknown method or options the method does not take.
+    """
+    given = check_options(method, options)
+    return {"single": single, "four": four, "joint": joint, "tumble": tumble}[method](
+        data, **given)
+
+
+def options_from_record(record: HeadRecord, method: str) -> dict:
+    """The options a record file supplies to ``method``.
+
+    Its measured first harmonic (with its standard uncertainty) for the
+    methods that take one, and its autocollimator readings for ``joint``.
+
+    Raises
+    ------
+    AccelcalError
+        For an unknown method.
+    """
+    check_options(method, {})
+    takes = OPTIONS[method]
+    options = {}
+    if "first_harmonic" in takes and record.first_harmonic is not None:
+        options["first_harmonic"] = tuple(float(v) for v in record.first_harmonic)
+        options["first_harmonic_sd"] = record.first_harmonic_sd
+    if "autocollimator" in takes and record.autocollimator is not None:
+        options["autocollimator"] = record.autocollimator
+        options["autocollimator_sd"] = record.autocollimator_sd
+    return options
+
+
+def tumble(data: HeadData) -> Reduction:
+    """Per-sensor IEEE 1293 multipoint reduction, mapped to Dong2014 coefficients.
+
+    Calls :func:`accelcal.methods.tumble.reduce_tumble` with
+    ``rotation_axis="PA"`` on each sensor's angles beta_k and converts the
+    accelcal terms to K_F = K1 K0, K_I = K1, K_O = K1 Ko, K_IO = K1 Kio,
+    K_II = K1 K2 (covariance by the Jacobian of that map).
+
+    Returns
+    -------
+    Reduction
+        Method ``dividing-head/tumble``.
+
+    References
+    ----------
+    .. [1] IEEE1293 multipoint tumble; [DOMAIN] section 5.
+    """
+    from accelcal.methods import tumble as tumble_module
+
+    units = coefficient_units(data.output_unit)
+    sensors = []
+    notes: list[str] = []
+    for b, u in zip(data.angles(), data.outputs, strict=True):
+        res = tumble_module.reduce_tumble(b, u, rotation_axis="PA", output_unit=data.output_unit)
+        est = res.estimate
+        values, cov = _terms_to_dong2014(est)
+        resid = est.residuals if est.residuals is not None and \
+            np.shape(est.residuals) == u.shape else u - psi(b) @ values
+        sensors.append(Estimate(COEFFICIENTS, values, cov, units, "tumble", residuals=resid,
+                                dof=est.dof))
+        notes.extend(n for n in est.notes if n not in notes)
+    return head_reduction(data, "tumble", sensors, dof=sensors[0].dof, assumptions=(K_O_STAR,),
+                          notes=tuple(notes))
+
+
+def _terms_to_dong2014(est: Estimate):
+    """Map an accelcal-term estimate (K0, K1, Ko, Kio, K2) to Dong2014 volts with covariance.
+
+    A term the tumble reduction does not report (or reports as not
+    identifiable, NaN) is taken as zero, with NaN covariance.
+    """
+    src = ("K0", "K1", "Ko", "Kio", "K2")
+    have = {n: i for i, n in enumerate(est.names) if n in src and np.isfinite(est.values[i])}
+
+    def get(name):
+        return float(est.values[have[name]]) if name in have else 0.0
+
+    k1 = get("K1")
+    if k1 == 0.0:
+        raise AccelcalError("the tumble reduction returned no scale factor K1")
+    values = np.array([k1 * get("K0"), k1, k1 * get("Ko"), k1 * get("Kio"), k1 * get("K2")])
+    cols = list(have.values())
+    jac = np.zeros((5, len(cols)))
+    at = {name: cols.index(i) for name, i in have.items()}
+    for row, name in ((0, "K0"), (2, "Ko"), (3, "Kio"), (4, "K2")):
+        if name in have:
+            jac[row, at[name]] = k1
+            jac[row, at["K1"]] += get(name)
+    jac[1, at["K1"]] = 1.0
+    cov = jac @ np.asarray(est.covariance)[np.ix_(cols, cols)] @ jac.T
+    missing = [src.index(s) for s in src if s not in have]
+    cov[missing, :] = np.nan
+    cov[:, missing] = np.nan
+    return values, cov

@@ -1,0 +1,120 @@
+"""Transverse sensitivity of an accelerometer on a shaker (GuanTang, after ISO 16063-31).
+
+The package, along its seams:
+
+:mod:`~accelcal.methods.transverse.theory`
+    Closed forms of s_T(theta) for the linear and the inertial model, the
+    axial sensitivity definitions, direction-angle checks, GuanTang Fig. 4's
+    parameter set.
+:mod:`~accelcal.methods.transverse.estimators`
+    s_T per angle from records with a named estimator (``peak``,
+    ``half-p2p``, ``fundamental``), and the simulated sweep.
+:mod:`~accelcal.methods.transverse.identification`
+    Beyond the paper: the cross-axis coefficients k_o, k_p, k_oo, k_pp, k_op
+    from the w, 2w and DC components (:func:`identify`, a
+    :class:`~accelcal.results.Reduction`; :func:`identify_arrays`, batched).
+:mod:`~accelcal.methods.transverse.mc`
+    Monte Carlo (GUM-S1) uncertainty of the identification.
+:mod:`~accelcal.methods.transverse.figures`
+    Polar plots, GuanTang Fig. 4, and a reduction's figures.
+
+Records are :class:`accelcal.io.formats.shaker.ShakerRecords`, simulated by
+:class:`accelcal.rigs.shaker.ShakerRig`.
+
+References
+----------
+.. [GuanTang] Guan W., Tang L., Shaker test method of transverse sensitivity
+   of inertial accelerometers, eqs. (2), (7)-(25) as reconstructed in
+   docs/domain.md section 3.
+.. [ISO16063-31] ISO 16063-31:2009, Testing of transverse vibration sensitivity.
+"""
+
+from accelcal.methods import ReportText
+from accelcal.methods.transverse.estimators import (
+    PEAK_COVERAGE,
+    TransverseSweep,
+    estimate_sT,
+    record_phasors,
+    records_axial_sensitivity,
+    summarize,
+    sweep,
+    w_ratio,
+    with_fitted_frequency,
+)
+from accelcal.methods.transverse.figures import figure4, figures, polar_figure, save_polar
+from accelcal.methods.transverse.identification import (
+    DEFAULT_FIT,
+    FIT_TERMS,
+    ROUTE_TEXT,
+    ROUTES,
+    check_route,
+    identify,
+    identify_arrays,
+    observation_columns,
+    observation_covariance,
+    regressors,
+)
+from accelcal.methods.transverse.mc import TransverseSampler, transverse_uncertainty
+from accelcal.methods.transverse.theory import (
+    AXIAL_DEFINITIONS,
+    ESTIMATORS,
+    GUANTANG_FIG4,
+    axial_sensitivity,
+    check_angles,
+    check_axial,
+    check_estimator,
+    closed_form_sT,
+    cross_axis_B,
+    cross_axis_C,
+    figure4_linear,
+    fundamental_extremes,
+    linear_sT,
+)
+
+__all__ = [
+    "AXIAL_DEFINITIONS", "DEFAULT_FIT", "ERRATA", "ESTIMATORS", "FIT_TERMS", "GUANTANG_FIG4",
+    "PEAK_COVERAGE", "ROUTES", "ROUTE_TEXT", "TransverseSampler", "TransverseSweep",
+    "axial_sensitivity", "check_angles", "check_axial", "check_estimator", "check_route",
+    "closed_form_sT", "cross_axis_B", "cross_axis_C", "estimate_sT", "figure4",
+    "figure4_linear", "figures", "fundamental_extremes", "identify", "identify_arrays",
+    "linear_sT", "observation_columns", "observation_covariance", "polar_figure",
+    "record_phasors", "records_axial_sensitivity", "regressors", "report_text", "save_polar",
+    "summarize", "sweep", "transverse_uncertainty", "w_ratio", "with_fitted_frequency",
+]
+
+ERRATA = (
+    ("The lost equations (1), (3), (6)-(12), (14)-(24) are reconstructed and checked "
+     "against time-domain simulation."),
+    ("The drive law (4) cannot remove gravity on a vertical shaker; the static 1 g along "
+     "the vibration axis is modelled (fundamental k_i |B + 2 G C|)."),
+    ("The peak definition (21)-(22) of s_T depends on the amplitude; the coefficients are "
+     "fitted to the w and 2w phasors instead, and the polar plot shows the fundamental "
+     "(ISO 16063-31 practice)."),
+    "alpha = atan2(s_p, s_o) replaces arctan(s_p / s_o), which loses the quadrant.",
+)
+"""Corrections of GuanTang that a report shows (details in docs/errata.md)."""
+
+
+def report_text(reduction) -> ReportText:
+    """Title and summary of a shaker identification's report section.
+
+    Parameters
+    ----------
+    reduction : accelcal.results.Reduction
+        An :func:`identify` result.
+
+    Returns
+    -------
+    accelcal.methods.ReportText
+    """
+    amplitude = reduction.assumed("amplitude")
+    angles = reduction.observations["angle_deg"].size
+    return ReportText(
+        title=f"transverse sensitivity (shaker, {amplitude:g} g)",
+        summary=(f"Sinusoidal vibration of {amplitude:g} g at "
+                 f"{reduction.assumed('frequency'):g} Hz along {angles} directions in the "
+                 f"transverse plane; cross-axis coefficients from "
+                 f"{ROUTE_TEXT[reduction.assumed('route')]} (GuanTang, identification beyond "
+                 "the paper)."),
+        paper="GuanTang",
+    )
