@@ -159,7 +159,7 @@ def test_negative_overload_option_is_accepted(capsys):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["vre", "table", "--amplitude", "-1"], "--amplitude -1 g is negative"),
+        (["vre", "table", "--amplitude", "-1"], "--amplitude: -1 g is negative"),
         (["vre", "table", "--overload", "nan"], "not finite"),
         (["vre", "table", "--K2", "inf"], "not finite"),
         (["vre", "table", "--amplitude", ""], "empty"),

@@ -36,14 +36,14 @@ def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
             row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": float(s),
                    "unit": unit, "status": reduction.status(c, k), "dof": int(est.dof)}
             if engineering:
-                row.update(_engineering_columns(reduction, c, float(v), float(s), unit, k1))
+                row.update(_engineering_columns(reduction, c, float(v), float(s), unit, k1, k))
             rows.append(row)
         for c, v in reduction.fixed.items():
             unit = _fixed_unit(c, est)
             row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": 0.0,
                    "unit": unit, "status": "fixed", "dof": int(est.dof)}
             if engineering:
-                row.update(_engineering_columns(reduction, c, float(v), 0.0, unit, k1))
+                row.update(_engineering_columns(reduction, c, float(v), 0.0, unit, k1, k))
             rows.append(row)
     return rows
 
@@ -56,9 +56,9 @@ def _fixed_unit(name: str, est) -> str:
     return TERMS[name].unit if name in TERMS else ""
 
 
-def _engineering_columns(reduction, name, value, std, unit, k1) -> dict:  # noqa: PLR0917
+def _engineering_columns(reduction, name, value, std, unit, k1, sensor) -> dict:  # noqa: PLR0917
     eng = engineering(name, value, std, unit, scale_factor=k1,
-                      nominal=reduction.nominal.get(name),
+                      nominal=reduction.nominal_of(name, sensor),
                       quantity=reduction.quantities.get(name))
     first = eng[0] if eng else None
     return {"eng_estimate": first.estimate if first else float("nan"),
@@ -121,6 +121,8 @@ def to_dict(reduction) -> dict:
         },
         "assumptions": [a.as_dict() for a in reduction.assumptions],
         "fixed": dict(reduction.fixed),
+        "nominal": {k: list(v) if isinstance(v, tuple | list) else v
+                    for k, v in reduction.nominal.items()},
         "provenance": dict(reduction.provenance),
         "notes": list(reduction.notes),
     }

@@ -202,7 +202,8 @@ class Reduction:
         Overrides of :data:`accelcal.engineering.QUANTITIES` by coefficient
         (e.g. ``{"Ko": "transverse"}`` for a shaker test).
     nominal : dict
-        Nominal values of coefficients (name -> value) for ppm deviations.
+        Nominal values of coefficients for ppm deviations: name -> one value
+        for every sensor, or a tuple of one per sensor (:meth:`nominal_of`).
     provenance : dict
         Settings and inputs (JSON-ready values).
     notes : tuple of str
@@ -290,6 +291,13 @@ class Reduction:
         """Coefficients of ``sensor`` that the design does not determine."""
         est = self.sensors[sensor]
         return tuple(n for n, v in zip(est.names, est.values, strict=True) if not np.isfinite(v))
+
+    def nominal_of(self, name: str, sensor: int = 0) -> float | None:
+        """The nominal value of coefficient ``name`` for ``sensor`` (None when not given)."""
+        value = self.nominal.get(name)
+        if isinstance(value, tuple | list):
+            return float(value[sensor]) if sensor < len(value) else None
+        return None if value is None else float(value)
 
     def scale_factor(self, sensor: int = 0) -> float | None:
         """The sensor's scale factor in output unit per g (``K_I`` or ``K1``), or None.

@@ -111,14 +111,16 @@ def render(
     """Render rows (dicts with the same keys) as CSV, JSON or a readable table.
 
     CSV and JSON keep full precision (shortest round-trip repr). The table
-    shows 7 significant digits, except that a value with a standard
-    uncertainty beside it (``estimate`` and ``std``, ``eng_estimate`` and
-    ``eng_std``) keeps every digit down to a tenth of that uncertainty
-    (:func:`accelcal.formatting.format_value`). A NaN (a quantity that could
-    not be determined) is ``null`` in JSON, ``nan`` in CSV and ``n/a`` in the
-    table. A list-valued column (``engineering``) is kept in JSON only.
-    ``headers`` relabels columns in the table only (e.g. to add units); CSV
-    and JSON keys stay machine names.
+    is for people: 7 significant digits, except that an ``estimate`` with its
+    ``std`` keeps every digit down to a tenth of that uncertainty, which
+    shows with two significant digits (:mod:`accelcal.formatting`, GUM
+    7.2.6); units with powers and µ; and a reduction's engineering units
+    (the ``engineering`` list, in CSV as ``eng_estimate, eng_std, eng_unit``
+    of the first unit) as one column, e.g. ``-9.5 ± 0.68 µrad; -1.97 ± 0.14
+    arcsec``. A NaN (a quantity that could not be determined) is ``null`` in
+    JSON, ``nan`` in CSV and ``n/a`` in the table. ``headers`` relabels
+    columns in the table only (e.g. to add units); CSV and JSON keys stay
+    machine names.
     """
     check_format(fmt)
     if fmt == "json":
@@ -135,11 +137,14 @@ def render(
     from rich.console import Console
     from rich.table import Table
 
+    if rows and "engineering" in rows[0]:
+        columns = [c for c in columns if c not in _ENGINEERING_COLUMNS] + ["engineering"]
     table = Table(title=title, show_lines=False)
     for c in columns:
-        table.add_column((headers or {}).get(c, c), justify="right")
+        label = "engineering units (1 σ)" if c == "engineering" else c
+        table.add_column((headers or {}).get(c, label), justify="right")
     for r in rows:
-        table.add_row(*[_table_cell(r[c], r.get(_STD_OF.get(c, ""))) for c in columns])
+        table.add_row(*[_table_cell(r[c], r.get(_STD_OF.get(c, "")), c) for c in columns])
     buf = io.StringIO()
     Console(file=buf, width=200, force_terminal=False, color_system=None).print(table)
     return buf.getvalue()
@@ -166,6 +171,7 @@ def _csv_cell(value) -> str:
 
 
 _STD_OF = {"estimate": "std", "eng_estimate": "eng_std"}
+_ENGINEERING_COLUMNS = ("eng_estimate", "eng_std", "eng_unit")
 
 
 def _json_value(value):
@@ -176,13 +182,20 @@ def _json_value(value):
     return _plain(value)
 
 
-def _table_cell(value, std=None) -> str:
-    from accelcal.formatting import format_value
+def _table_cell(value, std=None, column: str = "") -> str:
+    from accelcal.formatting import format_std, format_unit, format_value, pm
 
+    if column == "engineering":
+        return "; ".join(f"{pm(e['estimate'], e['std'])} {format_unit(e['unit'])}"
+                         for e in value)
     value = _plain(value)
     if value is None:
         return "n/a"
+    if column in ("unit", "eng_unit") and isinstance(value, str):
+        return format_unit(value)
     if isinstance(value, float):
+        if column in ("std", "eng_std") and math.isfinite(value) and value > 0:
+            return format_std(value)
         std = _plain(std)
         if isinstance(std, float) and std > 0:
             return format_value(value, std)

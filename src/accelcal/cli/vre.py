@@ -55,7 +55,8 @@ def table(
     overrides = {k: v for k, v in (("K2", K2), ("K3", K3), ("K4", K4), ("K0_asym", K0_asym),
                                    ("K1_asym", K1_asym)) if v is not None}
     model = load_model(model_file).replace(**overrides)
-    result = vre_table(model, parse_grid(overload, "--overload"), _amplitudes(amplitude))
+    result = vre_table(model, parse_grid(overload, "--overload"),
+                       parse_grid(amplitude, "--amplitude"))
     rows = result.rows()
     if fmt == "json":
         rows = [{k: (None if math.isnan(v) else v) for k, v in r.items()} for r in rows]
@@ -74,16 +75,6 @@ def table(
                   "dU2_g": "dU2 (g)", "dU_g": "dU (g)", "r": "r = dU2/dU"})
     for p in paths:
         print(f"wrote {p}", file=sys.stderr)
-
-
-def _amplitudes(text: str) -> list[float]:
-    values = parse_grid(text, "--amplitude")
-    negative = [v for v in values if v < 0]
-    if negative:
-        raise AccelcalError(
-            f"--amplitude {negative[0]:g} g is negative; a vibration amplitude is >= 0"
-        )
-    return values
 
 
 @app.command("simulate")

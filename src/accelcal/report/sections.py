@@ -91,7 +91,8 @@ def overview_rows(reduction, records) -> list[dict]:
             eng = engineering_text(coef, r["estimate"], r["std"], unit,
                                    scale_factor=reduction.scale_factor(
                                        reduction.sensor_names.index(sensor)),
-                                   nominal=reduction.nominal.get(coef),
+                                   nominal=reduction.nominal_of(
+                                       coef, reduction.sensor_names.index(sensor)),
                                    quantity=reduction.quantities.get(coef), most=1)
             row[head] = f"{cell}\n({eng})" if eng and r["status"] == "fitted" else cell
         table.append(row)

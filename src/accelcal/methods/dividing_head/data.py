@@ -36,6 +36,9 @@ class HeadData:
         Readings averaged per position.
     sensors : tuple of str
         Names of the sensor columns (default ``U1``, ``U2``, ...).
+    nominal_scale_factors : tuple of float
+        Each sensor's nominal scale factor, output unit per g (empty when not
+        known); the reductions report K_I's deviation from it in ppm.
     """
 
     positions: np.ndarray
@@ -44,10 +47,11 @@ class HeadData:
     output_unit: str = "V"
     repeats: int = 1
     sensors: tuple[str, ...] = ()
+    nominal_scale_factors: tuple[float, ...] = ()
 
     @classmethod
-    def build(cls, positions, outputs, mounts, output_unit: str = "V",
-              sensors=None) -> "HeadData":
+    def build(cls, positions, outputs, mounts, output_unit: str = "V", *,
+              sensors=None, nominal_scale_factors=None) -> "HeadData":
         """Check shapes and values and average repeats.
 
         Raises
@@ -90,13 +94,22 @@ class HeadData:
                 f"{len(names)} sensor names given for {u.shape[0]} sensor output columns",
                 parameter="sensors",
             )
-        return cls(alpha, u, phi, output_unit, repeats, names)
+        nominal = () if nominal_scale_factors is None else \
+            tuple(float(x) for x in np.asarray(nominal_scale_factors, dtype=float).reshape(-1))
+        if nominal and (len(nominal) != u.shape[0] or not all(
+                np.isfinite(x) and x != 0 for x in nominal)):
+            raise AccelcalError(
+                f"give one finite, non-zero nominal scale factor per sensor column "
+                f"({u.shape[0]}), got {len(nominal)}", parameter="nominal_scale_factors",
+            )
+        return cls(alpha, u, phi, output_unit, repeats, names, nominal)
 
     @classmethod
     def from_record(cls, record: HeadRecord) -> "HeadData":
         """The data of a ``dividing-head`` record file (repeats averaged)."""
         return cls.build(record.positions, record.outputs, record.mounts, record.output_unit,
-                         sensors=record.sensors)
+                         sensors=record.sensors,
+                         nominal_scale_factors=record.nominal_scale_factors)
 
     @property
     def n_sensors(self) -> int:

@@ -79,6 +79,8 @@ def head_reduction(data, method: str, sensors, *, pooled_sigma: bool = False,
                   "output_unit": data.output_unit, **fields.pop("provenance", {})}
     return Reduction(family=FAMILY, method=f"{FAMILY}/{method}", sensors=sensors,
                      sensor_names=data.sensors, observations=obs, models=models,
+                     nominal={"K_I": data.nominal_scale_factors}
+                     if data.nominal_scale_factors else {},
                      provenance=provenance, **fields)
 
 

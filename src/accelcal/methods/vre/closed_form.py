@@ -65,7 +65,8 @@ _SERIES = np.array(
 def _finite(value, what: str) -> np.ndarray:
     arr = np.asarray(value, dtype=float)
     if not np.isfinite(arr).all():
-        raise AccelcalError(f"{what} has non-finite values (NaN or inf); give finite numbers")
+        raise AccelcalError("has non-finite values (NaN or inf); give finite numbers",
+                            parameter=what)
     return arr
 
 
@@ -73,8 +74,8 @@ def _amplitude(value, what: str = "amplitude") -> np.ndarray:
     arr = _finite(value, what)
     if (arr < 0).any():
         raise AccelcalError(
-            f"{what} has negative values ({arr[arr < 0].ravel()[0]:g} g); a vibration "
-            "amplitude is >= 0 (give the direction's sign through the direction vector)"
+            f"{arr[arr < 0].ravel()[0]:g} g is negative; a vibration amplitude is >= 0 "
+            "(give the direction's sign through the direction vector)", parameter=what,
         )
     return arr
 
