@@ -36,7 +36,8 @@ SERIALS = ["ACC-0001", "ACC-0002", "ACC-0003", "ACC-0004"]
 
 
 def _lab(serial) -> dict:
-    return {"serial": serial, "operator": OPERATOR, "date": DATE, "local_gravity": LOCAL_GRAVITY}
+    return {"serial": serial, "operator": OPERATOR, "date": DATE, "local_gravity": LOCAL_GRAVITY,
+            "simulated": True}
 
 
 def make(directory) -> list[Path]:

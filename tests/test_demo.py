@@ -128,3 +128,19 @@ def test_report_command_adds_history_from_the_store(tmp_path, capsys):
         main(["report", str(result.records[0]), "--out", str(tmp_path / "x.html"), "--db", db])
     assert exc.value.code == 2
     assert not (tmp_path / "x.html").exists()
+
+
+def test_demo_never_touches_the_users_records_store(tmp_path, monkeypatch):
+    # The lab's store (by $ACCELCAL_DB or the XDG default) must stay untouched: the
+    # demo's simulated calibrations go to a store inside its output directory.
+    lab_store = tmp_path / "lab.sqlite"
+    monkeypatch.setenv("ACCELCAL_DB", str(lab_store))
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg"))
+    result = run(tmp_path / "demo", seed=1, progress=False)
+    assert not lab_store.exists()
+    assert not (tmp_path / "xdg").exists()
+    own = tmp_path / "demo" / "records.sqlite"
+    assert own.is_file()
+    assert str(own) in result.store
+    with Store(str(own)) as store:
+        assert len(store.calibrations()) == 6

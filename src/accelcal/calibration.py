@@ -33,6 +33,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.io.lab_metadata import LabInfo, read_lab_metadata
+from accelcal.io.limits import shown
 from accelcal.results import Estimate
 
 
@@ -84,7 +85,7 @@ def lab_info(files, *, sensors: int | None = None, serial: str | None = None,
         count = sensors or 1
         if any(not s for s in items) or len(items) != count:
             raise AccelcalError(
-                f"{serial!r}: give {count} non-empty serial number(s), comma separated "
+                f"{shown(serial)}: give {count} non-empty serial number(s), comma separated "
                 "(one per sensor column)", parameter="serial"
             )
         serials = items
@@ -94,13 +95,55 @@ def lab_info(files, *, sensors: int | None = None, serial: str | None = None,
             parameter="serial",
         )
     return LabInfo(serials, operator if operator is not None else merged["operator"] or "",
-                   merged["date"] or "", merged["local_gravity"])
+                   merged["date"] or "", merged["local_gravity"],
+                   simulated=any(i.simulated for i in infos))
+
+
+FEW_DOF = 10
+"""Below this many degrees of freedom a record warns that its standard uncertainties are
+themselves uncertain (relative SD ``1/sqrt(2 dof)``, over 22 %)."""
+
+COVERAGE_PROBABILITY = 0.9545
+"""The coverage probability of the expanded uncertainty: that of k = 2 for a normal
+distribution, so k = 2 when the noise level is known (GUM G.3, Table G.2)."""
+
+
+def coverage_factor(dof: int) -> float:
+    """Student's t for ``dof`` degrees of freedom at :data:`COVERAGE_PROBABILITY` (2 for 0).
+
+    ``dof = 0`` means the variance did not come from residuals (the noise
+    level was given): the normal distribution's k = 2.
+
+    References
+    ----------
+    .. [1] JCGM 100:2008 (GUM), G.3 and Table G.2 (t_p(nu) for p = 95.45 %).
+    """
+    if dof <= 0:
+        return 2.0
+    from scipy.stats import t
+
+    return float(t.ppf(0.5 + COVERAGE_PROBABILITY / 2, dof))
 
 
 def _lab_notes(info: LabInfo) -> list[str]:
-    if info.local_gravity is None:
+    notes = []
+    if info.simulated:
+        notes.append("simulated data: the inputs were written by a simulator, not measured")
+    if info.local_gravity is not None:
+        notes.append(f"local gravity {info.local_gravity:.6g} m/s^2 (from the input files)")
+    return notes
+
+
+def _dof_notes(dof: int, k: float) -> list[str]:
+    if dof <= 0:
         return []
-    return [f"local gravity {info.local_gravity:.6g} m/s^2 (from the input files)"]
+    notes = [(f"standard uncertainties from the residuals with {dof} degrees of freedom; "
+              f"expanded with Student's t, k = {k:.3g} (95.45 %)")]
+    if dof < FEW_DOF:
+        notes.append(f"only {dof} degrees of freedom (fewer than {FEW_DOF}): the standard "
+                     f"uncertainties are themselves uncertain by about "
+                     f"{100 / (2 * dof) ** 0.5:.0f} %; add positions or repeats")
+    return notes
 
 
 def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
@@ -113,7 +156,12 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
     :class:`~accelcal.model.ErrorModel` the reduction says they define
     (``reduction.models``) and notes built from the reduction's fields
     (:func:`accelcal.outputs.describe`): assumptions, fixed terms,
-    identifiability, combinations, then the laboratory's local gravity.
+    identifiability, combinations, the degrees of freedom, then whether the
+    data were simulated and the laboratory's local gravity. The expanded
+    uncertainty uses Student's t for the reduction's degrees of freedom
+    (:func:`coverage_factor`); the record carries those ``dof`` and the
+    ``simulated`` flag (from the files' metadata or the reduction's
+    provenance).
 
     Parameters
     ----------
@@ -143,6 +191,7 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
     if info.serials is None or len(info.serials) not in ({1, k} if k == 1 else {k}):
         raise AccelcalError(f"{k} sensors need {k} serial numbers", parameter="serial")
     common = describe(reduction)
+    k_cov = coverage_factor(reduction.dof)
     out = []
     for i, (name, est) in enumerate(zip(reduction.sensor_names, reduction.sensors, strict=True)):
         keep = [j for j, v in enumerate(est.values) if np.isfinite(v)]
@@ -158,12 +207,17 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
             reduction.method, residuals=est.residuals, dof=est.dof,
         )
         head = ([f"sensor column {name} of {k}; reduction {reduction.method}"] if k > 1 else [])
-        notes = [*head, *common, *(n for n in est.notes if n not in common), *_lab_notes(info)]
+        notes = [*head, *common, *(n for n in est.notes if n not in common),
+                 *_dof_notes(reduction.dof, k_cov), *_lab_notes(info)]
         record = CalibrationRecord.from_estimate(
             sub, serial=info.serial(i), method=reduction.method, input_files=input_files,
             date=date or info.date or now(), operator=info.operator, model=reduction.models[i],
         )
-        out.append(dataclasses.replace(record, notes=tuple(dict.fromkeys(notes))))
+        out.append(dataclasses.replace(
+            record, notes=tuple(dict.fromkeys(notes)), coverage_factor=k_cov,
+            dof=reduction.dof if reduction.dof > 0 else None,
+            simulated=info.simulated or bool(reduction.provenance.get("simulated")),
+        ))
     return out
 
 

@@ -41,8 +41,9 @@ LOCAL_GRAVITY = 9.80665
 
 
 def lab(date: str, serial) -> dict:
-    """The laboratory metadata the demo writes into its files."""
-    return {"serial": serial, "operator": OPERATOR, "date": date, "local_gravity": LOCAL_GRAVITY}
+    """The laboratory metadata the demo writes into its files (marked as simulated)."""
+    return {"serial": serial, "operator": OPERATOR, "date": date, "local_gravity": LOCAL_GRAVITY,
+            "simulated": True}
 
 
 def stages() -> list:
@@ -62,10 +63,12 @@ def run(out="accelcal-demo", *, db=None, seed: int | None = None, progress: bool
     Parameters
     ----------
     out : path-like
-        Output directory (created): ``data/``, ``records/``, ``figures/`` and
-        ``report.html``.
+        Output directory (created): ``data/``, ``records/``, ``figures/``,
+        ``report.html`` and the store ``records.sqlite``.
     db : str, optional
-        Store (SQLite path or database URL); default the user's store.
+        Store (SQLite path or database URL); default ``records.sqlite`` inside
+        ``out``, never the user's records store (simulated calibrations must
+        not mix with a laboratory's).
     seed : int, optional
         Seed of every simulated error and noise; default a fresh one (written
         to the result and the report, so a run can be repeated exactly).

@@ -122,7 +122,9 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
         Output directory (created): ``data/``, ``records/``, ``figures/``
         and ``report.html``.
     db : str, optional
-        Store (SQLite path or database URL); default the user's store.
+        Store (SQLite path or database URL); default ``records.sqlite`` inside
+        ``out``: a campaign never touches a laboratory's records store unless
+        it is named here.
     seed : int, optional
         Seed of every simulated error and noise; default a fresh one (in the
         result and the report's subtitle, so a run can be repeated).
@@ -149,6 +151,8 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
     except OSError as exc:
         raise AccelcalError(f"{out}: cannot create the output directories ({exc})",
                             parameter="out") from None
+    if db is None:
+        db = str(out / "records.sqlite")
     date = now()
     if isinstance(seed, bool) or (seed is not None and (not isinstance(seed, int) or seed < 0)):
         raise AccelcalError(f"{seed!r} must be a non-negative integer", parameter="seed")

@@ -35,7 +35,7 @@ from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.io.limits import check_label, shown, shown_path
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 DEFAULT_DB_ENV = "ACCELCAL_DB"
 
 
@@ -191,6 +191,7 @@ class Store:
         self.url = _url(db)
         self.readonly = readonly
         self._absent = False
+        self._old_schema = False
         try:
             sa.make_url(self.url)
         except (sa.exc.ArgumentError, ValueError):
@@ -231,7 +232,9 @@ class Store:
             with self._errors("open"):
                 if readonly:
                     with self.engine.connect() as conn:
-                        self._absent = self._version(conn) == 0
+                        version = self._version(conn)
+                    self._absent = version == 0
+                    self._old_schema = version == 1  # read as it is: no simulated column
                 else:
                     self._migrate()
         except AccelcalError:
@@ -334,6 +337,7 @@ class Store:
                 row_id = conn.execute(
                     sa.insert(cal).values(
                         uid=uid, serial=record.serial, method=record.method,
+                        simulated=bool(record.simulated),
                         date=_utc(record.date),
                         software=record.software, record_json=text,
                     ).returning(cal.c.id)
@@ -350,11 +354,13 @@ class Store:
         return int(row_id)
 
     def calibrations(self, serial: str | None = None) -> list[dict]:
-        """Stored calibrations, oldest first: id, serial, method, date, software."""
+        """Stored calibrations, oldest first: id, serial, method, date, software, simulated."""
         import sqlalchemy as sa
 
         cal = self._tables["calibrations"]
-        query = sa.select(cal.c.id, cal.c.serial, cal.c.method, cal.c.date, cal.c.software)
+        simulated = sa.false().label("simulated") if self._old_schema else cal.c.simulated
+        query = sa.select(cal.c.id, cal.c.serial, cal.c.method, cal.c.date, cal.c.software,
+                          simulated)
         if serial is not None:
             query = query.where(cal.c.serial == check_label(serial, "serial number"))
         return self._select(query.order_by(cal.c.date, cal.c.id))
@@ -491,6 +497,7 @@ def _tables(sa) -> dict:
             sa.Column("date", sa.String(40), nullable=False),
             sa.Column("software", sa.String(100), nullable=False),
             sa.Column("record_json", sa.Text, nullable=False),
+            sa.Column("simulated", sa.Boolean, nullable=False, server_default=sa.false()),
         ),
         "coefficients": sa.Table(
             "coefficients", meta,
@@ -506,11 +513,29 @@ def _tables(sa) -> dict:
 
 
 def _migrate_to_1(conn, meta) -> None:
-    """Schema 1: schema_info, calibrations, coefficients."""
+    """Schema 1: schema_info, calibrations, coefficients.
+
+    A new store gets the later schemas' columns at once; their migrations
+    then find them.
+    """
     meta.create_all(conn)
 
 
-_MIGRATIONS = {1: _migrate_to_1}
+def _migrate_to_2(conn, meta) -> None:
+    """Schema 2: ``calibrations.simulated`` (records made from simulated data).
+
+    A store of schema 1 gains the column, false for its records, which said
+    nothing of their data's origin (records written before it).
+    """
+    import sqlalchemy as sa
+
+    columns = {c["name"] for c in sa.inspect(conn).get_columns("calibrations")}
+    if "simulated" not in columns:
+        conn.execute(sa.text(
+            "ALTER TABLE calibrations ADD COLUMN simulated BOOLEAN NOT NULL DEFAULT FALSE"))
+
+
+_MIGRATIONS = {1: _migrate_to_1, 2: _migrate_to_2}
 """Schema version -> function bringing the previous version to it."""
 
 

@@ -8,10 +8,12 @@ import typer
 def demo(
     out: Path = typer.Option(
         Path("accelcal-demo"), "--out",
-        help="Output directory (created): data/, records/, figures/ and report.html."),
+        help="Output directory (created): data/, records/, figures/, report.html and the "
+             "store records.sqlite."),
     db: str | None = typer.Option(
         None, "--db", help="Store for the records: an SQLite file path or a database URL. "
-        "Default: $ACCELCAL_DB, else ~/.local/share/accelcal/records.sqlite."),
+        "Default: OUT/records.sqlite; the demo never writes to your records store "
+        "($ACCELCAL_DB or ~/.local/share/accelcal/records.sqlite) unless named here."),
     seed: int | None = typer.Option(
         None, "--seed", help="Seed of the simulated errors and noise (integer); default a "
         "fresh one, printed."),

@@ -18,13 +18,21 @@ Format (``format_version`` 1)::
       "covariance": [[...], ...],
       "model": { ... model file contents ... } or null,
       "inputs": {"positions.csv": "sha256:..."},
-      "notes": ["first harmonic of the angle error assumed zero"]
+      "notes": ["first harmonic of the angle error assumed zero"],
+      "dof": 55,
+      "simulated": false
     }
 
-``expanded`` is ``coverage_factor * std`` (k = 2 by default, about 95 %
-coverage for a Gaussian estimate). The covariance is in the coefficients'
+``expanded`` is ``coverage_factor * std``. The coverage factor is Student's
+t for the degrees of freedom ``dof`` of the standard uncertainties at the
+coverage probability of k = 2 for a normal distribution (95.45 %, GUM G.3
+and Table G.2): 2 when the noise level was given (``dof`` null: infinite),
+2.04 for 55 dof, 13.97 for one. The covariance is in the coefficients'
 order and units. ``inputs`` holds the SHA-256 of every input file, so a
-record says exactly which data it came from.
+record says exactly which data it came from; ``simulated`` is true when
+they are simulated (a rig simulator or the demo wrote them). ``dof`` and
+``simulated`` are optional on reading (records written before them load,
+as dof unknown and not simulated).
 """
 
 import datetime as _dt
@@ -54,6 +62,7 @@ _KEYS = {
     "format_version", "kind", "serial", "method", "date", "software", "operator",
     "coverage_factor", "coefficients", "covariance", "model", "inputs", "notes",
 }
+_OPTIONAL_KEYS = {"dof", "simulated"}
 _COEFFICIENT_KEYS = {"name", "unit", "estimate", "std", "expanded"}
 _LABELS = (("serial", "serial number", 200), ("method", "method", 200),
            ("software", "software", 100), ("operator", "operator", 200))
@@ -104,6 +113,11 @@ class CalibrationRecord:
         Input file name to ``sha256:<hex>``.
     notes : tuple of str
         Caveats carried from the reduction.
+    dof : int or None
+        Degrees of freedom of the standard uncertainties (None: the noise
+        level was given, or unknown in an older record).
+    simulated : bool
+        True when the input data were simulated.
     """
 
     serial: str
@@ -119,6 +133,8 @@ class CalibrationRecord:
     model: ErrorModel | None = None
     inputs: dict[str, str] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    dof: int | None = None
+    simulated: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.serial, str) or not self.serial.strip():
@@ -214,6 +230,8 @@ class CalibrationRecord:
             "model": self.model.to_dict() if self.model is not None else None,
             "inputs": dict(self.inputs),
             "notes": list(self.notes),
+            "dof": self.dof,
+            "simulated": bool(self.simulated),
         }
 
     def to_json(self) -> str:
@@ -267,7 +285,7 @@ def _from_dict(data, source: str) -> CalibrationRecord:
 
     if not isinstance(data, dict):
         raise fail("expected a JSON object")
-    unknown = sorted(set(data) - _KEYS)
+    unknown = sorted(set(data) - _KEYS - _OPTIONAL_KEYS)
     if unknown:
         raise fail(f"unknown key(s) {', '.join(map(repr, unknown))}")
     missing = sorted(_KEYS - set(data))
@@ -316,6 +334,12 @@ def _from_dict(data, source: str) -> CalibrationRecord:
         raise fail("coverage_factor must be a finite number")
     if not (isinstance(data["notes"], list) and all(isinstance(n, str) for n in data["notes"])):
         raise fail("notes must be a list of strings")
+    dof = data.get("dof")
+    if not (dof is None or (isinstance(dof, int) and not isinstance(dof, bool) and dof > 0)):
+        raise fail("dof must be a positive integer or null")
+    simulated = data.get("simulated", False)
+    if not isinstance(simulated, bool):
+        raise fail("simulated must be true or false")
     model = None
     if data["model"] is not None:
         model = ErrorModel.from_dict(data["model"], source=f"{source}: model")
@@ -330,7 +354,8 @@ def _from_dict(data, source: str) -> CalibrationRecord:
             estimates=np.array(values), covariance=cov, units=units, date=data["date"],
             software=data["software"], operator=data["operator"],
             coverage_factor=float(data["coverage_factor"]), model=model,
-            inputs=dict(data["inputs"]), notes=tuple(data["notes"]),
+            inputs=dict(data["inputs"]), notes=tuple(data["notes"]), dof=dof,
+            simulated=simulated,
         )
     except AccelcalError as exc:
         raise fail(str(exc)) from None

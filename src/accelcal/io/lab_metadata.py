@@ -37,7 +37,7 @@ from pathlib import Path
 from accelcal.errors import AccelcalError
 from accelcal.io.limits import check_label, is_finite_number, shown
 
-FIELDS = ("serial", "operator", "date", "local_gravity")
+FIELDS = ("serial", "operator", "date", "local_gravity", "simulated")
 """Metadata field names this module validates."""
 
 GRAVITY_RANGE = (9.7, 9.9)
@@ -59,12 +59,16 @@ class LabInfo:
         ISO 8601, as given.
     local_gravity : float or None
         m/s^2.
+    simulated : bool
+        True for data written by a simulator (metadata ``"simulated": true``):
+        calibration records made from them say so.
     """
 
     serials: tuple[str, ...] | None = None
     operator: str = ""
     date: str = ""
     local_gravity: float | None = None
+    simulated: bool = False
 
     def __post_init__(self) -> None:
         """Check the strings that reach file names and reports (:func:`check_label`).
@@ -95,6 +99,8 @@ class LabInfo:
             meta["date"] = self.date
         if self.local_gravity is not None:
             meta["local_gravity"] = self.local_gravity
+        if self.simulated:
+            meta["simulated"] = True
         return meta
 
 
@@ -156,8 +162,12 @@ def check_lab_metadata(meta: dict, path, sensors: int | None = None) -> LabInfo:
                 f"m/s^2, between {lo} and {hi}"
             )
         gravity = float(gravity)
+    simulated = meta.get("simulated", False)
+    if not isinstance(simulated, bool):
+        raise AccelcalError(f"{path}: metadata 'simulated' {shown(simulated)} must be true or "
+                            "false")
     try:
-        return LabInfo(serials, operator, date, gravity)
+        return LabInfo(serials, operator, date, gravity, simulated)
     except AccelcalError as exc:
         raise AccelcalError(f"{path}: metadata '{exc.parameter}': {exc.message}") from None
 

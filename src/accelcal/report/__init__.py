@@ -130,6 +130,7 @@ def _view(section: Section, number: int) -> dict:
             "serial": rec.serial, "method": rec.method, "date": rec.date,
             "operator": rec.operator, "software": rec.software,
             "coverage_factor": rec.coverage_factor, "inputs": dict(rec.inputs),
+            "dof": rec.dof, "simulated": rec.simulated,
             "notes": list(rec.notes),
             "coefficients": [
                 {"name": n, "unit": rec.units.get(n, ""), "estimate": float(v),

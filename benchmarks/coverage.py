@@ -1,0 +1,64 @@
+"""Coverage of the stated uncertainties, every method (issue 11): the table of docs/coverage.md.
+
+Run from the repository root::
+
+    python benchmarks/coverage.py                     # every case, 400 experiments each
+    python benchmarks/coverage.py -n 2000             # more experiments
+    python benchmarks/coverage.py -k vre -k tumble    # cases whose name contains a word
+    python benchmarks/coverage.py --markdown docs/coverage-table.md
+
+For each case (every ReductionContract subclass of tests/test_*_contract.py
+and the extra cases of tests/coverage_harness.py) it runs N simulated
+experiments (seeds 0..N-1) and prints, per coefficient, the ratio of the
+empirical SD of (estimate - truth) to the mean stated SD (target 0.9-1.1)
+and the coverage of the stated 95 % interval (target 0.93-0.97; k from
+Student's t of the reduction's dof). The verdict compares with the exact
+targets; tests/test_coverage.py asserts the same numbers against bands
+widened by their sampling error.
+"""
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # before numpy loads its BLAS
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+import coverage_harness as harness  # noqa: E402
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("-n", "--experiments", type=int, default=harness.DEFAULT_EXPERIMENTS)
+    parser.add_argument("-k", "--keyword", action="append", default=[],
+                        help="run only cases whose name contains this (repeatable)")
+    parser.add_argument("--markdown", type=Path, help="also write the markdown table here")
+    args = parser.parse_args(argv)
+
+    results = []
+    header = (f"{'method':<58} {'coefficient':<12} {'SD ratio':>8} {'coverage':>8} "
+              f"{'mean z':>7} {'N':>5} {'seconds':>7}  verdict")
+    print(header)
+    print("-" * len(header))
+    for name, factory in harness.cases().items():
+        if args.keyword and not any(k in name for k in args.keyword):
+            continue
+        res = harness.coverage(factory(), args.experiments, name=name)
+        results.append(res)
+        for c in res.coefficients.values():
+            print(f"{name:<58} {c.coefficient:<12} {c.sd_ratio:8.3f} {c.coverage:8.3f} "
+                  f"{c.mean_z:+7.3f} {c.experiments:5d} {res.seconds:7.1f}  "
+                  f"{harness.verdict_of(c)}", flush=True)
+        for seed, exc in res.failures:
+            print(f"{name:<58} FAILED seed {seed}: {exc}", flush=True)
+    if args.markdown:
+        args.markdown.write_text(harness.markdown_table(results))
+        print(f"\nwrote {args.markdown}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,313 @@
+"""Coverage harness: are the uncertainties a reduction states honest? (issue 11)
+
+For one method (a subclass of :class:`contract.ReductionContract`: ``truth``,
+``simulate``, ``reduce``, ``expected``) :func:`coverage` runs ``N`` simulated
+experiments (seeds ``0 .. N-1``, each a new random truth and new noise, the
+method's settings as its contract runs them) and reports, per coefficient
+(pooled over the sensors of a multi-sensor reduction):
+
+``sd_ratio``
+    the empirical standard deviation of ``estimate - truth`` divided by the
+    mean stated standard uncertainty (target 0.9-1.1). "Mean" is the root
+    mean square (the square root of the mean stated variance): it is the
+    plain mean where every experiment states the same SD (a fixed design
+    with a given noise), and it stays unbiased where the stated SD varies
+    from experiment to experiment, as it does with a random truth (a tumble
+    states SDs in g from an output-unit noise, so they scale as 1 / K1 and
+    K1 is drawn from 0.5-3: the plain mean would make an honest method look
+    1.14x optimistic) or with a variance estimated from residuals (the mean
+    of ``s`` is biased low by c4(dof); the mean of ``s**2`` is not);
+``coverage``
+    the fraction of experiments whose stated 95 % interval
+    ``estimate +- k std`` holds the truth, with ``k`` the 97.5 % point of
+    Student's t for the Reduction's ``dof`` (the degrees of freedom of a
+    variance estimated from residuals, GUM G.3) when ``dof > 0``, else
+    1.96 (target 0.93-0.97).
+
+:func:`cases` lists what the standing check runs: every contract subclass of
+``tests/test_*_contract.py`` (found by import, so a method added later joins
+by writing its contract) plus :data:`EXTRA_CASES`, settings a user reaches
+that the contracts do not run (the library's default where a contract
+chooses an option, designs with few degrees of freedom, ...): one line each.
+
+Used by ``tests/test_coverage.py`` (slow tests, targets asserted) and
+``benchmarks/coverage.py`` (the table of docs/coverage.md).
+"""
+
+import importlib
+import inspect
+import math
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
+
+TESTS = Path(__file__).resolve().parent
+if str(TESTS) not in sys.path:  # benchmarks/coverage.py imports this file from outside pytest
+    sys.path.insert(0, str(TESTS))
+
+from contract import ReductionContract  # noqa: E402
+
+SD_RATIO_TARGET = (0.9, 1.1)
+"""Target of empirical SD / mean stated SD (issue 11)."""
+
+COVERAGE_TARGET = (0.93, 0.97)
+"""Target of the coverage of the stated 95 % interval (issue 11)."""
+
+DEFAULT_EXPERIMENTS = 400
+"""Simulated experiments per case (issue 11: at least 400)."""
+
+
+@dataclass(frozen=True)
+class CoefficientCoverage:
+    """Coverage statistics of one coefficient of one case.
+
+    Attributes
+    ----------
+    case : str
+        ``module.Class`` of the contract (or the extra case's name).
+    coefficient : str
+        Coefficient name (pooled over sensors).
+    sd_ratio : float
+        Empirical SD of ``estimate - truth`` over the RMS stated SD.
+    coverage : float
+        Fraction of scores with ``|estimate - truth| <= k std``.
+    mean_z : float
+        Mean of ``(estimate - truth) / std``: a bias in stated SDs.
+    scores : int
+        Number of (experiment, sensor) scores pooled.
+    experiments : int
+        Number of experiments that gave a result.
+    k : float
+        Coverage factor used (of the first experiment; the same for all when
+        the design is fixed).
+    """
+
+    case: str
+    coefficient: str
+    sd_ratio: float
+    coverage: float
+    mean_z: float
+    scores: int
+    experiments: int
+    k: float
+
+
+@dataclass(frozen=True)
+class CaseCoverage:
+    """All coefficients of one case, the run time and the experiments that failed."""
+
+    case: str
+    coefficients: dict[str, CoefficientCoverage]
+    experiments: int
+    seconds: float
+    failures: tuple[tuple[int, str], ...]
+    """(seed, exception) of experiments whose reduction raised or stated a non-finite or
+    non-positive SD: every one is a defect of the method (reported, not ignored)."""
+
+
+def coverage_factor(dof: int, level: float = 0.95) -> float:
+    """``k`` of a two-sided ``level`` interval: Student's t for ``dof > 0``, else normal."""
+    from scipy import stats
+
+    if dof and dof > 0:
+        return float(stats.t.ppf(0.5 + level / 2, dof))
+    return float(stats.norm.ppf(0.5 + level / 2))
+
+
+def coverage(contract: ReductionContract, n: int = DEFAULT_EXPERIMENTS, *,
+             name: str | None = None, seeds=None) -> CaseCoverage:
+    """Run ``n`` simulated experiments of ``contract`` and measure its stated uncertainty.
+
+    Parameters
+    ----------
+    contract : ReductionContract
+        An instance of a contract subclass.
+    n : int
+        Number of experiments (seeds ``0 .. n-1`` unless ``seeds`` is given).
+    name : str, optional
+        Case name (default ``module.Class`` of the contract).
+    seeds : iterable of int, optional
+        Explicit seeds.
+
+    Returns
+    -------
+    CaseCoverage
+    """
+    cls = type(contract)
+    name = name or f"{cls.__module__}.{cls.__qualname__}"
+    seeds = list(range(n)) if seeds is None else list(seeds)
+    err: dict[str, list[float]] = {}
+    std: dict[str, list[float]] = {}
+    kk: dict[str, list[float]] = {}
+    failures = []
+    done = 0
+    start = time.perf_counter()
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        try:
+            truth = contract.truth(rng)
+            red = contract.reduce(contract.simulate(truth, rng, True))
+            k = coverage_factor(red.dof)
+            rows = []
+            for s, want in enumerate(contract.expected(truth)):
+                est = red.sensors[s]
+                for coef, value in want.items():
+                    sd = est.std_of(coef)
+                    if not (np.isfinite(sd) and sd > 0 and np.isfinite(est[coef])):
+                        raise ValueError(f"sensor {s} {coef}: estimate {est[coef]!r}, std {sd!r}")
+                    rows.append((coef, est[coef] - value, sd))
+        except Exception as exc:  # a defect to report, not to hide
+            failures.append((seed, f"{type(exc).__name__}: {exc}"[:300]))
+            continue
+        done += 1
+        for coef, e, sd in rows:
+            err.setdefault(coef, []).append(e)
+            std.setdefault(coef, []).append(sd)
+            kk.setdefault(coef, []).append(k)
+    seconds = time.perf_counter() - start
+    out = {}
+    for coef in err:
+        e, s, k = np.asarray(err[coef]), np.asarray(std[coef]), np.asarray(kk[coef])
+        out[coef] = CoefficientCoverage(
+            case=name, coefficient=coef,
+            sd_ratio=float(np.std(e, ddof=1) / np.sqrt(np.mean(s**2))) if e.size > 1
+            else math.nan,
+            coverage=float(np.mean(np.abs(e) <= k * s)),
+            mean_z=float(np.mean(e / s)), scores=int(e.size), experiments=done, k=float(k[0]))
+    return CaseCoverage(name, out, done, seconds, tuple(failures))
+
+
+# ------------------------------------------------------------------------------- the cases
+def contract_classes() -> list[type]:
+    """Every concrete ReductionContract subclass of ``tests/test_*_contract.py``, by import.
+
+    Concrete: collected by pytest (class name ``Test*``), defined in that module.
+    """
+    found = []
+    for path in sorted(TESTS.glob("test_*_contract.py")):
+        module = importlib.import_module(path.stem)
+        for obj_name, obj in vars(module).items():
+            if (inspect.isclass(obj) and issubclass(obj, ReductionContract)
+                    and obj_name.startswith("Test") and obj.__module__ == module.__name__):
+                found.append(obj)
+    return found
+
+
+def _four_default():
+    """The four-sensor reduction as ``reduce(data, "four")`` runs it: the library's default
+    covariance (the contract chooses ``covariance="propagated"``)."""
+    from test_dividing_head_contract import TestFourContract
+
+    class FourDefault(TestFourContract):
+        OPTIONS: ClassVar[dict] = {}
+
+    return FourDefault()
+
+
+def _tumble_few_dof():
+    """Tumble at 8 positions from 0 deg (``accelcal tumble simulate --points 8``), noise from
+    the residuals: 1 degree of freedom (OA, 7 terms). The start stays at 0: from a random
+    start the 4th harmonic of 8 positions vanishes near 4 start = 90 deg and K0, K2, K4 are
+    then barely identifiable (stated SDs of every size, correctly, but no SD ratio)."""
+    from accelcal.rigs.tumble import uniform_positions
+    from test_tumble_contract import TestContractFourierOA
+
+    class TumbleEight(TestContractFourierOA):
+        def positions(self, rng):
+            return uniform_positions(8)
+
+    return TumbleEight()
+
+
+def _vre_cli(sampling: str):
+    """VRE identification as ``accelcal vre simulate`` then ``vre fit`` run it by default
+    (18 points b = 1, 2, 4 g x A = 5..10 g, 50 Hz, 5000 Hz for 1 s, phase 0, noise the
+    default model's sigma, 1e-6 g), with ``--sampling`` ``sampling``."""
+    from accelcal import ErrorModel
+    from accelcal.rigs.vibrafuge import simulate
+    from test_vre_contract import PAPER_A, PAPER_B, TestContract
+
+    class VreCli(TestContract):
+        def simulate(self, truth, rng, noisy):
+            return simulate(ErrorModel(**truth, K1=1.3), PAPER_B, PAPER_A, frequency=50.0,
+                            sample_rate=5000.0, duration=1.0, phase=0.0,
+                            noise=1e-6 if noisy else 0.0, sampling=sampling, rng=rng)
+
+    return VreCli()
+
+
+EXTRA_CASES: dict[str, Callable[[], ReductionContract]] = {
+    "dividing-head four, default covariance": _four_default,
+    "tumble fourier OA, 8 positions (1 dof)": _tumble_few_dof,
+    "vre identify, CLI defaults, integrating": lambda: _vre_cli("integrating"),
+    "vre identify, CLI defaults, point sampling": lambda: _vre_cli("point"),
+}
+"""Settings users reach that no contract runs: case name -> factory of a contract instance."""
+
+
+def cases() -> dict[str, Callable[[], ReductionContract]]:
+    """Every case of the standing check: case name -> factory of a contract instance."""
+    out = {f"{cls.__module__}.{cls.__qualname__}": cls for cls in contract_classes()}
+    out.update(EXTRA_CASES)
+    return out
+
+
+# ------------------------------------------------------------------------------ the bands
+def coverage_band(experiments: int) -> tuple[float, float]:
+    """Band the measured coverage must fall in for the target 0.93-0.97 to be plausible.
+
+    The measured coverage of ``N`` experiments scatters about the true one
+    with SD ``sqrt(0.95 * 0.05 / N)`` (0.011 at N = 400; pooled sensors add
+    scores but are correlated, so N counts experiments). The test band is
+    the target widened by 1.5 of these SDs on each side, so a method whose
+    true coverage is 0.95 fails with probability ~1e-3 per coefficient
+    (|deviation| > 3.3 SD) while one at 0.90 or 0.99 (2.5-4 SD outside the
+    widened band) fails. The script reports the measured numbers against
+    the exact target.
+    """
+    se = math.sqrt(0.95 * 0.05 / experiments)
+    return COVERAGE_TARGET[0] - 1.5 * se, COVERAGE_TARGET[1] + 1.5 * se
+
+
+def sd_ratio_band(experiments: int) -> tuple[float, float]:
+    """Band of the measured SD ratio: the target 0.9-1.1 widened by one standard error.
+
+    The relative standard error of an SD of ``N`` Gaussian samples is
+    ``1 / sqrt(2 (N - 1))`` (0.035 at N = 400): an honest method (ratio 1)
+    fails with probability ~1e-4 (3.8 SE), one at 0.8 or 1.2 fails.
+    """
+    se = 1.0 / math.sqrt(2.0 * (experiments - 1))
+    return SD_RATIO_TARGET[0] - se, SD_RATIO_TARGET[1] + se
+
+
+def markdown_table(results: list[CaseCoverage]) -> str:
+    """The results as a markdown table (one row per case and coefficient)."""
+    lines = ["| method | coefficient | SD ratio | coverage | mean z | k | N | seconds | verdict |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---|"]
+    for res in results:
+        for c in res.coefficients.values():
+            verdict = verdict_of(c)
+            lines.append(f"| {res.case} | {c.coefficient} | {c.sd_ratio:.3f} | {c.coverage:.3f} "
+                         f"| {c.mean_z:+.3f} | {c.k:.3f} | {c.experiments} | {res.seconds:.1f} "
+                         f"| {verdict} |")
+        if res.failures:
+            lines.append(f"| {res.case} | (failed experiments) | | | | | {len(res.failures)} "
+                         f"| | seed {res.failures[0][0]}: {res.failures[0][1][:80]} |")
+    return "\n".join(lines) + "\n"
+
+
+def verdict_of(c: CoefficientCoverage) -> str:
+    """``ok`` inside both exact targets; else what misses (and whether the test band holds)."""
+    misses = []
+    if not SD_RATIO_TARGET[0] <= c.sd_ratio <= SD_RATIO_TARGET[1]:
+        lo, hi = sd_ratio_band(c.experiments)
+        misses.append("SD ratio" + ("" if lo <= c.sd_ratio <= hi else " (beyond test band)"))
+    if not COVERAGE_TARGET[0] <= c.coverage <= COVERAGE_TARGET[1]:
+        lo, hi = coverage_band(c.experiments)
+        misses.append("coverage" + ("" if lo <= c.coverage <= hi else " (beyond test band)"))
+    return "ok" if not misses else "misses " + ", ".join(misses)
