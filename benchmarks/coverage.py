@@ -5,7 +5,8 @@ Run from the repository root::
     python benchmarks/coverage.py                     # every case, 400 experiments each
     python benchmarks/coverage.py -n 2000             # more experiments
     python benchmarks/coverage.py -k vre -k tumble    # cases whose name contains a word
-    python benchmarks/coverage.py --markdown docs/coverage-table.md
+    python benchmarks/coverage.py --markdown table.md
+    python benchmarks/coverage.py --update-docs       # the table of docs/coverage.md
 
 For each case (every ReductionContract subclass of tests/test_*_contract.py
 and the extra cases of tests/coverage_harness.py) it runs N simulated
@@ -25,21 +26,28 @@ from pathlib import Path
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # before numpy loads its BLAS
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs" / "coverage.md"
+MARKER = "<!-- coverage-table -->"
+sys.path.insert(0, str(ROOT / "tests"))
 
 import coverage_harness as harness  # noqa: E402
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("-n", "--experiments", type=int, default=harness.DEFAULT_EXPERIMENTS)
+    parser.add_argument("-n", "--experiments", type=int, default=None,
+                        help=f"experiments per case (default {harness.DEFAULT_EXPERIMENTS}, "
+                             "or more where a case asks for more)")
     parser.add_argument("-k", "--keyword", action="append", default=[],
                         help="run only cases whose name contains this (repeatable)")
     parser.add_argument("--markdown", type=Path, help="also write the markdown table here")
+    parser.add_argument("--update-docs", action="store_true",
+                        help=f"replace the table in {DOCS.relative_to(ROOT)} (after {MARKER})")
     args = parser.parse_args(argv)
 
     results = []
-    header = (f"{'method':<58} {'coefficient':<12} {'SD ratio':>8} {'coverage':>8} "
+    header = (f"{'method':<58} {'coefficient':<12} {'SD ratio':>14} {'coverage':>8} "
               f"{'mean z':>7} {'N':>5} {'seconds':>7}  verdict")
     print(header)
     print("-" * len(header))
@@ -49,14 +57,21 @@ def main(argv=None) -> int:
         res = harness.coverage(factory(), args.experiments, name=name)
         results.append(res)
         for c in res.coefficients.values():
-            print(f"{name:<58} {c.coefficient:<12} {c.sd_ratio:8.3f} {c.coverage:8.3f} "
+            print(f"{name:<58} {c.coefficient:<12} {c.sd_ratio:6.3f} ± {c.sd_ratio_se:5.3f} "
+                  f"{c.coverage:8.3f} "
                   f"{c.mean_z:+7.3f} {c.experiments:5d} {res.seconds:7.1f}  "
                   f"{harness.verdict_of(c)}", flush=True)
         for seed, exc in res.failures:
             print(f"{name:<58} FAILED seed {seed}: {exc}", flush=True)
+    table = harness.markdown_table(results)
     if args.markdown:
-        args.markdown.write_text(harness.markdown_table(results))
+        args.markdown.write_text(table)
         print(f"\nwrote {args.markdown}")
+    if args.update_docs:
+        text = DOCS.read_text(encoding="utf-8")
+        head = text[:text.index(MARKER) + len(MARKER)]
+        DOCS.write_text(f"{head}\n\n{table}", encoding="utf-8")
+        print(f"\nupdated {DOCS}")
     return 0
 
 

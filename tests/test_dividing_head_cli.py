@@ -144,9 +144,13 @@ def test_bad_options_exit_2(record, capsys, args, message):
 
 def test_too_few_positions_exit_2_and_nothing_written(tmp_path, capsys):
     path = tmp_path / "few.csv"
-    code, _, _ = _run(["dividing-head", "simulate", "--positions", "5", "--out", str(path)],
-                      capsys)
-    assert code == 0
+    code, _, err = _run(["dividing-head", "simulate", "--positions", "5", "--out", str(path)],
+                        capsys)
+    assert code == 2  # no reduction could use it
+    assert "--positions: must be an integer >= 6" in err
+    assert not path.exists()
+    alpha = np.arange(5) * 2 * np.pi / 5  # a measured file of 5 positions
+    write_head_record(path, alpha, np.stack([np.sin(alpha), np.cos(alpha)]), np.radians([0, 90]))
     for method, message in (("single", "at least 6"), ("four", "at least 12"),
                             ("joint", "degree of freedom")):
         code, _, err = _run(["dividing-head", "reduce", str(path), "--method", method], capsys)

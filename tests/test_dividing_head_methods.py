@@ -495,8 +495,8 @@ def test_four_propagated_result_is_consistent():
     rig, sim, out = _four_trials(2.8e-6, 1, 6, "propagated")
     r = out[0]
     data = HeadData.build(rig.positions, sim.outputs[0], rig.mounts)
-    paper = four(data, first_harmonic=_H1, first_harmonic_sd=(5e-7, 5e-7))
-    prop = four(data, first_harmonic=_H1, first_harmonic_sd=(5e-7, 5e-7), covariance="propagated")
+    paper = four(data, first_harmonic=_H1, first_harmonic_sd=(5e-7, 5e-7), covariance="paper")
+    prop = four(data, first_harmonic=_H1, first_harmonic_sd=(5e-7, 5e-7))  # the default
     assert paper.covariance is None
     assert prop.covariance.shape == (20 + 24, 20 + 24)
     np.testing.assert_array_equal(_estimates(prop), _estimates(paper))  # same estimates
@@ -507,7 +507,8 @@ def test_four_propagated_result_is_consistent():
     # the first-harmonic term is the same in both: remove it and compare what is left
     without = four(data, first_harmonic=_H1, covariance="propagated")
     extra = prop.covariance - without.covariance
-    h1_part = paper.sensors[0].covariance - four(data, first_harmonic=_H1).sensors[0].covariance
+    h1_part = paper.sensors[0].covariance - \
+        four(data, first_harmonic=_H1, covariance="paper").sensors[0].covariance
     np.testing.assert_allclose(extra[:5, :5], h1_part, rtol=1e-9, atol=1e-30)
     assert np.all(np.linalg.eigvalsh(prop.covariance) > -1e-12 * np.abs(prop.covariance).max())
     assert r.assumed("covariance") == "propagated"

@@ -63,9 +63,13 @@ def test_study_shows_where_formal_sds_understate():
             assert row["rms_error"] > 4 * row["mean_formal_sd"], (method, c)
         assert res[("joint_known_h1", c)]["rms_error"] < 1.1 * \
             res[("joint_known_h1", c)]["mean_formal_sd"]
-    # the four-sensor method's own SD ignores the noise of the separated head error
-    assert res[("four_known_h1", "K_I")]["rms_error"] > \
-        1.2 * res[("four_known_h1", "K_I")]["mean_formal_sd"]
+    # the four-sensor method's formal SD is the propagated one (the paper's step 7 ignored
+    # the noise of the separated head error and was 1.3-1.9x too small): it now agrees with
+    # the scatter (2000 trials x 4 sensors: RMS relative SE ~0.8 %; estimated variances with
+    # ~9-19 effective dof: E[s] a few % low; tolerance 10 %)
+    for c in COEFFICIENTS:
+        row = res[("four_known_h1", c)]
+        assert 0.9 < row["rms_error"] / row["mean_formal_sd"] < 1.1, c
     # four/joint improve on single by removing harmonics >= 2 (paper's Tables 1-2 claim)
     assert res[("joint_known_h1", "K_F")]["rms_error"] < \
         0.2 * res[("single", "K_F")]["rms_error"]

@@ -1,5 +1,7 @@
 """Monte Carlo engine: reproducibility across chunking and workers, statistics, errors."""
 
+import time
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -156,3 +158,25 @@ def test_moments_hold_no_view_of_a_blocks_outputs():
         kept = mc._Moments.of(values, 0, stride, True).kept
         assert kept.base is None or kept.base is not values
         assert not np.shares_memory(kept, values)
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_a_huge_trial_count_starts_at_once_and_reports_progress():
+    # 1e12 trials: the tasks are made on demand (no list of 3e7 ranges first), so the
+    # run starts streaming within milliseconds; it would be a long run, not a crash.
+    calls = []
+
+    def progress(done, total):
+        calls.append((done, total))
+        if len(calls) == 3:
+            raise _Stop
+
+    start = time.perf_counter()
+    with pytest.raises(_Stop):
+        mc.run(LinearFit(), 10**12, names=NAMES, seed=1, progress=progress)
+    assert time.perf_counter() - start < 5.0
+    assert calls[0][1] == 10**12
+    assert calls[0][0] < calls[2][0]

@@ -46,9 +46,11 @@ def test_records_carry_dof_and_t_factor_and_warn_below_ten():
     (many,) = _reduction(50).to_records(info)
     assert not any(n.startswith("only") for n in many.notes)
     (known,) = _reduction(0).to_records(info)
-    assert known.dof is None and known.coverage_factor == 2.0
+    assert known.dof is None
+    assert known.coverage_factor == 2.0
     back = CalibrationRecord.from_json(few.to_json())
-    assert back.dof == 1 and back.coverage_factor == few.coverage_factor
+    assert back.dof == 1
+    assert back.coverage_factor == few.coverage_factor
 
 
 def test_simulated_inputs_are_marked_in_records_store_and_report(tmp_path, capsys):
@@ -85,9 +87,10 @@ def test_records_written_before_dof_and_simulated_still_load():
     data = json.loads(make_record().to_json())
     del data["dof"], data["simulated"]
     rec = CalibrationRecord.from_json(json.dumps(data))
-    assert rec.dof is None and rec.simulated is False
+    assert rec.dof is None
+    assert rec.simulated is False
     for bad in ({"dof": 0}, {"dof": True}, {"simulated": 1}):
-        with pytest.raises(ValueError, match="dof|simulated"):
+        with pytest.raises(ValueError, match=r"dof|simulated"):
             CalibrationRecord.from_json(json.dumps({**data, **bad}))
 
 
@@ -128,3 +131,12 @@ def test_schema_1_store_migrates_to_the_simulated_column(db):  # noqa: F811
         store.add(dataclasses.replace(make_record(serial="NEW"), simulated=True))
         rows = {r["serial"]: r["simulated"] for r in store.calibrations()}
     assert rows == {"OLD": False, "NEW": True}
+
+
+def test_dividing_head_simulate_marks_its_file_and_the_records_as_simulated(tmp_path):
+    data, rec = tmp_path / "h.csv", tmp_path / "cal.json"
+    assert main_exit(["dividing-head", "simulate", "--seed", "1", "--out", str(data)]) == 0
+    assert main_exit(["dividing-head", "reduce", str(data), "--record", str(rec),
+                      "--serial", "A,B,C,D"]) == 0
+    for k in range(1, 5):
+        assert CalibrationRecord.load(tmp_path / f"cal-{k}.json").simulated

@@ -156,3 +156,30 @@ def test_errors_name_parameters_in_python_and_flags_on_the_command_line():
     assert exc.message_for() == "--first-harmonic-sd: must be a positive integer, got 0"
     assert exc.message_for({"first_harmonic_sd": "--h1-sd"}).startswith("--h1-sd: ")
     assert str(AccelcalError("plain")) == "plain"
+
+
+def test_an_overflow_is_never_a_result():
+    with pytest.raises(AccelcalError, match="overflowed"):
+        Estimate(("K0",), [1.0], [[math.inf]], {"K0": "g"}, "demo")
+    with pytest.raises(AccelcalError, match="overflowed"):
+        Estimate(("K0",), [-math.inf], [[1.0]], {"K0": "g"}, "demo")
+    # NaN stays the mark of what the design does not determine
+    Estimate(("K0",), [math.nan], [[math.nan]], {"K0": "g"}, "demo")
+
+
+def test_command_line_nets_numerical_failures_and_memory(monkeypatch, capsys):
+    import numpy as np
+
+    from accelcal.cli import main
+
+    def fail(*args, **kwargs):
+        raise np.linalg.LinAlgError("SVD did not converge")
+
+    monkeypatch.setattr("accelcal.cli.model.load_model", fail, raising=False)
+    monkeypatch.setattr("accelcal.cli.common.load_model", fail)
+    with pytest.raises(SystemExit) as info:
+        main(["model", "show"])
+    err = capsys.readouterr().err
+    assert info.value.code == 2
+    assert err.startswith("accelcal: error: the computation failed (SVD did not converge)")
+    assert err.count("\n") == 1

@@ -119,30 +119,35 @@ def test_first_harmonic_uncertainty_propagates_through_the_alias():
 
 @pytest.mark.slow
 def test_four_method_mc_interval_covers_where_the_formal_one_does_not():
-    # Repeat a simulated 24-position, 4-sensor experiment; the four-sensor
-    # formal SD ignores the noise carried in by the separated head error, so
-    # its 95 % interval under-covers; the Monte Carlo interval must cover at
-    # 95 % within a binomial tolerance. Each experiment's Monte Carlo run is
-    # vectorised over its trials.
+    # Repeat a simulated 24-position, 4-sensor experiment; the paper's step-7
+    # formal SD (covariance="paper") ignores the noise carried in by the separated
+    # head error, so its 95 % interval under-covers; the Monte Carlo interval and
+    # the default propagated covariance must cover at 95 % within a binomial
+    # tolerance. Each experiment's Monte Carlo run is vectorised over its trials.
     rig = _rig()
     experiments = 150
     run = simulate(rig, 12, trials=experiments)
     truth = _truth(rig).reshape(-1)
-    inside_mc, inside_formal = [], []
+    inside_mc, inside_formal, inside_prop = [], [], []
     for outputs in run.outputs:
         data = HeadData.build(rig.positions, outputs, rig.mounts)
-        result = four(data)
+        result = four(data, covariance="paper")
         mc = head_uncertainty(data, result, trials=1000, seed=1)
         inside_mc.append((mc.ci_low <= truth) & (truth <= mc.ci_high))
         est = np.concatenate([e.values for e in result.sensors])
         inside_formal.append(np.abs(est - truth) <= 1.959964 * mc.formal_std)
+        prop = np.concatenate([e.std for e in four(data).sensors])
+        inside_prop.append(np.abs(est - truth) <= 1.959964 * prop)
     rate_mc, rate_formal = np.mean(inside_mc), np.mean(inside_formal)
+    rate_prop = np.mean(inside_prop)
     # binomial sd for 150 experiments 1.8 %; 3 sd (pooled coefficients are
     # positively correlated, so this bound is conservative), less 1.5 % for
     # the noise level estimated from 19 degrees of freedom per sensor
     tol = 3 * np.sqrt(0.95 * 0.05 / experiments)
     assert 0.95 - tol - 0.015 < rate_mc < 0.95 + tol, rate_mc
     assert rate_formal < 0.88, rate_formal
+    # the default: the propagated covariance (an SD from ~9-19 dof: a little low)
+    assert 0.95 - tol - 0.03 < rate_prop < 0.95 + tol, rate_prop
 
 
 def test_noise_levels_are_unbiased_for_the_four_method():

@@ -34,7 +34,8 @@ class TestContract(ReductionContract):
     def reduce(self, data):
         meas = reduce_run(data)
         return identify(meas.overload, meas.amplitude, meas.vre, meas.uncertainty,
-                        direction=meas.direction, assumptions=meas.assumptions())
+                        direction=meas.direction, assumptions=meas.assumptions(),
+                        columns=meas.design_columns())
 
     def expected(self, truth):
         return [dict(truth)]

@@ -26,6 +26,8 @@ References
 
 import dataclasses
 import datetime as dt
+import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +35,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.io.lab_metadata import LabInfo, read_lab_metadata
-from accelcal.io.limits import shown
+from accelcal.io.limits import file_type, shown, shown_path
 from accelcal.results import Estimate
 
 
@@ -226,11 +228,34 @@ def record_paths(path, count: int) -> list[Path]:
 
     One record is written to ``path``; several to ``path`` with ``-1``,
     ``-2``, ... inserted before the suffix (``cal.json`` -> ``cal-1.json``).
+
+    Raises
+    ------
+    AccelcalError
+        (parameter ``record``) For an empty path or one without a file name
+        (``.``, ``dir/``), a directory, or a path that (or any derived path
+        that) exists and is not a regular file (a FIFO, a device such as
+        ``/dev/full``): records go beside ``path``, never into or over such
+        a file.
     """
-    path = Path(path)
-    if count == 1:
-        return [path]
-    return [path.with_name(f"{path.stem}-{i}{path.suffix}") for i in range(1, count + 1)]
+    text = os.fspath(path)
+    path = Path(text)
+    if not text or not path.name or path.name in (".", "..") or text.endswith(os.sep):
+        raise AccelcalError(f"{shown_path(text) or 'an empty path'} is not a file name; give the "
+                            "file to write the record to (e.g. cal.json)", parameter="record")
+    paths = [path] if count == 1 else [path.with_name(f"{path.stem}-{i}{path.suffix}")
+                                       for i in range(1, count + 1)]
+    for p in dict.fromkeys([path, *paths]):
+        try:
+            mode = os.stat(p).st_mode
+        except (OSError, ValueError):  # new, or unusable: the writer says why
+            continue
+        if not stat.S_ISREG(mode):
+            raise AccelcalError(
+                f"{shown_path(p)} is {file_type(mode)}, not a regular file; give the name of a "
+                "file to write the record to (several records go beside it, as NAME-1, "
+                "NAME-2, ...)", parameter="record")
+    return paths
 
 
 def save_records(records, path) -> list[Path]:

@@ -31,6 +31,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io import model_file
+from accelcal.io.limits import shown
 from accelcal.terms import TERMS, Term, term_unit, unknown_term_message
 from accelcal.units import OUTPUT_UNITS, OutputUnit
 
@@ -51,6 +52,11 @@ _GUANTANG = {
     "k_ip": "Kip",
 }
 """GuanTang eq. (13) notation -> accelcal term names (no asymmetry terms)."""
+
+MAX_SPECIFIC_FORCE_G = 1e6
+"""Largest specific force (g) the model is evaluated at: beyond shock-test
+levels (about 1e5 g), and small enough that a polynomial term cannot
+overflow for any sensible coefficient."""
 
 _DONG2014 = ("K_F", "K_I", "K_O", "K_IO", "K_II")
 """Dong2014 eq. (5) coefficients, all in the output unit (volts)."""
@@ -122,7 +128,7 @@ class ErrorModel:
             if isinstance(value, bool) or not isinstance(value, numbers.Real):
                 raise AccelcalError(
                     f"ErrorModel term {name} must be a real number, "
-                    f"got {value!r} ({type(value).__name__})"
+                    f"got {_shown_repr(value)} ({type(value).__name__})"
                 )
             value = float(value)
             if not np.isfinite(value):
@@ -139,7 +145,7 @@ class ErrorModel:
             raise AccelcalError(f"ErrorModel term sigma = {self.sigma} is negative; give >= 0")
         if self.output_unit not in OUTPUT_UNITS:
             raise AccelcalError(
-                f"ErrorModel output_unit {self.output_unit!r} is not one of "
+                f"ErrorModel output_unit {shown(self.output_unit)} is not one of "
                 f"{', '.join(OUTPUT_UNITS)}"
             )
 
@@ -165,20 +171,24 @@ class ErrorModel:
         Raises
         ------
         AccelcalError
-            If an input is not finite.
+            If an input is not finite or beyond :data:`MAX_SPECIFIC_FORCE_G`
+            in magnitude, or the output overflows (coefficients too large
+            for the inputs).
 
         References
         ----------
         .. [1] Guan2021, eqs. (1)-(3).
         """
         a_i, a_o, a_p = (_finite_array(v, n) for v, n in ((a_i, "a_i"), (a_o, "a_o"), (a_p, "a_p")))
-        # Eq. (2) [Guan2021], with K4 [IEEE1293]; a_i polynomial in Horner form.
-        u = self.K0 + a_i * (1.0 + a_i * (self.K2 + a_i * (self.K3 + a_i * self.K4)))
-        u = u + a_o * (self.Ko + self.Koo * a_o + self.Kio * a_i + self.Kop * a_p)
-        u = u + a_p * (self.Kp + self.Kpp * a_p + self.Kip * a_i)
-        if self.K0_asym or self.K1_asym:
-            # Eq. (3) [Guan2021]; np.sign(0) == 0 exactly, as the paper defines sgn.
-            u = u + 0.5 * np.sign(a_i) * (self.K0_asym + self.K1_asym * a_i)
+        with np.errstate(over="ignore", invalid="ignore"):
+            # Eq. (2) [Guan2021], with K4 [IEEE1293]; a_i polynomial in Horner form.
+            u = self.K0 + a_i * (1.0 + a_i * (self.K2 + a_i * (self.K3 + a_i * self.K4)))
+            u = u + a_o * (self.Ko + self.Koo * a_o + self.Kio * a_i + self.Kop * a_p)
+            u = u + a_p * (self.Kp + self.Kpp * a_p + self.Kip * a_i)
+            if self.K0_asym or self.K1_asym:
+                # Eq. (3) [Guan2021]; np.sign(0) == 0 exactly, as the paper defines sgn.
+                u = u + 0.5 * np.sign(a_i) * (self.K0_asym + self.K1_asym * a_i)
+        _check_output(u)
         if rng is not None and self.sigma > 0.0:
             u = u + rng.normal(0.0, self.sigma, size=np.shape(u))
         return u
@@ -192,7 +202,9 @@ class ErrorModel:
         ----------
         .. [1] Guan2021, eq. (1): E = K1 U.
         """
-        return self.K1 * self.output_g(a_i, a_o, a_p, rng=rng)
+        with np.errstate(over="ignore"):
+            out = self.K1 * self.output_g(a_i, a_o, a_p, rng=rng)
+        return _check_output(out)
 
     # ------------------------------------------------------------------ terms
     def terms(self) -> dict[str, float]:
@@ -227,7 +239,7 @@ class ErrorModel:
         """
         for name in terms:
             if name not in TERMS:
-                raise AccelcalError(unknown_term_message(name, TERMS))
+                raise AccelcalError(model_file.unknown_term(name))
         if base is not None:
             return cls(**{**base.terms(), **terms}, output_unit=base.output_unit)
         return cls(**terms, output_unit=output_unit)
@@ -264,7 +276,7 @@ class ErrorModel:
         mapped = {}
         for name, value in coefficients.items():
             if name not in _GUANTANG:
-                raise AccelcalError(unknown_term_message(name, _GUANTANG))
+                raise AccelcalError(model_file.unknown_term(name, _GUANTANG))
             mapped[_GUANTANG[name]] = value
         return cls.from_terms({**mapped, "sigma": sigma}, output_unit=output_unit)
 
@@ -375,7 +387,7 @@ class ErrorModel:
 
 def _real(name: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise AccelcalError(f"{name} must be a real number, got {value!r}")
+        raise AccelcalError(f"{name} must be a real number, got {_shown_repr(value)}")
     value = float(value)
     if not np.isfinite(value):
         raise AccelcalError(f"{name} = {value} is not finite; give a finite number")
@@ -388,7 +400,28 @@ def _finite_array(value, name: str) -> np.ndarray:
         raise AccelcalError(
             f"input {name} has non-finite values (NaN or inf); give finite g values"
         )
+    if arr.size and np.abs(arr).max() > MAX_SPECIFIC_FORCE_G:
+        raise AccelcalError(
+            f"specific force {name} of {np.abs(arr).max():.3g} g is beyond the "
+            f"{MAX_SPECIFIC_FORCE_G:.0e} g the model is evaluated at (its polynomial terms "
+            "would overflow or mean nothing there); give specific forces in g")
     return arr
+
+
+def _check_output(u):
+    """``u`` if every value is finite; else the model overflows for these inputs."""
+    if not np.isfinite(u).all():
+        raise AccelcalError(
+            "the model's output overflows (is not finite) for these inputs: its "
+            "coefficients are too large for specific forces this size; check their units"
+        )
+    return u
+
+
+def _shown_repr(value, limit: int = 60) -> str:
+    """``repr(value)`` cut to about ``limit`` characters, for a message."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 def _require_zero(model: ErrorModel, names, notation: str) -> None:

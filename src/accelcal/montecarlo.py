@@ -38,6 +38,8 @@ References
 """
 
 import functools
+import itertools
+import os
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -51,6 +53,20 @@ DEFAULT_BLOCK_SIZE = 4096
 DEFAULT_MAX_KEPT = 2**17
 SCHEDULER_TIMEOUT_S = 10.0
 """Seconds to wait for a Dask scheduler to answer before giving up."""
+
+MAX_TIMEOUT_S = 86400.0
+"""Longest wait for a Dask scheduler accepted, seconds (one day): a scheduler that
+has not answered by then will not."""
+
+MAX_TRIALS = 10**15
+"""Most trials of one run. Trials stream in blocks, so memory is bounded for any
+count; at a million trials a second (a fast study) 1e15 trials take 30 years, so a
+larger count can only be a mistake."""
+
+WORKERS_PER_CPU = 8
+"""Most local Dask worker processes per CPU (:func:`max_workers`): each is a
+Python process of its own (about 100 MB); beyond a few per CPU they only queue
+for the same CPUs and memory."""
 _SCHEDULER = re.compile(
     r"(?:(?:tcp|tls|ws|wss|ucx)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>\d{1,5})"
 )
@@ -215,7 +231,7 @@ def run(
         each of ``n`` trials drawn from ``rng``. Must be picklable for Dask
         (a module-level function or an instance of a module-level class).
     trials : int
-        Number of trials (> 0).
+        Number of trials (1 ... :data:`MAX_TRIALS`).
     names : sequence of str
         Names of the ``p`` outputs.
     seed : int
@@ -238,7 +254,8 @@ def run(
     blas_threads : int or None
         BLAS threads while a task evaluates its blocks (None: leave as is).
     workers : int, optional
-        Start a Dask local cluster with this many worker processes.
+        Start a Dask local cluster with this many worker processes (at most
+        :func:`max_workers`).
     scheduler : str, optional
         Address of an existing Dask scheduler: ``host:port``, or with a
         scheme ``tcp``, ``tls``, ``ws``, ``wss`` or ``ucx`` (``tcp://host:8786``).
@@ -254,30 +271,25 @@ def run(
     Raises
     ------
     AccelcalError
-        For a non-positive trial count or sizes, both ``workers`` and
-        ``scheduler``, a malformed ``scheduler`` address, an output of the
-        wrong shape, Dask not installed, or a scheduler that does not answer
-        within ``timeout`` seconds.
+        For a non-positive trial count or sizes, more than
+        :data:`MAX_TRIALS` trials, more than :func:`max_workers` workers,
+        both ``workers`` and ``scheduler``, a malformed ``scheduler``
+        address, a ``timeout`` that is not positive or over
+        :data:`MAX_TIMEOUT_S`, an output of the wrong shape, Dask not
+        installed, or a scheduler that does not answer within ``timeout``
+        seconds.
     """
-    _check_positive_int("trials", trials)
+    check_trials(trials)
     _check_positive_int("block_size", block_size)
     _check_positive_int("blocks_per_task", blocks_per_task)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise AccelcalError(f"{seed!r} must be a non-negative integer", parameter="seed")
-    if workers is not None and scheduler is not None:
-        raise AccelcalError("give either workers or a scheduler, not both",
-                            parameter="workers")
-    if workers is not None:
-        _check_positive_int("workers", workers)
-    if scheduler is not None:
-        _check_scheduler(scheduler)
+        raise AccelcalError(f"{_shown_repr(seed)} must be a non-negative integer",
+                            parameter="seed")
+    check_parallel(workers, scheduler, timeout)
     names = tuple(names)
     n_blocks = -(-trials // block_size)
     stride = max(1, -(-trials // max_kept)) if keep_samples else 0
-    tasks = [
-        range(start, min(start + blocks_per_task, n_blocks))
-        for start in range(0, n_blocks, blocks_per_task)
-    ]
+    tasks = _Tasks(n_blocks, blocks_per_task)
     spec = _BlockSpec(
         simulate, int(seed), trials, block_size, len(names), stride, covariance, blas_threads
     )
@@ -382,6 +394,29 @@ class _InOrder:
             self.progress(self.done, self.trials)
 
 
+DASK_WINDOW = 64
+"""Tasks in flight at once on Dask workers (a few per worker on any cluster accelcal
+targets; it bounds the memory of futures and of results merged in order)."""
+
+
+class _Tasks(Sequence):
+    """The tasks' block ranges, made on demand: O(1) memory for any trial count."""
+
+    def __init__(self, n_blocks: int, per_task: int) -> None:
+        self.n_blocks, self.per_task = n_blocks, per_task
+
+    def __len__(self) -> int:
+        return (self.n_blocks + self.per_task - 1) // self.per_task
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        if not 0 <= i < len(self):
+            raise IndexError(i)
+        start = i * self.per_task
+        return range(start, min(start + self.per_task, self.n_blocks))
+
+
 def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
     try:
         from distributed import Client, LocalCluster, as_completed
@@ -406,14 +441,93 @@ def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
             )
             client = Client(cluster)
         with client:
-            futures = client.map(spec, tasks, pure=False)
-            index = {future.key: i for i, future in enumerate(futures)}
-            for future in as_completed(futures):
-                merger.add(index[future.key], future.result())
+            # A bounded window of tasks in flight: memory (futures, and results
+            # waiting for their predecessors) stays constant for any trial count.
+            queue = iter(enumerate(tasks))
+            index = {}
+            running = as_completed()
+            for i, blocks in itertools.islice(queue, DASK_WINDOW):
+                future = client.submit(spec, blocks, pure=False)
+                index[future.key] = i
+                running.add(future)
+            for future in running:
+                merger.add(index.pop(future.key), future.result())
                 future.release()
+                following = next(queue, None)
+                if following is not None:
+                    nxt = client.submit(spec, following[1], pure=False)
+                    index[nxt.key] = following[0]
+                    running.add(nxt)
     finally:
         if cluster is not None:
             cluster.close()
+
+
+def check_trials(trials) -> None:
+    """Refuse a trial count that is not an integer in 1 ... :data:`MAX_TRIALS`.
+
+    Raises
+    ------
+    AccelcalError
+        Naming the parameter ``trials``.
+    """
+    _check_positive_int("trials", trials)
+    if trials > MAX_TRIALS:
+        raise AccelcalError(
+            f"{_shown_int(trials)} trials would run for more than 30 years even at a million "
+            f"trials a second; give at most {MAX_TRIALS:.0e}", parameter="trials")
+
+
+def max_workers() -> int:
+    """Most local Dask worker processes: :data:`WORKERS_PER_CPU` per CPU this process may use."""
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cpus = os.cpu_count() or 1
+    return WORKERS_PER_CPU * max(cpus, 1)
+
+
+def check_parallel(workers, scheduler, timeout) -> None:
+    """Check the options of a parallel run (see :func:`run`), before any work.
+
+    ``workers`` a positive integer of at most :func:`max_workers`, not with
+    ``scheduler``; ``scheduler`` a Dask address; ``timeout`` a number of
+    seconds, positive and at most :data:`MAX_TIMEOUT_S`.
+
+    Raises
+    ------
+    AccelcalError
+        Naming the parameter at fault.
+    """
+    if workers is not None and scheduler is not None:
+        raise AccelcalError("give either workers or a scheduler, not both",
+                            parameter="workers")
+    if workers is not None:
+        _check_positive_int("workers", workers)
+        if workers > max_workers():
+            raise AccelcalError(
+                f"{_shown_int(workers)} worker processes is more than this machine can run "
+                f"usefully; give at most {max_workers()} ({WORKERS_PER_CPU} per CPU)",
+                parameter="workers")
+    if scheduler is not None:
+        _check_scheduler(scheduler)
+    if (isinstance(timeout, bool) or not isinstance(timeout, (int, float, np.integer,
+                                                               np.floating))
+            or not 0 < timeout <= MAX_TIMEOUT_S):
+        raise AccelcalError(
+            f"must be a positive number of seconds, at most {MAX_TIMEOUT_S:g} (one day), got "
+            f"{_shown_repr(timeout)}", parameter="timeout")
+
+
+def _shown_int(value) -> str:
+    """An integer for a message: in full up to 20 digits, else as a power of ten."""
+    text = str(value)
+    return text if len(text) <= 20 else f"about 1e{len(text) - 1}"
+
+
+def _shown_repr(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:40]}..."
 
 
 def _check_scheduler(address) -> None:
@@ -428,4 +542,5 @@ def _check_scheduler(address) -> None:
 
 def _check_positive_int(name: str, value) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
-        raise AccelcalError(f"must be a positive integer, got {value!r}", parameter=name)
+        raise AccelcalError(f"must be a positive integer, got {_shown_repr(value)}",
+                            parameter=name)

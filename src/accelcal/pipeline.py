@@ -142,9 +142,14 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
     CampaignResult
     """
     from accelcal.calibration import now
+    from accelcal.io.limits import shown
+    from accelcal.store import Store
 
     start = time.perf_counter()
     out = Path(out)
+    if isinstance(seed, bool) or (seed is not None and (not isinstance(seed, int) or seed < 0)):
+        raise AccelcalError(f"{shown(seed)} must be a non-negative integer",
+                            parameter="seed")
     try:
         for sub in ("data", "records", "figures"):
             (out / sub).mkdir(parents=True, exist_ok=True)
@@ -154,20 +159,21 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
     if db is None:
         db = str(out / "records.sqlite")
     date = now()
-    if isinstance(seed, bool) or (seed is not None and (not isinstance(seed, int) or seed < 0)):
-        raise AccelcalError(f"{seed!r} must be a non-negative integer", parameter="seed")
     if seed is None:  # a fresh, short seed the user can type back in
         seed = int(np.random.SeedSequence().entropy % 1_000_000)
     seeds = np.random.SeedSequence(seed).spawn(len(stages))
     names = [f"simulating: {s.name}" for s in stages] + [f"reducing: {s.name}" for s in stages]
     names += ["writing calibration records", "adding records to the store", "writing the report"]
-    with _Steps(names, progress) as step:
+    # The store is opened (created, checked, migrated) before anything is simulated: a store
+    # that cannot be used (a directory, a file that is not a database, a newer schema) is
+    # refused at once, not after the work.
+    with Store(db) as store, _Steps(names, progress) as step:
         data = [step(s.simulate, out / "data", date, q)
                 for s, q in zip(stages, seeds, strict=True)]
         outcomes = [o for s, path in zip(stages, data, strict=True) for o in step(s.reduce, path)]
         written = step(_write_records, out / "records", outcomes)
-        store_url, ids = step(_store, db, [r for _, r in written])
-        report, figures = step(_report, out, db, outcomes, title,
+        store_url, ids = step(_store, store, [r for _, r in written])
+        report, figures = step(_report, out, store, outcomes, title,
                                subtitle.format(seed=seed, date=date), history_serial)
     return CampaignResult(out=out, data=data, records=[p for p, _ in written], report=report,
                           figures=figures, store=store_url, record_ids=ids, seed=seed,
@@ -175,29 +181,44 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
 
 
 class _Steps:
-    """Runs named steps in order, advancing one rich progress task (or none)."""
+    """Runs named steps in order, advancing one rich progress task (or none).
+
+    On a terminal the bar is drawn live and cleared if a step fails. Elsewhere
+    (a pipe, a log) nothing is drawn while the steps run, and the bar's final
+    state is printed once, after the last step succeeded: a failed run's
+    standard error holds its one error line alone.
+    """
 
     def __init__(self, names, enabled: bool) -> None:
         self.names = list(names)
         self.bar = None
+        self.live = False
         if enabled:
             from rich.console import Console
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+            console = Console(stderr=True)
+            self.live = console.is_terminal
             self.bar = Progress(TextColumn("[bold]{task.description:<40}"), BarColumn(),
                                 TextColumn("{task.completed}/{task.total}"),
-                                TimeElapsedColumn(), console=Console(stderr=True))
+                                TimeElapsedColumn(), console=console)
             self.task = self.bar.add_task(self.names[0], total=len(self.names))
         self.done = 0
 
     def __enter__(self):
-        if self.bar is not None:
+        if self.bar is not None and self.live:
             self.bar.__enter__()
         return self
 
-    def __exit__(self, *exc):
-        if self.bar is not None:
-            self.bar.__exit__(*exc)
+    def __exit__(self, exc_type, *exc):
+        if self.bar is None:
+            return False
+        if self.live:
+            if exc_type is not None:  # clear the bar: the error line follows alone
+                self.bar.live.transient = True
+            self.bar.__exit__(exc_type, *exc)
+        elif exc_type is None:
+            self.bar.console.print(self.bar.get_renderable())
         return False
 
     def __call__(self, function, *args):
@@ -221,29 +242,24 @@ def _write_records(directory: Path, outcomes):
     return written
 
 
-def _store(db, records):
+def _store(store, records):
     import sqlalchemy as sa
 
-    from accelcal.store import Store
-
-    with Store(db) as store:
-        ids = [store.add(r) for r in records]
-        return sa.make_url(store.url).render_as_string(hide_password=True), ids
+    ids = [store.add(r) for r in records]
+    return sa.make_url(store.url).render_as_string(hide_password=True), ids
 
 
-def _report(out: Path, db, outcomes, title: str, subtitle: str, history_serial):  # noqa: PLR0917
+def _report(out: Path, store, outcomes, title: str, subtitle: str,  # noqa: PLR0917
+            history_serial):
     from accelcal.io.atomic import write_text_atomic
     from accelcal.report import write_report
     from accelcal.report.sections import history_section, reduction_sections
-    from accelcal.store import Store
 
     sections = []
     for o in outcomes:
         sections += reduction_sections(o.reduction, o.records, **o.context)
     if history_serial is not None and outcomes:
-        with Store(db) as store:
-            history = history_section(store, history_serial,
-                                      method=outcomes[0].reduction.method)
+        history = history_section(store, history_serial, method=outcomes[0].reduction.method)
         if history is not None:
             sections.append(history)
     report = out / "report.html"

@@ -46,7 +46,8 @@ class Estimate:
         Estimates, shape ``(p,)``; NaN where a parameter is not identifiable.
     covariance : numpy.ndarray
         Covariance of the estimates, shape ``(p, p)``; NaN rows and columns
-        where a parameter is not identifiable.
+        where a parameter is not identifiable. Infinite values are refused
+        (AccelcalError): an overflow is never passed on as a result.
     units : dict
         Unit of each parameter by name.
     method : str
@@ -79,6 +80,13 @@ class Estimate:
             raise ValueError(
                 f"Estimate: {p} names need values of shape ({p},) and covariance ({p}, {p}); "
                 f"got {values.shape} and {cov.shape}"
+            )
+        if np.isinf(values).any() or np.isinf(cov).any():
+            from accelcal.errors import AccelcalError
+
+            raise AccelcalError(
+                f"{self.method}: the estimates or their uncertainties overflowed (infinite): an "
+                "input value is far out of range; check the inputs' magnitudes and units"
             )
         object.__setattr__(self, "values", values)
         object.__setattr__(self, "covariance", cov)

@@ -25,6 +25,7 @@ import contextlib
 import hashlib
 import math
 import os
+import stat
 import urllib.parse
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +34,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
-from accelcal.io.limits import check_label, shown, shown_path
+from accelcal.io.limits import check_label, file_type, shown, shown_path
 
 SCHEMA_VERSION = 2
 DEFAULT_DB_ENV = "ACCELCAL_DB"
@@ -62,6 +63,34 @@ def _url(db: str | os.PathLike | None) -> str:
         return f"sqlite:///{Path(text).resolve()}"
     except (OSError, ValueError) as exc:
         raise AccelcalError(f"the store path {shown(text)} cannot be used: {exc}") from None
+
+
+def _check_sqlite_path(path: Path) -> None:
+    """Refuse an SQLite store path that exists and is not a regular file.
+
+    Checked before SQLite opens it: SQLite would block for ever on a FIFO,
+    and beside a device such as ``/dev/zero`` it would make its journal
+    (``/dev/zero-journal``) and find an empty database.
+
+    Raises
+    ------
+    AccelcalError
+        Naming the path and what it is (a directory, a FIFO, a device).
+    """
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise AccelcalError(
+            f"cannot use the records store {shown_path(path)}: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(mode):
+        raise AccelcalError(
+            f"the records store {shown_path(path)} is a directory; give a file name")
+    if not stat.S_ISREG(mode):
+        raise AccelcalError(
+            f"the records store {shown_path(path)} is {file_type(mode)}, not a regular file; "
+            "give an SQLite file (new or existing) or a database URL")
 
 
 def _prepare_sqlite_file(path: Path) -> bool:
@@ -204,6 +233,7 @@ class Store:
         # and every connection is closed as soon as it is released.
         if self.url.startswith("sqlite:///"):
             path = Path(self.url.removeprefix("sqlite:///"))
+            _check_sqlite_path(path)
             if readonly:
                 self._absent = not _exists(path)
                 self.engine = sa.create_engine(
@@ -407,9 +437,9 @@ class Store:
             query = query.where(cal.c.method == method)
         rows = self._select(query)
         if not rows:
-            by = f" by method {method!r}" if method is not None else ""
+            by = f" by method {shown(method)}" if method is not None else ""
             raise AccelcalError(
-                f"no calibration of serial {serial!r}{by} in the store; "
+                f"no calibration of serial {shown(serial)}{by} in the store; "
                 "see 'accelcal records list'"
             )
         for r in rows:

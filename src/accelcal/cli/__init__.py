@@ -34,7 +34,13 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(130)
     except BrokenPipeError:
         sys.exit(0)
+    except MemoryError:  # a net behind the size estimates made before allocating
+        _die("not enough memory for this input on this machine; give fewer samples, "
+             "positions or points")
     except Exception as exc:
+        if type(exc).__name__ == "LinAlgError":  # numpy.linalg: a net behind the validation
+            _die(f"the computation failed ({exc}); the input's values are probably far out of "
+                 "range: check their magnitudes and units")
         # Usage and parameter errors of the (possibly vendored) click layer
         # under typer: recognised by their interface, not their class.
         if not (hasattr(exc, "format_message") and hasattr(exc, "exit_code")):
@@ -49,6 +55,20 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def _die(message: str) -> None:
+    """Print ``message`` as one ``accelcal: error:`` line and exit with status 2.
+
+    Whitespace runs (line breaks included) become one space, and a message
+    longer than :data:`accelcal.io.limits.MAX_MESSAGE_LENGTH` characters is
+    cut, keeping its start and end around an ellipsis: a backstop behind the
+    messages that quote values shortened, so no input can make the line
+    unbounded.
+    """
+    from accelcal.io.limits import MAX_MESSAGE_LENGTH
+
     one_line = " ".join(message.split())
+    if len(one_line) > MAX_MESSAGE_LENGTH:
+        head = MAX_MESSAGE_LENGTH * 4 // 5
+        tail = MAX_MESSAGE_LENGTH - head - 5
+        one_line = f"{one_line[:head]} ... {one_line[-tail:]}"
     print(f"accelcal: error: {one_line}", file=sys.stderr)
     sys.exit(2)

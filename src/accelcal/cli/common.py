@@ -31,9 +31,9 @@ def parse_number(text: str, what: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise AccelcalError(f"{what}: {text.strip()!r} is not a number") from None
+        raise AccelcalError(f"{what}: {shown(text.strip())} is not a number") from None
     if not math.isfinite(value):
-        raise AccelcalError(f"{what}: {text.strip()!r} is not finite; give a finite number")
+        raise AccelcalError(f"{what}: {shown(text.strip())} is not finite; give a finite number")
     return value
 
 
@@ -64,14 +64,16 @@ def parse_grid(text: str, what: str) -> list[float]:
             continue
         match = _RANGE.match(item)
         if not match:
-            raise AccelcalError(f"{what}: {item!r} is not a range start:stop:step (e.g. 5:10:1)")
-        start, stop, step = (parse_number(g, f"{what}: range {item!r}") for g in match.groups())
+            raise AccelcalError(
+                f"{what}: {shown(item)} is not a range start:stop:step (e.g. 5:10:1)")
+        start, stop, step = (parse_number(g, f"{what}: range {shown(item)}")
+                             for g in match.groups())
         if step == 0.0:
-            raise AccelcalError(f"{what}: range {item!r} has a zero step")
+            raise AccelcalError(f"{what}: range {shown(item)} has a zero step")
         span = (stop - start) / step
         if span < -1e-9:
             raise AccelcalError(
-                f"{what}: range {item!r} is empty (the step goes away from stop)"
+                f"{what}: range {shown(item)} is empty (the step goes away from stop)"
             )
         count = math.floor(span + 1e-9) + 1 if math.isfinite(span) else math.inf
         if count > MAX_GRID_VALUES - len(values):
@@ -97,7 +99,7 @@ def load_model(path: Path | None):
 def check_format(fmt: str) -> str:
     """Validate an output format name."""
     if fmt not in FORMATS:
-        raise AccelcalError(f"--format {fmt!r} is not one of {', '.join(FORMATS)}")
+        raise AccelcalError(f"--format {shown(fmt)} is not one of {', '.join(FORMATS)}")
     return fmt
 
 

@@ -56,6 +56,7 @@ def new(
 ) -> None:
     """Write a new model file from NAME=VALUE settings."""
     from accelcal.cli.common import parse_number
+    from accelcal.io.limits import shown, shown_name
     from accelcal.model import ErrorModel
 
     terms: dict[str, float] = {}
@@ -63,10 +64,10 @@ def new(
         name, sep, value = item.partition("=")
         name = name.strip()
         if not sep or not name:
-            raise AccelcalError(f"--set {item!r} is not NAME=VALUE (e.g. --set K2=7.87e-6)")
+            raise AccelcalError(f"--set {shown(item)} is not NAME=VALUE (e.g. --set K2=7.87e-6)")
         if name in terms:
-            raise AccelcalError(f"--set gives {name} twice; give each term once")
-        terms[name] = parse_number(value, f"--set {name}")
+            raise AccelcalError(f"--set gives {shown_name(name)} twice; give each term once")
+        terms[name] = parse_number(value, f"--set {shown_name(name)}")
     model = ErrorModel.from_terms(terms, output_unit=output_unit)
     model.save(out)
     typer.echo(f"wrote {out}")

@@ -3,7 +3,8 @@
 :class:`DelayedProgress` is a ``progress(done, total)`` callable (the form
 :func:`accelcal.montecarlo.run` calls) that stays silent for the first
 ``delay`` seconds and then draws a rich progress bar on standard error, if
-standard error is a terminal. Short runs, pipes and tests see nothing.
+standard error is a terminal. Short runs, pipes and tests see nothing; a
+run that fails clears its bar, so the error message stands alone.
 """
 
 import time
@@ -67,6 +68,8 @@ class DelayedProgress:
         self._task = self._bar.add_task(self.description, total=total)
         return True
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, exc_type, *exc) -> None:
         if self._bar is not None:
+            if exc_type is not None:  # an error follows: clear the bar, leave its line alone
+                self._bar.live.transient = True
             self._bar.stop()

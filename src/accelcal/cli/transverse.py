@@ -114,16 +114,16 @@ def sweep_cmd(
 
     CSV/JSON keys: amplitude_g, angle_deg, sT (output unit per g), sT_rel (fraction).
     """
-    import numpy as np
-
     from accelcal.methods.transverse import axial_sensitivity, sweep
     from accelcal.rigs.shaker import LinearModel
+    from accelcal.signal.resources import generator
 
     check_format(fmt)
     sensor = _sensor(model_file, paper, linear)
     theta = _angles(angles)
     amps = _amplitudes(amplitude)
-    rng = np.random.default_rng(seed) if noise > 0 else None
+    rng = generator(seed)  # checked even when no noise is drawn
+    rng = rng if noise > 0 else None
     rig = {"frequency": frequency, "sample_rate": sample_rate, "periods": periods,
            "noise": noise}
     sweeps = sweep(sensor, amps, theta, estimator, gravity=gravity, axial=axial, rng=rng, **rig)
@@ -181,11 +181,12 @@ def simulate_cmd(
     from accelcal.io.formats.shaker import write_records
     from accelcal.methods.transverse import axial_sensitivity
     from accelcal.rigs.shaker import ShakerRig
+    from accelcal.signal.resources import generator
 
     sensor = _sensor(model_file, paper, linear)
     theta = _angles(angles)
     amps = _amplitudes(amplitude)
-    rng = np.random.default_rng(seed)
+    rng = generator(seed)
     records = [
         ShakerRig(amplitude=a, frequency=frequency, sample_rate=sample_rate, periods=periods,
                   phase=np.deg2rad(phase), gravity=gravity, transverse_ratio=transverse_ratio,

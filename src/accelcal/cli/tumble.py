@@ -26,13 +26,16 @@ _TERMS_HELP = (
 
 
 def _angles_deg(points: int | None, angles: str | None, start: float) -> list[float]:
+    import numpy as np
+
+    from accelcal.rigs.tumble import uniform_positions
+
     if (points is None) == (angles is None):
         raise AccelcalError("give either --points N or --angles LIST (degrees), not both")
     if angles is not None:
         return parse_grid(angles, "--angles")
-    if points < 1:
-        raise AccelcalError(f"--points {points} must be at least 1")
-    return [start + 360.0 * j / points for j in range(points)]
+    uniform_positions(points, np.radians(start))  # checks the count and the memory it takes
+    return (start + 360.0 * np.arange(points) / points).tolist()
 
 
 def _terms(text: str | None):
@@ -119,11 +122,10 @@ def simulate(
 
     from accelcal.io.formats import tumble as tumble_format
     from accelcal.rigs.tumble import simulate as simulate_tumble
+    from accelcal.rigs.tumble import uniform_positions
 
     model = load_model(model_file)
-    if points < 1:
-        raise AccelcalError(f"--points {points} must be at least 1")
-    positions = np.radians(start + 360.0 * np.arange(points) / points)
+    positions = uniform_positions(points, np.radians(start))
     record = simulate_tumble(positions, model, rotation_axis=axis, noise=noise,
                              repeats=repeats, seed=seed)
     tumble_format.write(out, record)

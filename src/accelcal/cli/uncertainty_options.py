@@ -7,7 +7,10 @@ UNCERTAINTY = typer.Option(
     help="formal (least-squares covariance) or mc (Monte Carlo, GUM Supplement 1: adds "
          "mc_std and the 95 % coverage interval ci95_low, ci95_high in the coefficient units).",
 )
-TRIALS = typer.Option(10_000, "--trials", help="Monte Carlo trials for --uncertainty mc (> 0).")
+TRIALS = typer.Option(
+    10_000, "--trials",
+    help="Monte Carlo trials for --uncertainty mc (> 0). Trials stream in blocks, so memory "
+         "stays bounded for any count: a huge count is a long run with a progress bar.")
 SEED = typer.Option(0, "--seed", help="Seed of the Monte Carlo generator (integer >= 0).")
 
 

@@ -109,6 +109,7 @@ def simulate(
 
     from accelcal.io.formats.vibrafuge import write_vibrafuge
     from accelcal.rigs.vibrafuge import simulate as run_sim
+    from accelcal.signal.resources import generator
     from accelcal.units import DEG
 
     model = load_model(model_file)
@@ -118,7 +119,7 @@ def simulate(
     run = run_sim(
         model, bb, aa, frequency=frequency, sample_rate=sample_rate, duration=duration,
         direction=parse_grid(direction, "--direction"), phase=phase * DEG, noise=noise,
-        quantum=quantum, sampling=sampling, rng=np.random.default_rng(seed),
+        quantum=quantum, sampling=sampling, rng=generator(seed),
     )
     write_vibrafuge(out, run, provenance={"simulated_model": model.terms(), "seed": seed})
     print(f"wrote {out}: {run.points} points x {run.static.shape[1]} samples "
@@ -138,6 +139,8 @@ def _read_measurements(files):
            for k in ("overload", "amplitude", "vre", "uncertainty")}
     cat["direction"] = np.concatenate(
         [np.broadcast_to(p.direction, (p.amplitude.size, 3)) for p in parts])
+    designs = [p.design_columns() for p in parts]
+    cat["columns"] = {t: np.concatenate([d[t] for d in designs]) for t in designs[0]}
     cat["assumptions"] = [a for p in parts for a in p.assumptions()]
     return cat
 
@@ -162,11 +165,10 @@ def reduce(
                      "amplitude_g": float(m["amplitude"][k]), "vre_g": float(m["vre"][k]),
                      "u_vre_g": float(m["uncertainty"][k])})
     if model_file is not None:
-        from accelcal.methods.vre import vector_vre
         from accelcal.model import ErrorModel
 
         model = ErrorModel.load(model_file)
-        pred, _ = vector_vre(model, m["overload"], m["amplitude"], m["direction"])
+        pred = sum(getattr(model, t) * col for t, col in m["columns"].items())
         for row, p in zip(rows, pred, strict=True):
             row["predicted_g"] = float(p)
             u = row["u_vre_g"]
@@ -237,7 +239,7 @@ def fit(
     result = identify(m["overload"], m["amplitude"], m["vre"], m["uncertainty"],
                       direction=m["direction"], terms=names, fixed=fixed,
                       provenance={"files": [str(f) for f in files]},
-                      assumptions=m["assumptions"])
+                      assumptions=m["assumptions"], columns=m["columns"])
     rows = result.rows()
     if monte_carlo:
         from accelcal.methods.vre import vre_uncertainty

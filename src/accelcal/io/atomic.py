@@ -3,8 +3,10 @@
 Every file accelcal writes (records, calibration records, model files,
 reports, figures) goes through :func:`atomic_path`: the content is written
 to a temporary file beside the target, flushed to the disk, and moved over
-the target in one step. A failure at any point (a directory for a target, a
-missing or read-only directory, a full disk, a location such as ``/proc``
+the target in one step. A target that exists and is not a regular file (a
+directory, a FIFO, a device such as ``/dev/full``, or a link to one) is
+refused before anything is written. A failure at any point (a missing or
+read-only directory, a full disk, a location such as ``/proc``
 where no file can be made) raises :class:`~accelcal.errors.AccelcalError`
 naming the file and what to do, leaves an existing file as it was and
 removes the temporary file.
@@ -22,7 +24,7 @@ import stat
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown_path
+from accelcal.io.limits import file_type, shown_path
 
 _ADVICE = {
     errno.EACCES: "permission denied; choose a location you can write to",
@@ -43,12 +45,15 @@ def atomic_path(path):
     The block writes the temporary file (it exists, empty); when the block
     ends normally the file is flushed to the disk and renamed to ``path``.
     If anything fails the temporary file is removed, so a failed write
-    leaves nothing on disk and an existing ``path`` unchanged.
+    leaves nothing on disk and an existing ``path`` unchanged. A ``path``
+    that exists and is not a regular file (a directory, a FIFO, a device,
+    or a link to one) is refused before anything is written.
 
     Raises
     ------
     AccelcalError
-        If ``path`` is a directory, its directory does not exist, or the
+        If ``path`` is a directory or another special file (or a link to
+        one), its directory does not exist, or the
         file cannot be created, written or moved into place (permissions, a
         read-only file system, a full disk, ...); the message names
         ``path`` and what to do. Exceptions of the block other than
@@ -78,7 +83,13 @@ def write_text_atomic(path, text: str) -> None:
 
 
 def _check_target(target: Path) -> None:
-    """Refuse a target that is a directory or lies in a missing directory."""
+    """Refuse a target in a missing directory, or one that exists and is not a regular file.
+
+    A directory, a FIFO, a device (``/dev/full``) or a socket, or a link to
+    one, is refused before anything is written: renaming the new file over
+    it would replace the special file itself (run as root, the system's
+    ``/dev/full`` would become a regular file).
+    """
     if not target.parent.is_dir():
         raise AccelcalError(
             f"cannot write {shown_path(target)}: directory {shown_path(target.parent)} does "
@@ -86,6 +97,15 @@ def _check_target(target: Path) -> None:
         )
     if target.is_dir():
         raise AccelcalError(f"cannot write {shown_path(target)}: {_ADVICE[errno.EISDIR]}")
+    try:
+        info = os.stat(target)
+    except FileNotFoundError:  # a new file (or a link to nothing, which is replaced)
+        return
+    if not stat.S_ISREG(info.st_mode):
+        raise AccelcalError(
+            f"cannot write {shown_path(target)}: it is {file_type(info.st_mode)}, not a regular "
+            "file; give the name of a file to write"
+        )
 
 
 def _create_beside(target: Path) -> Path:

@@ -49,10 +49,12 @@ from accelcal.io.atomic import write_text_atomic
 from accelcal.io.limits import (
     MAX_JSON_BYTES,
     check_label,
+    check_regular_file,
     is_finite_number,
     load_json,
     read_bounded,
     shown,
+    shown_name,
 )
 from accelcal.model import ErrorModel
 
@@ -73,7 +75,8 @@ _NAME_LENGTH, _UNIT_LENGTH = 100, 40
 
 
 def file_sha256(path) -> str:
-    """``sha256:<hex>`` of a file's bytes."""
+    """``sha256:<hex>`` of a file's bytes (a regular file: :func:`check_regular_file`)."""
+    check_regular_file(path, "input file")
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
@@ -164,6 +167,7 @@ class CalibrationRecord:
                 "(NaN marks an unknown one); the uncertainties could not be determined, check "
                 "the inputs for values out of range"
             )
+        _check_covariance(cov, self.names)
         if not (self.coverage_factor > 0 and math.isfinite(self.coverage_factor)):
             raise AccelcalError("calibration record: coverage_factor must be positive")
         _parse_date(self.date, "calibration record")
@@ -361,12 +365,51 @@ def _from_dict(data, source: str) -> CalibrationRecord:
         raise fail(str(exc)) from None
 
 
+COVARIANCE_RTOL = 1e-6
+"""Relative tolerance of the covariance checks (:func:`_check_covariance`): far
+above the rounding of a covariance computed in float64 and written with full
+precision, far below any real asymmetry or correlation beyond 1."""
+
+
+def _check_covariance(cov: np.ndarray, names) -> None:
+    """Refuse a covariance that no set of uncertainties can have.
+
+    It must be symmetric (to :data:`COVARIANCE_RTOL` of the larger of the
+    two entries and of ``s_i s_j``, with unknown entries, NaN, in symmetric
+    places), and every correlation ``c_ij / (s_i s_j)`` must lie within
+    ``[-1, 1]`` (Cauchy-Schwarz), to the same tolerance, where it is defined
+    (both variances known); a zero variance allows only off-diagonal entries
+    at rounding level. Variances are checked to be >= 0 before.
+
+    Raises
+    ------
+    AccelcalError
+        Naming the first pair of coefficients at fault.
+    """
+    known = ~np.isnan(cov)
+    with np.errstate(over="ignore", invalid="ignore"):
+        s = np.sqrt(np.diag(cov))
+        scale = np.fmax(np.fmax(np.abs(cov), np.abs(cov.T)), np.outer(s, s))
+        asymmetric = (known != known.T) | (np.abs(cov - cov.T) > COVARIANCE_RTOL * scale)
+        slack = 1e-9 * np.fmax.outer(s, s) ** 2
+        beyond = known & (np.abs(cov) > (1 + COVARIANCE_RTOL) * np.outer(s, s) + slack)
+    for bad, what in ((asymmetric, "is not symmetric"),
+                      (beyond, "has a correlation beyond +/-1 (|c_ij| > s_i s_j)")):
+        if bad.any():
+            i, j = (int(k) for k in np.argwhere(bad)[0])
+            raise AccelcalError(
+                f"calibration record: the covariance {what} at {shown_name(names[i])}, "
+                f"{shown_name(names[j])} ({cov[i, j]:.6g} and {cov[j, i]:.6g}, variances "
+                f"{cov[i, i]:.6g} and {cov[j, j]:.6g}); no set of uncertainties has it"
+            )
+
+
 def _parse_date(text: str, where: str) -> _dt.datetime:
     try:
         return _dt.datetime.fromisoformat(text)
     except (TypeError, ValueError):
         raise AccelcalError(
-            f"{where}: date {text!r} is not ISO 8601 (e.g. 2026-11-21T09:30:00+00:00)"
+            f"{where}: date {shown(text)} is not ISO 8601 (e.g. 2026-11-21T09:30:00+00:00)"
         ) from None
 
 

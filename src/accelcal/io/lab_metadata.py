@@ -35,7 +35,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import check_label, is_finite_number, shown
+from accelcal.io.limits import (
+    check_label,
+    check_regular_file,
+    is_finite_number,
+    one_line,
+    shown,
+)
 
 FIELDS = ("serial", "operator", "date", "local_gravity", "simulated")
 """Metadata field names this module validates."""
@@ -200,11 +206,13 @@ def read_metadata(path) -> dict:
     Raises
     ------
     AccelcalError
-        For an unreadable file or malformed metadata JSON.
+        For an unreadable file, one that is not a regular file (a FIFO, a
+        device, a directory) or malformed metadata JSON.
     """
     from accelcal.io.records import csv_preamble, parquet_metadata
 
     path = Path(path)
+    check_regular_file(path, "record file")
     if path.suffix.lower() == ".parquet":
         import pyarrow as pa
         import pyarrow.parquet as pq
@@ -212,7 +220,7 @@ def read_metadata(path) -> dict:
         try:
             schema = pq.read_schema(path)
         except (OSError, pa.ArrowException) as exc:
-            raise AccelcalError(f"cannot read Parquet record {path}: {exc}") from None
+            raise AccelcalError(f"cannot read Parquet record {path}: {one_line(exc)}") from None
         return parquet_metadata(schema.metadata, path)
     try:
         with open(path, "rb") as fh:

@@ -4,13 +4,18 @@ Every file accelcal reads and every string a user gives passes through
 here, so that no input can exhaust the stack, the memory or the time of a
 run, and no string can break a file name, a one-line message or a report:
 
-- :func:`read_bounded` reads at most a stated number of bytes, so a huge
-  file, a device such as ``/dev/zero`` or a pipe ends at once with a
-  message instead of filling the memory;
+- :func:`read_bounded` reads at most a stated number of bytes of a regular
+  file, so a huge file ends at once with a message instead of filling the
+  memory;
+- :func:`check_regular_file` refuses, before any reader opens a path,
+  anything that is not a regular file: opening a FIFO blocks for ever, a
+  device never ends, a directory cannot be read;
 - :func:`load_json` refuses text over :data:`MAX_JSON_BYTES`, nesting
   deeper than :data:`MAX_JSON_DEPTH` (the standard decoder recurses once
-  per level and would raise ``RecursionError``), ``NaN``/``Infinity`` and
-  numbers that overflow to infinity;
+  per level and would raise ``RecursionError``), ``NaN``/``Infinity``,
+  numbers that overflow to infinity and integers of more than
+  :data:`MAX_INT_DIGITS` digits (``float()`` of such an integer raises
+  ``OverflowError``);
 - :func:`check_label` bounds a user string (serial number, operator,
   method) to :data:`MAX_LABEL_LENGTH` characters without control
   characters, and a string that becomes part of a file name to one without
@@ -34,6 +39,18 @@ line a few kB; 16 MiB leaves room for 60 times the largest of these."""
 MAX_JSON_DEPTH = 64
 """Deepest nesting of JSON arrays and objects accepted. accelcal's own files
 nest at most 5 levels; 64 stays far below Python's recursion limit (1000)."""
+
+MAX_INT_DIGITS = 30
+"""Most digits of a JSON integer: far more than any count or seed accelcal
+writes, far less than the 309 digits at which an integer no longer converts
+to a float. An integer outside the int64 range but within this bound is
+decoded as a float (numpy cannot hold it as an integer; ``np.isfinite``
+would raise ``TypeError`` on it)."""
+
+MAX_MESSAGE_LENGTH = 500
+"""Longest error message printed, in characters (``accelcal.cli`` clips
+longer ones): values are quoted shortened (:func:`shown`), and this bound
+holds whatever a message quotes."""
 
 MAX_LABEL_LENGTH = 200
 """Longest serial number, operator or method name, in characters: the width
@@ -60,18 +77,80 @@ def shown(value, limit: int = 40) -> str:
     return f"{text[:limit]}...{size}"
 
 
+def shown_name(name, limit: int = 60) -> str:
+    """A name (a column, a term) for a message, bounded.
+
+    As it is when short and printable, else quoted and cut by :func:`shown`.
+    """
+    if isinstance(name, str) and len(name) <= limit and name.isprintable():
+        return name
+    return shown(name, limit)
+
+
 def shown_path(path) -> str:
     """A path or address for a one-line message: a long one keeps its start and end."""
     text = str(path)
     return text if len(text) <= 160 else f"{text[:100]}...{text[-50:]}"
 
 
+def one_line(text, limit: int = 300) -> str:
+    """A message (such as an exception's text) on one line of at most about ``limit`` characters."""
+    flat = " ".join(str(text).split())
+    return flat if len(flat) <= limit else f"{flat[:limit]}..."
+
+
+def check_regular_file(path, what: str) -> None:
+    """Refuse a path that exists and is not a regular file, before opening it.
+
+    Every reader calls this first: opening a FIFO for reading blocks until
+    a writer comes (for ever, if none does), a device such as
+    ``/dev/zero`` never ends, and a directory or a socket cannot be read as
+    a file. A link is followed (a link to a device is a device). A missing
+    or inaccessible path passes, so that the reader's own ``open`` reports
+    it in its words.
+
+    Parameters
+    ----------
+    path : path-like
+    what : str
+        What the file is, for the message (``"model file"``).
+
+    Raises
+    ------
+    AccelcalError
+        One line naming ``path`` and what it is (a directory, a FIFO, a
+        device, ...), or for a path containing a NUL character.
+    """
+    try:
+        info = os.stat(path)
+    except ValueError:  # an embedded NUL character
+        raise AccelcalError(f"{what} path {shown(os.fspath(path))} contains a NUL character"
+                            ) from None
+    except OSError:
+        return
+    if not stat.S_ISREG(info.st_mode):
+        raise AccelcalError(
+            f"{what} {shown_path(path)} is {file_type(info.st_mode)}, not a regular file; "
+            "give a file"
+        )
+
+
+def file_type(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` is, for a message (``"a FIFO (named pipe)"``)."""
+    for test, name in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket"), (stat.S_ISREG, "a regular file")):
+        if test(mode):
+            return name
+    return "a special file"
+
+
 def read_bounded(path, limit: int, what: str) -> bytes:
     """The bytes of ``path``, refusing a file larger than ``limit`` bytes.
 
-    The size of a regular file is checked before reading; anything else (a
-    device, a pipe) is read up to ``limit + 1`` bytes, so the call always
-    ends after at most ``limit + 1`` bytes.
+    Anything but a regular file (a FIFO, a device, a directory) is refused
+    before it is opened (:func:`check_regular_file`); the size of the file is
+    checked before reading, so the call reads at most ``limit`` bytes.
 
     Parameters
     ----------
@@ -84,10 +163,11 @@ def read_bounded(path, limit: int, what: str) -> bytes:
     Raises
     ------
     AccelcalError
-        If the file is larger than ``limit``.
+        If the file is not a regular file or is larger than ``limit``.
     OSError
         If the file cannot be opened or read (callers say which file).
     """
+    check_regular_file(path, what)
     with open(path, "rb") as fh:
         data = read_rest(fh, limit)
     if data is None:
@@ -140,14 +220,17 @@ def load_json(text: str, where: str, *, error: type[AccelcalError] = AccelcalErr
     AccelcalError
         (or ``error``) for text over :data:`MAX_JSON_BYTES` characters,
         nesting deeper than :data:`MAX_JSON_DEPTH`, invalid JSON, ``NaN``,
-        ``Infinity`` or a number too large for a float.
+        ``Infinity``, a number too large for a float or an integer of more
+        than :data:`MAX_INT_DIGITS` digits. An integer outside the int64
+        range (and within that bound) is returned as a float.
     """
     if len(text) > MAX_JSON_BYTES:
         raise error(f"{where}: JSON text is larger than {_size(MAX_JSON_BYTES)}")
     if json_depth(text) > MAX_JSON_DEPTH:
         raise error(f"{where}: JSON nests deeper than {MAX_JSON_DEPTH} levels")
     try:
-        return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float)
+        return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float,
+                          parse_int=_bounded_int)
     except json.JSONDecodeError as exc:
         raise error(
             f"{where}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
@@ -232,8 +315,18 @@ def _refuse_constant(name: str):
     raise ValueError(f"{name} is not allowed; numbers must be finite")
 
 
+def _bounded_int(text: str) -> int | float:
+    digits = len(text.lstrip("-"))
+    if digits > MAX_INT_DIGITS:
+        raise ValueError(f"integer {text[:20]}... has {digits} digits; at most {MAX_INT_DIGITS} "
+                         "are allowed (numbers must be within the range of a float)")
+    value = int(text)
+    return value if -(2**63) <= value < 2**63 else float(value)
+
+
 def _finite_float(text: str) -> float:
     value = float(text)
     if not math.isfinite(value):
-        raise ValueError(f"{text} is not allowed; numbers must be finite (too large for a float)")
+        raise ValueError(f"{shown_name(text)} is not allowed; numbers must be finite (too large "
+                         "for a float)")
     return value

@@ -33,7 +33,7 @@ from accelcal.terms import TERMS, term_unit, unknown_term_message
 from accelcal.units import OUTPUT_UNITS
 
 __all__ = ["FORMAT_VERSION", "KIND", "ModelFileError", "dumps", "loads", "model_to_dict",
-           "read_text", "validate", "write_text"]
+           "read_text", "unknown_term", "validate", "write_text"]
 
 FORMAT_VERSION = 1
 KIND = "accelcal.ErrorModel"
@@ -110,7 +110,7 @@ def validate(data, *, source: str = "<dict>") -> tuple[dict, str]:
         raise fail("coefficients must be an object mapping term names to numbers")
     for name, value in coefficients.items():
         if name not in TERMS:
-            raise fail(f"coefficients: {unknown_term_message(name, TERMS)}")
+            raise fail(f"coefficients: {unknown_term(name)}")
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise fail(f"coefficients.{name} must be a number, got {shown(value)}")
         if not is_finite_number(value):
@@ -123,7 +123,7 @@ def validate(data, *, source: str = "<dict>") -> tuple[dict, str]:
         raise fail("units must be an object mapping term names to unit strings")
     for name, given in units.items():
         if name not in TERMS:
-            raise fail(f"units: {unknown_term_message(name, TERMS)}")
+            raise fail(f"units: {unknown_term(name)}")
         expected = term_unit(name, unit)
         if given != expected:
             raise fail(
@@ -134,6 +134,17 @@ def validate(data, *, source: str = "<dict>") -> tuple[dict, str]:
     if not isinstance(description, str):
         raise fail("description must be a string")
     return coefficients, unit
+
+
+def unknown_term(name, valid=TERMS) -> str:
+    """:func:`~accelcal.terms.unknown_term_message`, with a user's name shown shortened.
+
+    A name from a file or the command line may be a megabyte long or not a
+    string at all; only a short printable one is matched to the valid names.
+    """
+    if isinstance(name, str) and len(name) <= 40 and name.isprintable():
+        return unknown_term_message(name, valid)
+    return f"unknown term {shown(name)}; valid terms are: {', '.join(valid)}"
 
 
 def loads(text: str, *, source: str = "<string>"):

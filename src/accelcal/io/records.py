@@ -39,7 +39,15 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.atomic import atomic_path
-from accelcal.io.limits import MAX_JSON_BYTES, load_json, read_rest, shown
+from accelcal.io.limits import (
+    MAX_JSON_BYTES,
+    check_regular_file,
+    load_json,
+    one_line,
+    read_rest,
+    shown,
+    shown_name,
+)
 
 MARKER = "# accelcal record"
 FORMAT_VERSION = 1
@@ -151,7 +159,8 @@ def read_record(
     missing = [c for c in required_columns if c not in names]
     if missing:
         raise AccelcalError(
-            f"{path}: missing column(s) {', '.join(missing)}; found {', '.join(names) or 'none'}"
+            f"{path}: missing column(s) {', '.join(missing)}; found "
+            f"{shown_name(', '.join(names), 200) if names else 'none'}"
         )
     return meta, columns
 
@@ -171,10 +180,10 @@ def check_units(units, names, where: str) -> None:
         )
     for name in names:
         if name not in units:
-            raise AccelcalError(f"{where} 'units' gives no unit for column {name}")
+            raise AccelcalError(f"{where} 'units' gives no unit for column {shown_name(name)}")
         if not isinstance(units[name], str) or units[name] not in UNITS:
             raise AccelcalError(
-                f"{where} 'units' of column {name} is {shown(units[name])}, not one of "
+                f"{where} 'units' of column {shown_name(name)} is {shown(units[name])}, not one of "
                 f"{', '.join(UNITS)}"
             )
 
@@ -219,6 +228,7 @@ def parquet_metadata(schema_metadata, path) -> dict:
 
 def _read_csv(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
     """Metadata and columns of a CSV record (structure checks only)."""
+    check_regular_file(path, "record file")
     try:
         with open(path, "rb") as fh:
             _check_size(fh, path)
@@ -262,7 +272,8 @@ def _parse_rows(body: bytes, names: list[str], path) -> dict[str, np.ndarray]:
         column = next(i for i, c in enumerate(columns.values()) if not np.isfinite(c[row]))
         line, cells = _row_text(body, _lines(body), row)
         raise AccelcalError(
-            f"{path}: line {line}, column {names[column]}: {cells[column]!r} is not finite"
+            f"{path}: line {line}, column {shown_name(names[column])}: {shown(cells[column])} is "
+            "not finite"
         )
     return columns
 
@@ -291,7 +302,8 @@ def _raise_first_bad_cell(body: bytes, names: list[str], path) -> None:
                              parse_options=_parse_options(),
                              convert_options=_convert_options(names, pa.binary()))
     except pa.ArrowInvalid as exc:
-        raise AccelcalError(f"{path}: the data rows could not be read ({exc})") from None
+        raise AccelcalError(f"{path}: the data rows could not be read ({one_line(exc)})"
+                            ) from None
     first = None
     for i, name in enumerate(names):
         ok = pc.match_substring_regex(table.column(i), _FINITE_NUMBER).to_numpy(
@@ -308,7 +320,7 @@ def _raise_first_bad_cell(body: bytes, names: list[str], path) -> None:
         problem = "is not a number" if math.isfinite(float(cell)) else "is not finite"
     except ValueError:
         problem = "is not a number"
-    raise AccelcalError(f"{path}: line {line}, column {name}: {cell!r} {problem}")
+    raise AccelcalError(f"{path}: line {line}, column {shown_name(name)}: {shown(cell)} {problem}")
 
 
 def _lines(body: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -348,6 +360,7 @@ def _read_parquet(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    check_regular_file(path, "record file")
     try:
         with open(path, "rb") as fh:
             _check_size(fh, path)
@@ -361,7 +374,7 @@ def _read_parquet(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
     except FileNotFoundError:
         raise AccelcalError(f"record file {path} not found") from None
     except (OSError, pa.ArrowException) as exc:
-        raise AccelcalError(f"cannot read Parquet record {path}: {exc}") from None
+        raise AccelcalError(f"cannot read Parquet record {path}: {one_line(exc)}") from None
     _check_names(names, f"{path}: column names {shown(names)}")
     if table.num_rows == 0:
         raise AccelcalError(f"{path}: the record has no data rows")
@@ -369,13 +382,16 @@ def _read_parquet(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
     for i, name in enumerate(names):
         column = table.column(i)
         if not (pa.types.is_floating(column.type) or pa.types.is_integer(column.type)):
-            raise AccelcalError(f"{path}: column {name} has type {column.type}, expected numbers")
+            raise AccelcalError(f"{path}: column {shown_name(name)} has type "
+                                f"{one_line(column.type, 80)}, expected numbers")
         if column.null_count:
-            raise AccelcalError(f"{path}: column {name} has {column.null_count} missing values")
+            raise AccelcalError(f"{path}: column {shown_name(name)} has {column.null_count} "
+                                "missing values")
         columns[name] = column.to_numpy().astype(float)
         bad = np.flatnonzero(~np.isfinite(columns[name]))
         if bad.size:
-            raise AccelcalError(f"{path}: row {bad[0]}, column {name}: value is not finite")
+            raise AccelcalError(
+                f"{path}: row {bad[0]}, column {shown_name(name)}: value is not finite")
     return meta, columns
 
 

@@ -28,8 +28,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.formats.dividing_head import check_positions
+from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD, MAX_OUTPUT, check_positions
 from accelcal.model import ErrorModel
+from accelcal.signal.resources import check_memory, generator
 from accelcal.units import DEG
 
 DEFAULT_MOUNTS_DEG = (0.0, 90.0, 180.0, 270.0)
@@ -46,6 +47,20 @@ coefficients in volts (K_I in V/g). Used as a realistic default truth."""
 
 DONG2014_FIRST_HARMONIC = (1.50e-5, -1.9e-6)
 """Dong2014 section 3: the head's measured first harmonic (d1c, d1s), rad."""
+
+MIN_POSITIONS = 6
+"""Fewest positions of a rig: every reduction fits 5 coefficients per sensor and needs a
+degree of freedom for the noise (``single``: 6; ``four``: 12; ``joint``: depends on K)."""
+
+MAX_NOISE = MAX_OUTPUT / 100
+"""Largest output noise standard deviation of a rig, in the output unit: the
+simulated readings stay within the +-MAX_OUTPUT a record file may hold
+(:data:`accelcal.io.formats.dividing_head.MAX_OUTPUT`), and no number in the
+simulation or a study can overflow."""
+
+MAX_MOUNT_RAD = 2 * np.pi
+"""Largest mount phase magnitude, rad (360 deg): a phase is an angle on the head;
+a huge one leaves no significant digits to its sine and cosine."""
 
 DONG2014_NOISE_V = 2.8e-6
 """Dong2014 Table 1, column U: residual standard deviation of sensor 1, V."""
@@ -94,6 +109,7 @@ class AngleErrorProfile:
         h = float(half_width_rad)
         if not np.isfinite(h) or h < 0:
             raise AccelcalError(f"uniform angle error half width must be finite and >= 0, got {h}")
+        _check_angle(h, "uniform angle error half width", "angle_error")
         return cls(kind="uniform", half_width=h)
 
     @classmethod
@@ -110,6 +126,8 @@ class AngleErrorProfile:
             if not np.isfinite(v):
                 raise AccelcalError(f"angle-error harmonic {key!r} amplitude {v} is not finite")
             clean[(int(m), cs)] = v
+        _check_angle(sum(abs(v) for v in clean.values()),
+                     "angle-error harmonics (sum of the amplitudes)", "angle_error")
         return cls(kind="harmonics", terms=clean)
 
     @classmethod
@@ -118,6 +136,8 @@ class AngleErrorProfile:
         arr = np.asarray(values_rad, dtype=float).reshape(-1)
         if not np.isfinite(arr).all():
             raise AccelcalError("angle-error values contain NaN or inf; give finite radians")
+        if arr.size:
+            _check_angle(float(np.abs(arr).max()), "angle-error values", "angle_error")
         return cls(kind="values", given=arr)
 
     def draw(self, alpha: np.ndarray, trials: int, rng: np.random.Generator | None) -> np.ndarray:
@@ -156,8 +176,9 @@ class DividingHeadRig:
     models : sequence of ErrorModel
         One model per sensor (outputs in the models' unit, volts in Dong2014).
     mounts : array_like, optional
-        Mount phase phi_k of each sensor, rad. Default 0, 90, 180, 270 deg
-        (cycled for more sensors), as Dong2014 eqs. (1)-(4).
+        Mount phase phi_k of each sensor, rad, within +-2 pi
+        (:data:`MAX_MOUNT_RAD`). Default 0, 90, 180, 270 deg (cycled for
+        more sensors), as Dong2014 eqs. (1)-(4).
     eta : array_like, optional
         Mounting misalignment eta_k of each sensor, rad (default 0).
     angle_error : AngleErrorProfile, optional
@@ -165,8 +186,8 @@ class DividingHeadRig:
     first_harmonic : (float, float)
         First harmonic (d1c, d1s) of the head error added to the profile, rad.
     noise : float or array_like, optional
-        Output noise standard deviation per sensor, in the output unit; by
-        default each model's ``sigma * K1``.
+        Output noise standard deviation per sensor, in the output unit, at
+        most :data:`MAX_NOISE`; by default each model's ``sigma * K1``.
     repeats : int
         Readings per position (the head error is the same at each repeat).
 
@@ -187,6 +208,11 @@ class DividingHeadRig:
     def __post_init__(self) -> None:
         alpha = np.asarray(self.positions, dtype=float).reshape(-1)
         check_positions(alpha)
+        if alpha.size < MIN_POSITIONS:
+            raise AccelcalError(
+                f"{alpha.size} positions: every reduction fits 5 coefficients per sensor and "
+                f"needs a degree of freedom; give at least {MIN_POSITIONS} (method four: 12)",
+                parameter="positions")
         models = tuple(self.models)
         if not models or not all(isinstance(m, ErrorModel) for m in models):
             raise AccelcalError("models must be a non-empty sequence of ErrorModel, one per sensor")
@@ -198,6 +224,12 @@ class DividingHeadRig:
         )
         if mounts.size != k:
             raise AccelcalError(f"{mounts.size} mount phases given for {k} sensors; give one each")
+        if not (np.abs(mounts) <= MAX_MOUNT_RAD).all():  # NaN too
+            raise AccelcalError(
+                f"mount phases must be angles within +-360 deg ({MAX_MOUNT_RAD:.4g} rad), got "
+                f"{np.degrees(mounts[~(np.abs(mounts) <= MAX_MOUNT_RAD)][0]):.3g} deg",
+                parameter="mounts")
+        _check_distinct(mounts)
         eta = np.zeros(k) if self.eta is None else np.asarray(self.eta, dtype=float).reshape(-1)
         if eta.size != k:
             raise AccelcalError(f"{eta.size} misalignments given for {k} sensors; give one each")
@@ -206,14 +238,24 @@ class DividingHeadRig:
         else:
             noise = np.broadcast_to(np.asarray(self.noise, dtype=float), (k,)).copy()
         if not (np.isfinite(noise).all() and (noise >= 0).all()):
-            raise AccelcalError(f"noise standard deviations must be finite and >= 0, got {noise}")
+            raise AccelcalError(f"standard deviations must be finite and >= 0, got {noise}",
+                                parameter="noise")
+        if (noise > MAX_NOISE).any():
+            raise AccelcalError(
+                f"standard deviation {noise.max():.3g} is beyond {MAX_NOISE:g} (output unit): "
+                "the readings would not be readings; check the value and its unit",
+                parameter="noise")
         if int(self.repeats) != self.repeats or self.repeats < 1:
-            raise AccelcalError(f"repeats must be an integer >= 1, got {self.repeats}")
+            raise AccelcalError(f"must be an integer >= 1, got {self.repeats}",
+                                parameter="repeats")
         h1 = tuple(float(v) for v in self.first_harmonic)
         if len(h1) != 2 or not np.isfinite(h1).all():
             raise AccelcalError(
                 f"first_harmonic must be two finite numbers (C, S) in rad, got {h1}"
             )
+        _check_angle(float(np.hypot(*h1)), "first harmonic amplitude", "first_harmonic")
+        if eta.size and np.isfinite(eta).all():
+            _check_angle(float(np.abs(eta).max()), "mounting misalignment", "eta")
         for name, value in (("positions", alpha), ("mounts", mounts), ("eta", eta),
                             ("noise", noise)):
             if not np.isfinite(value).all():
@@ -226,8 +268,15 @@ class DividingHeadRig:
     @classmethod
     def uniform(cls, n: int, models: Sequence[ErrorModel], **kwargs) -> "DividingHeadRig":
         """A rig with ``n`` equally spaced positions ``2 pi j / n``."""
-        if int(n) != n or n < 1:
-            raise AccelcalError(f"number of positions must be a positive integer, got {n}")
+        if isinstance(n, bool) or int(n) != n or n < MIN_POSITIONS:
+            raise AccelcalError(
+                f"must be an integer >= {MIN_POSITIONS} (every reduction fits 5 coefficients "
+                f"per sensor and needs a degree of freedom; method four: 12), got {n}",
+                parameter="positions")
+        k = len(models)
+        repeats = kwargs.get("repeats", 1)
+        repeats = repeats if isinstance(repeats, int | np.integer) and repeats > 0 else 1
+        require_simulation_memory(int(n), k, repeats)
         return cls(positions=uniform_positions(int(n)), models=tuple(models), **kwargs)
 
     @property
@@ -303,9 +352,10 @@ def simulate(rig: DividingHeadRig, seed=None, *, trials: int | None = None) -> S
     ----------
     rig : DividingHeadRig
         The rig.
-    seed : int, numpy.random.SeedSequence or numpy.random.Generator, optional
-        Randomness for the angle errors and the noise. Without it the run
-        is noise-free and a random angle-error profile is refused.
+    seed : int or numpy.random.Generator, optional
+        Randomness for the angle errors and the noise (an integer >= 0).
+        Without it the run is noise-free and a random angle-error profile
+        is refused.
     trials : int, optional
         Number of independent runs (each with its own angle-error draw and
         noise) on a leading axis; ``None`` for one run without that axis.
@@ -314,10 +364,11 @@ def simulate(rig: DividingHeadRig, seed=None, *, trials: int | None = None) -> S
     -------
     SimulatedRun
     """
-    rng = None if seed is None else np.random.default_rng(seed)
+    rng = None if seed is None else generator(seed)
     t = 1 if trials is None else int(trials)
     if t < 1:
         raise AccelcalError(f"trials must be >= 1, got {trials}")
+    require_simulation_memory(rig.positions.size, rig.n_sensors, rig.repeats, trials=t)
     d = rig.angle_errors(t, rng)
     out = rig.outputs(d, rng)
     if trials is None:
@@ -328,3 +379,43 @@ def simulate(rig: DividingHeadRig, seed=None, *, trials: int | None = None) -> S
 def uniform_positions(n: int, start: float = 0.0) -> np.ndarray:
     """``n`` equally spaced nominal angles ``start + 2 pi j / n``, rad."""
     return start + 2.0 * np.pi * np.arange(n) / n
+
+
+SIMULATION_ARRAYS = 8
+"""Arrays of the readings' size a simulation holds at its peak: the sensor angles, their
+sines and cosines, the outputs, the noise and their sum, plus the columns written."""
+
+
+def require_simulation_memory(n: int, k: int, repeats: int = 1, *, trials: int = 1) -> None:
+    """Refuse a simulation of ``trials x repeats x k x n`` readings that cannot fit in memory.
+
+    :func:`accelcal.signal.resources.check_memory` with
+    :data:`SIMULATION_ARRAYS` arrays of the readings' size.
+    """
+    check_memory(float(trials) * repeats * n, k, SIMULATION_ARRAYS,
+                 f"simulating {n} positions x {k} sensors x {repeats} repeat(s)"
+                 + (f" x {trials} trials" if trials > 1 else ""), parameter="positions",
+                 hint="give fewer positions")
+
+
+def _check_angle(value: float, what: str, parameter: str | None = None) -> None:
+    """Refuse a head angle error beyond :data:`MAX_ANGLE_ERROR_RAD` (1 deg)."""
+    if not value <= MAX_ANGLE_ERROR_RAD:
+        raise AccelcalError(
+            f"{what} {value:.3g} rad is beyond 1 deg ({MAX_ANGLE_ERROR_RAD:.4g} rad): not an "
+            "indexing head's error (a few arcsec); check the value and its unit",
+            parameter=parameter)
+
+
+def _check_distinct(mounts: np.ndarray) -> None:
+    """Refuse two sensors at the same mount phase (modulo 360 deg)."""
+    if mounts.size < 2 or not np.isfinite(mounts).all():
+        return
+    wrapped = np.sort(np.mod(mounts, 2 * np.pi))
+    gaps = np.diff(np.concatenate([wrapped, wrapped[:1] + 2 * np.pi]))
+    if gaps.min() < 1e-9:
+        same = np.degrees(wrapped[int(np.argmin(gaps))])
+        raise AccelcalError(
+            f"two sensors are mounted at the same phase ({same:.6g} deg): sensors at the same "
+            "phase see the head error alike and cannot separate it; "
+            "give distinct phases, e.g. 0,90,180,270", parameter="mounts")

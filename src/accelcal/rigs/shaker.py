@@ -39,9 +39,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.formats.shaker import ShakerRecords
-from accelcal.model import ErrorModel
+from accelcal.io.formats.shaker import MAX_MAGNITUDE, ShakerRecords
+from accelcal.model import MAX_SPECIFIC_FORCE_G, ErrorModel
+from accelcal.signal.resources import check_memory
 from accelcal.units import OUTPUT_UNITS
+
+MEMORY_FACTOR = 20
+"""Arrays of (angles x samples) float64 a simulation holds at its peak, per trial:
+13 measured (tracemalloc) with every channel and the output at rest, 16 with
+stacked trials, 6 while the files are written; 20 leaves a margin."""
 
 
 @dataclass(frozen=True)
@@ -115,7 +121,9 @@ class ShakerRig:
     gravity : float
         Static specific force along the vibration axis, g (0 or 1 typically).
     transverse_ratio : float
-        Amplitude of the shaker's own transverse motion relative to A_v.
+        Amplitude of the shaker's own transverse motion relative to A_v
+        (>= 0: a magnitude; its sign is set by ``transverse_phase`` and
+        ``transverse_direction``).
     transverse_phase : float
         Its phase relative to ``a_v``, rad.
     transverse_direction : float
@@ -168,8 +176,54 @@ class ShakerRig:
             raise AccelcalError(
                 f"shaker: {self.periods} periods is shorter than one period; record at least one"
             )
-        if self.ref_noise < 0 or (self.noise is not None and self.noise < 0):
+        if self.ref_noise < 0 or (self.noise is not None and not self.noise >= 0):
             raise AccelcalError("shaker: noise levels must be >= 0 (g)")
+        if self.noise is not None and not np.isfinite(self.noise):
+            raise AccelcalError("shaker: noise must be finite")
+        if self.transverse_ratio < 0:
+            raise AccelcalError(
+                f"{self.transverse_ratio:g} is negative; the shaker's transverse motion is a "
+                "magnitude relative to the vibration (>= 0): reverse it with the transverse "
+                "phase (+180 deg) instead", parameter="transverse_ratio")
+        self._check_specific_force()
+        self._check_size(1)  # before the rates' bound: its message says more
+        for name in ("frequency", "sample_rate"):
+            if getattr(self, name) > MAX_MAGNITUDE:
+                raise AccelcalError(f"{getattr(self, name):.6g} Hz is beyond the "
+                                    f"{MAX_MAGNITUDE:g} Hz a shaker record holds",
+                                    parameter=name)
+
+    def _check_specific_force(self) -> None:
+        """Refuse inputs beyond the specific force a sensor model is evaluated at.
+
+        Checked here, naming the rig's parameters, before the model would
+        refuse its inputs ``a_i``, ``a_o``, ``a_p`` in its own words. The
+        peak is bounded by ``|G| + A_v (1 + ratio)`` (Eq. (6) [GuanTang]).
+        """
+        limit = MAX_SPECIFIC_FORCE_G
+        peak = abs(self.gravity) + self.amplitude * (1.0 + self.transverse_ratio)
+        for name, what, value in (
+            ("amplitude", "amplitude", self.amplitude),
+            ("gravity", "gravity", abs(self.gravity)),
+            ("transverse_ratio", "the transverse motion (ratio x amplitude)",
+             self.transverse_ratio * self.amplitude),
+            ("amplitude", "the peak specific force", peak),
+        ):
+            if value > limit:
+                raise AccelcalError(
+                    f"{what} of {value:.3g} g is beyond the {limit:.0e} g a sensor model is "
+                    "evaluated at; give smaller values, in g", parameter=name)
+        for name in ("noise", "ref_noise"):
+            value = getattr(self, name)
+            if value is not None and value > MAX_MAGNITUDE:
+                raise AccelcalError(f"{value:.3g} g is beyond the {MAX_MAGNITUDE:g} a shaker "
+                                    "record holds (and any physical test)", parameter=name)
+
+    def _check_size(self, channels: float) -> None:
+        """Refuse records of ``channels`` x samples that would not fit in memory."""
+        check_memory(self.periods * self.sample_rate / self.frequency, channels, MEMORY_FACTOR,
+                     f"shaker records of {self.periods:g} periods of {self.frequency:g} Hz at "
+                     f"{self.sample_rate:g} Hz", hint="record fewer periods or sample slower")
 
     @property
     def samples(self) -> int:
@@ -199,6 +253,7 @@ class ShakerRig:
         .. [1] GuanTang, eqs. (5)-(6) [DOMAIN section 3], gravity as a static component.
         """
         theta = np.atleast_1d(np.asarray(theta, dtype=float))[:, None]
+        self._check_size(theta.size)
         wt = 2 * np.pi * self.frequency * self.time()
         a_v = self.amplitude * np.sin(wt + self.phase) + 0.0 * theta  # Eq. (5) [GuanTang]
         motion = self.transverse_ratio * self.amplitude * np.sin(
@@ -230,10 +285,21 @@ class ShakerRig:
         Returns
         -------
         ShakerRecords
+            Its metadata says ``"simulated": true`` (written into every file).
+
+        Raises
+        ------
+        AccelcalError
+            When the records would not fit in memory, or overflow.
         """
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
-        (a_i, a_o, a_p), (a_v, a_n, a_ia) = self.inputs(theta)
         lead = () if trials is None else (int(trials),)
+        self._check_size(theta.size * (1 if trials is None else int(trials)))
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused below
+            return self._simulate(sensor, theta, rng, lead)
+
+    def _simulate(self, sensor: Sensor, theta, rng, lead) -> ShakerRecords:
+        (a_i, a_o, a_p), (a_v, a_n, a_ia) = self.inputs(theta)
         shape = (*lead, *a_v.shape)
         u = np.broadcast_to(sensor.output(a_i, a_o, a_p), shape)
         static = np.zeros_like(a_v) + self.gravity
@@ -254,12 +320,19 @@ class ShakerRig:
             if self.ref_noise > 0:
                 chans = {k: v + rng.normal(0.0, self.ref_noise, size=shape)
                          for k, v in chans.items()}
+        signals = [u, *chans.values(), *(() if u_rest is None else (u_rest,))]
+        if not all(np.abs(x).max() <= MAX_MAGNITUDE for x in signals):
+            raise AccelcalError(
+                f"shaker: the simulated signals overflow (exceed the {MAX_MAGNITUDE:g} a shaker "
+                "record holds, or are not finite): the amplitude, gravity, noise or sensor "
+                "coefficients are beyond any physical test; give smaller values")
         meta = {
             "sensor": "linear" if isinstance(sensor, LinearModel) else "inertial",
             "phase_rad": self.phase,
             "transverse_ratio": self.transverse_ratio,
             "transverse_phase_rad": self.transverse_phase,
             "transverse_direction_rad": self.transverse_direction,
+            "simulated": True,
         }
         return ShakerRecords(
             t=self.time(), theta=theta, ref=chans["ref"], u=np.array(u),

@@ -20,13 +20,34 @@ References
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.formats.tumble import TumbleRecord
+from accelcal.io.formats.tumble import MAX_ANGLE, MAX_OUTPUT, TumbleRecord
 from accelcal.methods.tumble.geometry import specific_force
 from accelcal.model import ErrorModel
+from accelcal.signal.resources import check_memory, generator
+
+MEMORY_FACTOR = 12
+"""Arrays of (positions x repeats) float64 a simulation holds at its peak: the three
+specific-force components, the output and its noise, the record and the columns
+written (about 9 measured); 12 leaves a margin."""
 
 
 def uniform_positions(n: int, start: float = 0.0) -> np.ndarray:
-    """``n`` equally spaced positions from ``start``, rad."""
+    """``n`` equally spaced positions from ``start``, rad.
+
+    Raises
+    ------
+    AccelcalError
+        For ``n`` that is not an integer >= 1, a ``start`` that is not finite
+        or beyond the :data:`~accelcal.io.formats.tumble.MAX_ANGLE` a tumble
+        record holds, or more positions than fit in memory.
+    """
+    if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+        raise AccelcalError(f"{n!r} must be an integer of at least 1", parameter="points")
+    if not abs(start) <= np.radians(MAX_ANGLE) - 2.0 * np.pi:
+        raise AccelcalError(f"{np.degrees(start):.6g} deg must be a finite angle within "
+                            f"+-{MAX_ANGLE:g} deg (a few thousand turns, what a tumble record "
+                            "holds)", parameter="start")
+    check_memory(n, 1, MEMORY_FACTOR, f"{n} tumble positions", parameter="points")
     return start + np.arange(n) * 2.0 * np.pi / n
 
 
@@ -63,16 +84,21 @@ def simulate(
     Returns
     -------
     TumbleRecord
-        Outputs of shape (N, R); metadata ``noise_sd``, ``seed`` (when an
-        int), ``true_model`` (the model's terms with ``sigma`` the noise in g)
-        and ``position_sd_rad`` (when non-zero).
+        Outputs of shape (N, R); metadata ``noise_sd``, ``simulated``
+        (true: the laboratory field that marks simulated data, see
+        :mod:`accelcal.io.lab_metadata`), ``seed`` (when an int),
+        ``true_model`` (the model's terms with ``sigma`` the noise in g) and
+        ``position_sd_rad`` (when non-zero).
 
     Raises
     ------
     AccelcalError
-        For positions that are not a non-empty 1-D finite array, ``repeats``
-        below 1, a negative or non-finite ``noise`` or ``position_sd``, or
-        an unknown axis.
+        For positions that are not a non-empty 1-D finite array (within the
+        :data:`~accelcal.io.formats.tumble.MAX_ANGLE` a record holds),
+        ``repeats`` below 1, a negative or non-finite ``noise`` or
+        ``position_sd``, a negative seed, an unknown axis, readings that
+        would not fit in memory, or outputs that overflow (or exceed the
+        :data:`~accelcal.io.formats.tumble.MAX_OUTPUT` a record holds).
 
     References
     ----------
@@ -91,23 +117,36 @@ def simulate(
             f"positions must be a non-empty 1-D array of finite angles in rad; got shape "
             f"{positions.shape}", parameter="positions_rad"
         )
+    if np.abs(positions).max() > np.radians(MAX_ANGLE):
+        raise AccelcalError(f"positions beyond {MAX_ANGLE:g} deg cannot be recorded; give "
+                            "angles within a few turns", parameter="positions_rad")
     if isinstance(repeats, bool) or not isinstance(repeats, int | np.integer) or repeats < 1:
         raise AccelcalError(f"{repeats!r} must be an integer of at least 1", parameter="repeats")
     if noise is None:
         noise = model.sigma * abs(model.K1)
     if not np.isfinite(noise) or noise < 0:
         raise AccelcalError(f"{noise} must be a finite SD >= 0 (output unit)", parameter="noise")
+    if noise > MAX_OUTPUT:
+        raise AccelcalError(f"{noise:.3g} is beyond the {MAX_OUTPUT:g} (output unit) a tumble "
+                            "record holds, and any accelerometer's noise", parameter="noise")
     if not np.isfinite(position_sd) or position_sd < 0:
         raise AccelcalError(f"{position_sd} must be a finite SD >= 0 (rad)",
                             parameter="position_sd")
-    rng = np.random.default_rng(seed)
+    check_memory(positions.size, repeats, MEMORY_FACTOR,
+                 f"{positions.size} tumble positions x {repeats} readings", parameter="repeats")
+    rng = generator(seed)
     model = model.replace(sigma=noise / abs(model.K1))
     true = positions
     if position_sd > 0:
         true = positions + rng.normal(0.0, position_sd, size=positions.size)
     a_i, a_o, a_p = specific_force(np.repeat(true, repeats), rotation_axis)
-    output = model.output(a_i, a_o, a_p, rng=rng)
-    meta = {"noise_sd": float(noise)}
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused below
+        output = model.output(a_i, a_o, a_p, rng=rng)
+    if not np.abs(output).max() <= MAX_OUTPUT:
+        raise AccelcalError(f"the simulated outputs overflow (exceed the {MAX_OUTPUT:g} a "
+                            "tumble record holds, or are not finite): the noise or the model's "
+                            "coefficients are beyond any accelerometer")
+    meta = {"noise_sd": float(noise), "simulated": True}
     if isinstance(seed, int | np.integer):
         meta["seed"] = int(seed)
     meta["true_model"] = model.terms()

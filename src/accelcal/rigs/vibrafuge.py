@@ -38,11 +38,17 @@ References
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.formats.vibrafuge import VibrafugeRun
-from accelcal.model import ErrorModel
+from accelcal.io.formats.vibrafuge import MAX_MAGNITUDE, VibrafugeRun
+from accelcal.model import MAX_SPECIFIC_FORCE_G, ErrorModel
+from accelcal.signal.resources import check_memory
 
 SAMPLING = ("integrating", "point")
 """Sampling models: mean over each sample interval, or instantaneous values."""
+
+MEMORY_FACTOR = 16
+"""Arrays of (points x samples) float64 a simulation holds at its peak: 13 measured
+(tracemalloc) for integrating sampling, 9 for point sampling, 9 while the file
+is written; 16 leaves a margin."""
 
 
 def _positive(value, name: str, unit: str) -> float:
@@ -50,6 +56,34 @@ def _positive(value, name: str, unit: str) -> float:
     if not (np.isfinite(value) and value > 0):
         raise AccelcalError(f"{value} {unit} must be positive and finite", parameter=name)
     return value
+
+
+def _recordable(value: float, name: str, unit: str) -> float:
+    """``value`` if a vibrafuge file can hold it (:data:`MAX_MAGNITUDE`), else refused."""
+    if abs(value) > MAX_MAGNITUDE:
+        raise AccelcalError(f"{value:.6g} {unit} is beyond the {MAX_MAGNITUDE:g} a vibrafuge "
+                            "record holds (and any physical test)", parameter=name)
+    return value
+
+
+def _specific_force(vectors: np.ndarray, A: np.ndarray, u: np.ndarray) -> None:
+    """Refuse overloads and amplitudes beyond the specific force the model is evaluated at.
+
+    Checked here, naming this function's parameters, before the model would
+    refuse its inputs ``a_i``, ``a_o``, ``a_p`` in its own words.
+    """
+    limit = MAX_SPECIFIC_FORCE_G
+    for arr, name in ((vectors, "overload"), (A, "amplitude")):
+        peak = float(np.abs(arr).max())
+        if peak > limit:
+            raise AccelcalError(f"{peak:.3g} g is beyond the {limit:.0e} g an accelerometer "
+                                "model is evaluated at; give it in g", parameter=name)
+    peak = float((np.abs(vectors) + A[:, None] * np.abs(u)).max())  # Eq. (4) [Guan2021]
+    if peak > limit:
+        raise AccelcalError(
+            f"overload plus amplitude reach {peak:.3g} g, beyond the {limit:.0e} g an "
+            "accelerometer model is evaluated at; give smaller amplitudes or overloads",
+            parameter="amplitude")
 
 
 def _grid(overload, amplitude, direction):
@@ -87,7 +121,9 @@ def _grid(overload, amplitude, direction):
         ) from None
     if vectors.shape[0] == 0:
         raise AccelcalError("no test points: give at least one overload and one amplitude")
-    return vectors.copy(), A[:, 0].copy(), u / np.linalg.norm(u)
+    u = u / np.linalg.norm(u)
+    _specific_force(vectors, A[:, 0], u)
+    return vectors.copy(), A[:, 0].copy(), u
 
 
 def simulate(
@@ -139,12 +175,17 @@ def simulate(
     Returns
     -------
     VibrafugeRun
+        Marked ``simulated`` (its file says ``"simulated": true``).
 
     Raises
     ------
     AccelcalError
         For bad input (non-finite or negative amplitude, frequency not below
-        Nyquist, noise without a generator, ...).
+        Nyquist, noise without a generator, ...), overloads and amplitudes
+        beyond :data:`accelcal.model.MAX_SPECIFIC_FORCE_G`, values or outputs
+        a vibrafuge file cannot hold (:data:`~accelcal.io.formats.vibrafuge.MAX_MAGNITUDE`),
+        or records that would not fit in memory
+        (:func:`accelcal.signal.resources.check_memory`).
 
     References
     ----------
@@ -163,24 +204,57 @@ def simulate(
     phase = float(phase)
     if not np.isfinite(phase):
         raise AccelcalError("must be a finite angle", parameter="phase")
+    _recordable(phase, "phase", "rad")
     sigma = model.sigma if noise is None else float(noise)
     if not (np.isfinite(sigma) and sigma >= 0):
         raise AccelcalError(f"{sigma} g must be >= 0 and finite", parameter="noise")
+    _recordable(sigma, "noise", "g")
     if sigma > 0 and rng is None:
         raise AccelcalError("noise > 0 needs a random generator (rng) or seed; or set noise = 0")
     quantum = float(quantum)
     if not (np.isfinite(quantum) and quantum >= 0):
         raise AccelcalError(f"{quantum} must be >= 0 and finite (0: no quantisation)",
                             parameter="quantum")
-    n = round(T * fs)
+    _recordable(quantum, "quantum", model.output_unit)
+    samples = T * fs
+    check_memory(samples, A.size, MEMORY_FACTOR,
+                 f"{A.size} vibrafuge points of {T:g} s at {fs:g} Hz",
+                 hint="shorten the duration, lower the sample rate or test fewer points")
+    _recordable(fs, "sample_rate", "Hz")  # after the memory check: its message says more
+    n = round(samples)
     if n < 1:
         raise AccelcalError(f"{T} s at {fs} Hz gives no samples; record longer",
                             parameter="duration")
 
-    amp = A[:, None] * u  # Eq. (4) [Guan2021]: A_j = A u_j
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused below
+        static, vib = _records(model, vectors, A[:, None] * u, (f, fs, n, phase), sampling,
+                               sigma, rng)
+        if quantum > 0:
+            static, vib = np.round(static / quantum) * quantum, np.round(vib / quantum) * quantum
+    if not (np.abs(static).max() <= MAX_MAGNITUDE and np.abs(vib).max() <= MAX_MAGNITUDE):
+        raise AccelcalError(
+            f"the simulated outputs overflow (exceed the {MAX_MAGNITUDE:g} {model.output_unit} "
+            "a vibrafuge record holds, or are not finite): the overload, amplitude, noise or "
+            "model coefficients are beyond any physical accelerometer; give smaller values"
+        )
+    return VibrafugeRun(
+        static=np.array(static), vibrating=np.array(vib), overload=vectors, amplitude=A,
+        direction=u, frequency=f, sample_rate=fs, phase=phase, scale_factor=model.K1,
+        output_unit=model.output_unit, sampling=sampling, noise=sigma, quantum=quantum,
+        simulated=True,
+    )
+
+
+def _records(model, vectors, amp, timing, sampling, sigma, rng):  # noqa: PLR0917
+    """Static and vibrating outputs (output unit), shape (P, n) each.
+
+    ``timing`` is (frequency, sample rate, samples, phase at t = 0).
+    """
+    f, fs, n, phase = timing
+    A = amp.shape[0]
     theta = (2.0 * np.pi * f * (np.arange(n) / fs) + phase) % (2.0 * np.pi)  # (n,)
     static_g = model.output_g(vectors[:, 0], vectors[:, 1], vectors[:, 2])  # Eq. (5)
-    static_g = np.broadcast_to(np.asarray(static_g)[:, None], (A.size, n))
+    static_g = np.broadcast_to(np.asarray(static_g)[:, None], (A, n))
     if sampling == "point":
         s = np.sin(theta)
         a = amp[:, :, None] * s + vectors[:, :, None]  # Eq. (6) [Guan2021]
@@ -190,14 +264,7 @@ def simulate(
     if sigma > 0:
         static_g = static_g + rng.normal(0.0, sigma, static_g.shape)
         vib_g = vib_g + rng.normal(0.0, sigma, vib_g.shape)
-    static, vib = model.K1 * static_g, model.K1 * vib_g
-    if quantum > 0:
-        static, vib = np.round(static / quantum) * quantum, np.round(vib / quantum) * quantum
-    return VibrafugeRun(
-        static=np.array(static), vibrating=np.array(vib), overload=vectors, amplitude=A,
-        direction=u, frequency=f, sample_rate=fs, phase=phase, scale_factor=model.K1,
-        output_unit=model.output_unit, sampling=sampling, noise=sigma, quantum=quantum,
-    )
+    return model.K1 * static_g, model.K1 * vib_g
 
 
 def _sin_power_coefficients(model: ErrorModel, b: np.ndarray, amp: np.ndarray):

@@ -42,10 +42,26 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.lab_metadata import check_lab_metadata
-from accelcal.io.records import read_record, write_record
+from accelcal.io.limits import MAX_JSON_BYTES, is_finite_number, shown, shown_name
+from accelcal.io.records import MAX_RECORD_VALUES, read_record, write_record
 from accelcal.units import ARCSEC, DEG, OUTPUT_UNITS
 
 KIND = "dividing-head"
+
+MAX_ANGLE_ERROR_RAD = float(np.radians(1.0))
+"""Largest head angle error (and its uncertainty) accepted, rad (1 deg = 3600 arcsec).
+Indexing heads are accurate to arcseconds (Dong2014: a few arcsec), and the reductions
+linearise in the head error (the second-order term d^2/2 is 1.5e-4 of the output at
+1 deg): anything larger is a unit mistake, not a head."""
+
+MAX_OUTPUT = 1e9
+"""Largest magnitude of a reading or a nominal scale factor, in the output unit (V, mV,
+mA or g): a million times any accelerometer's output, and far below where squares and
+products of readings overflow (1e154)."""
+
+METADATA_BYTES_PER_VALUE = 26
+"""Bytes of JSON a float takes in the metadata line (17 significant digits, exponent,
+separator): to tell before simulating whether per-position metadata fits."""
 
 _KNOWN = {
     "format_version", "kind", "units", "sensors", "mount_phases_deg", "nominal_scale_factors",
@@ -163,7 +179,8 @@ def write_head_record(
     if len(names) != k or phi.size != k:
         raise AccelcalError(f"{k} sensor columns need {k} names and {k} mount phases")
     if output_unit not in OUTPUT_UNITS:
-        raise AccelcalError(f"output unit {output_unit!r} is not one of {', '.join(OUTPUT_UNITS)}")
+        raise AccelcalError(
+            f"output unit {shown(output_unit)} is not one of {', '.join(OUTPUT_UNITS)}")
     ksf = np.ones(k) if nominal_scale_factors is None else \
         np.asarray(nominal_scale_factors, dtype=float).reshape(-1)
     columns = {"angle_deg": np.tile(alpha / DEG, r)}
@@ -211,7 +228,8 @@ def read_head_record(path) -> HeadRecord:
     )
     unknown = sorted(set(meta) - _KNOWN)
     if unknown:
-        raise AccelcalError(f"{path}: unknown metadata field(s) {', '.join(unknown)}")
+        raise AccelcalError(
+            f"{path}: unknown metadata field(s) {shown_name(', '.join(unknown), 200)}")
     sensors = meta["sensors"]
     if not isinstance(sensors, list) or not sensors or not all(isinstance(s, str) for s in sensors):
         raise AccelcalError(f"{path}: metadata 'sensors' must be a non-empty list of column names")
@@ -220,14 +238,16 @@ def read_head_record(path) -> HeadRecord:
     if missing or extra:
         raise AccelcalError(
             f"{path}: sensor columns do not match metadata 'sensors' "
-            f"(missing {missing or 'none'}, unexpected {extra or 'none'})"
+            f"(missing {shown_name(', '.join(missing), 200) or 'none'}, "
+            f"unexpected {shown_name(', '.join(extra), 200) or 'none'})"
         )
     k = len(sensors)
     check_lab_metadata(meta, path, k)
     phases = _number_list(meta["mount_phases_deg"], path, "mount_phases_deg")
     if len(phases) != k:
         raise AccelcalError(
-            f"{path}: {len(phases)} mount phases for {k} sensor columns ({', '.join(sensors)}); "
+            f"{path}: {len(phases)} mount phases for {k} sensor columns "
+            f"({shown_name(', '.join(sensors), 200)}); "
             "give one mount phase per sensor column"
         )
     ksf = _number_list(meta.get("nominal_scale_factors", [1.0] * k), path,
@@ -236,7 +256,8 @@ def read_head_record(path) -> HeadRecord:
         raise AccelcalError(f"{path}: {len(ksf)} nominal scale factors for {k} sensors")
     unit = meta["output_unit"]
     if unit not in OUTPUT_UNITS:
-        raise AccelcalError(f"{path}: output_unit {unit!r} is not one of {', '.join(OUTPUT_UNITS)}")
+        raise AccelcalError(
+            f"{path}: output_unit {shown(unit)} is not one of {', '.join(OUTPUT_UNITS)}")
     angle = cols["angle_deg"] * DEG
     rep = cols.get("repeat", np.zeros(angle.size))
     if not np.array_equal(rep, np.round(rep)) or rep.min() < 0:
@@ -244,6 +265,16 @@ def read_head_record(path) -> HeadRecord:
     reps = np.unique(rep)
     if not np.array_equal(reps, np.arange(reps.size)):
         raise AccelcalError(f"{path}: repeats must be numbered 0, 1, ... without gaps")
+    for s_name in sensors:
+        big = np.abs(cols[s_name]) > MAX_OUTPUT
+        if big.any():
+            raise AccelcalError(
+                f"{path}: column {shown(s_name)} row {int(np.argmax(big)) + 1} holds "
+                f"{cols[s_name][big][0]:.3g}, beyond +-{MAX_OUTPUT:g} {unit}: not a reading; "
+                "check the value and the output unit")
+    if max((abs(v) for v in ksf), default=0.0) > MAX_OUTPUT or 0.0 in ksf:
+        raise AccelcalError(f"{path}: nominal_scale_factors must be non-zero and within "
+                            f"+-{MAX_OUTPUT:g} {unit}/g")
     first = angle[rep == 0]
     try:
         check_positions(first, what=f"angles of {path}")
@@ -275,6 +306,10 @@ def read_head_record(path) -> HeadRecord:
             raise AccelcalError(f"{path}: autocollimator readings need autocollimator_sd_arcsec")
         ac_sd = float(_number_list([meta["autocollimator_sd_arcsec"]], path,
                                    "autocollimator_sd_arcsec")[0]) * ARCSEC
+        _check_angles(np.abs(ac), path, "autocollimator_arcsec")
+        if not ac_sd > 0:
+            raise AccelcalError(f"{path}: autocollimator_sd_arcsec must be > 0")
+        _check_angles([ac_sd], path, "autocollimator_sd_arcsec")
     h1 = None
     h1_sd = 0.0
     if "first_harmonic_rad" in meta:
@@ -283,6 +318,10 @@ def read_head_record(path) -> HeadRecord:
             raise AccelcalError(f"{path}: first_harmonic_rad must be [d1c, d1s]")
         h1_sd = float(_number_list([meta.get("first_harmonic_sd_rad", 0.0)], path,
                                    "first_harmonic_sd_rad")[0])
+        if h1_sd < 0:
+            raise AccelcalError(f"{path}: first_harmonic_sd_rad must be >= 0")
+        _check_angles([float(np.hypot(*h1)), h1_sd], path,
+                      "first_harmonic_rad and first_harmonic_sd_rad")
     sim = meta.get("simulation")
     if sim is not None and (not isinstance(sim, dict) or "models" not in sim):
         raise AccelcalError(f"{path}: metadata 'simulation' must be an object with 'models'")
@@ -290,10 +329,50 @@ def read_head_record(path) -> HeadRecord:
                       np.asarray(ksf), ac, ac_sd, h1, h1_sd, sim)
 
 
+def _check_angles(values, path, field) -> None:
+    """Refuse head-error angles beyond :data:`MAX_ANGLE_ERROR_RAD` (rad) in metadata ``field``."""
+    worst = float(np.max(values, initial=0.0))
+    if worst > MAX_ANGLE_ERROR_RAD:
+        raise AccelcalError(
+            f"{path}: metadata '{field}' holds {worst:.3g} rad, beyond 1 deg: not an indexing "
+            "head's error or its uncertainty (a few arcsec); check the value and its unit")
+
+
+def check_record_size(n: int, k: int, repeats: int = 1, *, per_position: int = 0) -> None:
+    """Refuse a record of ``repeats x n`` rows and ``k`` sensors that could not be read back.
+
+    Parameters
+    ----------
+    n, k, repeats : int
+        Positions, sensors, readings per position.
+    per_position : int
+        Metadata arrays with one value per position (simulated head errors,
+        autocollimator readings).
+
+    Raises
+    ------
+    AccelcalError
+        When the file would hold more than
+        :data:`~accelcal.io.records.MAX_RECORD_VALUES` values, or its metadata
+        line more than :data:`~accelcal.io.limits.MAX_JSON_BYTES`.
+    """
+    values = float(n) * repeats * (k + 1 + (repeats > 1))
+    if values > MAX_RECORD_VALUES:
+        raise AccelcalError(
+            f"a record of {n} positions x {repeats} repeat(s) x {k} sensors holds {values:.3g} "
+            f"values, more than the {MAX_RECORD_VALUES:g} a record file may hold",
+            parameter="positions")
+    meta = float(n) * per_position * METADATA_BYTES_PER_VALUE
+    if meta > MAX_JSON_BYTES:
+        most = MAX_JSON_BYTES // (per_position * METADATA_BYTES_PER_VALUE)
+        raise AccelcalError(
+            f"a record of {n} positions carries about {meta / 2**20:.3g} MiB of per-position "
+            f"metadata, more than the {MAX_JSON_BYTES / 2**20:g} MiB a record's metadata may "
+            f"hold; give at most about {most} positions", parameter="positions")
+
+
 def _number_list(value, path, field) -> list[float]:
-    if not isinstance(value, list) or not all(
-        isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) for v in value
-    ):
+    if not isinstance(value, list) or not all(is_finite_number(v) for v in value):
         raise AccelcalError(f"{path}: metadata '{field}' must be a list of finite numbers")
     return [float(v) for v in value]
 

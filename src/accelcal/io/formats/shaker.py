@@ -8,7 +8,8 @@ directory of one CSV or Parquet record per angle (and amplitude), named by
 ``sample_rate_hz``, ``angle_deg``, ``amplitude_g``, ``gravity_g``,
 ``output_unit`` (required), ``scale_factor``, ``axial_sensitivity``,
 ``sensor``, ``source`` and the laboratory fields of
-:mod:`accelcal.io.lab_metadata` (optional). Columns: ``t``, ``ref``, ``u``
+:mod:`accelcal.io.lab_metadata` (optional; the simulator writes
+``"simulated": true``). Columns: ``t``, ``ref``, ``u``
 and optionally ``ref_n``, ``ref_ia``, ``u_rest``. The simulation that
 produces these records is :mod:`accelcal.rigs.shaker`; the reductions are in
 :mod:`accelcal.methods.transverse`.
@@ -31,6 +32,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.lab_metadata import check_lab_metadata, read_metadata
+from accelcal.io.limits import shown, shown_path
 from accelcal.io.records import read_record, write_record
 
 
@@ -106,6 +108,28 @@ KIND = "shaker"
 _REQUIRED_META = ("frequency_hz", "sample_rate_hz", "angle_deg", "amplitude_g", "gravity_g",
                   "output_unit")
 _OPTIONAL = ("ref_n", "ref_ia", "u_rest")
+
+MAX_MAGNITUDE = 1e9
+"""Largest magnitude read for a sample (output unit or g), an amplitude or gravity
+(g), a frequency or sample rate (Hz) or a scale factor (output unit per g): far
+beyond any shaker test, and small enough that squares and sums of a record stay
+within the float range. A larger value is a corrupt cell, not a measurement."""
+
+MIN_SCALE_FACTOR = 1e-9
+"""Smallest magnitude of a scale factor read (output unit per g)."""
+
+
+def _bounded(value, path, what: str, *, low: float = 0.0) -> None:
+    """Refuse values whose magnitude exceeds MAX_MAGNITUDE or is below ``low`` (non-zero)."""
+    mag = np.abs(np.asarray(value, dtype=float)).reshape(-1)
+    ok = (mag <= MAX_MAGNITUDE) & (mag >= low)
+    bad = np.flatnonzero(~ok)
+    if bad.size:
+        where = f" (row {int(bad[0])})" if np.ndim(value) else ""
+        raise AccelcalError(
+            f"{path}: {what}{where} = {np.asarray(value, float).reshape(-1)[bad[0]]:.6g} is "
+            f"beyond any physical value (magnitude {low:g} to {MAX_MAGNITUDE:g}); "
+            "is the file corrupt?")
 
 
 def record_file_name(amplitude: float, angle_deg: float) -> str:
@@ -191,7 +215,10 @@ def write_records(records_list, out, *, extra: dict | None = None, suffix: str =
         return [out / n for n in names]
     if not out.parent.is_dir():
         raise AccelcalError(f"cannot write {out}: directory {out.parent} does not exist")
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    except OSError as exc:
+        raise AccelcalError(f"cannot write {out}: {exc.strerror or exc}", parameter="out") from None
     try:
         for name, (_, _, meta, cols) in zip(names, tables, strict=True):
             write_record(tmp / name, KIND, meta, cols)
@@ -223,11 +250,12 @@ def read_records(path) -> list[ShakerRecords]:
     if path.is_dir():
         files = sorted([*path.glob("*.csv"), *path.glob("*.parquet")])
         if not files:
-            raise AccelcalError(f"{path}: no record files (*.csv, *.parquet) in the directory")
+            raise AccelcalError(
+                f"{shown_path(path)}: no record files (*.csv, *.parquet) in the directory")
     elif path.exists():
         files = [path]
     else:
-        raise AccelcalError(f"{path}: no such file or directory")
+        raise AccelcalError(f"{shown_path(path)}: no such file or directory")
     groups: dict[float, list] = {}
     for f in files:
         meta, cols = read_record(f, KIND, required_metadata=_REQUIRED_META,
@@ -239,6 +267,7 @@ def read_records(path) -> list[ShakerRecords]:
         if scale is not None and (isinstance(scale, bool) or not isinstance(scale, int | float)
                                   or not np.isfinite(scale) or scale == 0):
             raise AccelcalError(f"{f}: metadata scale_factor must be a finite non-zero number")
+        _check_values(f, meta, cols)
         check_lab_metadata(meta, f)
         groups.setdefault(float(meta["amplitude_g"]), []).append((f, meta, cols))
     out = []
@@ -250,7 +279,8 @@ def read_records(path) -> list[ShakerRecords]:
             for key in ("frequency_hz", "sample_rate_hz", "gravity_g", "output_unit"):
                 if meta[key] != meta0[key]:
                     raise AccelcalError(
-                        f"{f}: {key} = {meta[key]!r} differs from {meta0[key]!r} in {f0}; "
+                        f"{f}: {key} = {shown(meta[key])} differs from {shown(meta0[key])} in "
+                        f"{f0}; "
                         "records of one amplitude must share it")
             if cols["t"].size != cols0["t"].size:
                 raise AccelcalError(
@@ -269,9 +299,27 @@ def read_records(path) -> list[ShakerRecords]:
             ref_n=stack.get("ref_n"), ref_ia=stack.get("ref_ia"), u_rest=stack.get("u_rest"),
             metadata={k: v for k, v in meta0.items()
                       if k in ("axial_sensitivity", "sensor", "source", "serial",
-                               "operator", "date", "local_gravity")},
+                               "operator", "date", "local_gravity", "simulated")},
         ))
     return out
+
+
+def _check_values(f, meta, cols) -> None:
+    """Refuse non-physical magnitudes in the metadata and columns of one file."""
+    for key in ("frequency_hz", "sample_rate_hz", "amplitude_g", "gravity_g"):
+        _bounded(meta[key], f, f"metadata {key}")
+    if not -360.0 <= meta["angle_deg"] <= 360.0:
+        raise AccelcalError(f"{f}: metadata angle_deg = {meta['angle_deg']:.6g} is not a "
+                            "direction within one turn (0 to 360 deg)")
+    if meta.get("scale_factor") is not None:
+        _bounded(meta["scale_factor"], f, "metadata scale_factor", low=MIN_SCALE_FACTOR)
+    table = meta.get("axial_sensitivity")
+    for key, value in (table.items() if isinstance(table, dict) else ()):
+        if isinstance(value, int | float) and not isinstance(value, bool) and value != 0:
+            _bounded(value, f, f"metadata axial_sensitivity.{key}", low=MIN_SCALE_FACTOR)
+    for name in ("t", "ref", "u", *_OPTIONAL):
+        if name in cols:
+            _bounded(cols[name], f, f"column {name}")
 
 
 def shaker_files(path) -> dict[float, list[Path]]:

@@ -13,7 +13,8 @@ Metadata fields: ``rotation_axis`` (``"OA"`` or ``"PA"``) and
 ``output_unit`` (required), and the informative ``noise_sd`` (output unit),
 ``seed`` and ``true_model`` (the simulated model's terms) that the simulator
 writes, and the optional laboratory fields ``serial``, ``operator``,
-``date``, ``local_gravity`` (:mod:`accelcal.io.lab_metadata`).
+``date``, ``local_gravity`` and ``simulated`` (:mod:`accelcal.io.lab_metadata`;
+the simulator writes ``"simulated": true``).
 
 The simulator (:mod:`accelcal.rigs.tumble`) produces a
 :class:`TumbleRecord`; the tumble method
@@ -31,6 +32,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
+from accelcal.io.limits import shown
 from accelcal.io.records import read_record, write_record
 from accelcal.units import OUTPUT_UNITS
 
@@ -41,6 +43,15 @@ AXES = ("OA", "PA")
 """Rotation axes a tumble record may give."""
 
 _RESERVED = ("format_version", "kind", "units", "rotation_axis", "output_unit")
+
+MAX_OUTPUT = 1e9
+"""Largest magnitude of an output read (any output unit: V, mV, mA, g): far beyond
+any accelerometer, and small enough that squares and sums of a record stay within
+the float range. A larger value is a corrupt cell, not a reading."""
+
+MAX_ANGLE = 1e6
+"""Largest magnitude of an angle read, deg (2,800 turns; its rounding stays below
+1e-9 deg, far inside the tolerance that tells positions apart)."""
 
 
 @dataclass(frozen=True)
@@ -132,6 +143,7 @@ def read(path) -> TumbleRecord:
     AccelcalError
         Naming the file: see :func:`accelcal.io.records.read_record`; an
         unknown rotation axis or output unit; malformed laboratory metadata;
+        an angle or output beyond :data:`MAX_ANGLE` or :data:`MAX_OUTPUT`;
         positions with different numbers of readings.
     """
     meta, cols = read_record(
@@ -141,12 +153,18 @@ def read(path) -> TumbleRecord:
         required_columns=("angle", "output"),
     )
     if meta["rotation_axis"] not in AXES:
-        raise AccelcalError(f"{path}: metadata rotation_axis {meta['rotation_axis']!r} is not "
+        raise AccelcalError(f"{path}: metadata rotation_axis {shown(meta['rotation_axis'])} is not "
                             f"one of {', '.join(AXES)}")
     if meta["output_unit"] not in OUTPUT_UNITS:
-        raise AccelcalError(f"{path}: metadata output_unit {meta['output_unit']!r} is not one of "
-                            f"{', '.join(OUTPUT_UNITS)}")
+        raise AccelcalError(f"{path}: metadata output_unit {shown(meta['output_unit'])} is not "
+                            f"one of {', '.join(OUTPUT_UNITS)}")
     check_lab_metadata(meta, path)
+    for name, limit, unit in (("angle", MAX_ANGLE, " deg"), ("output", MAX_OUTPUT, "")):
+        big = np.flatnonzero(~(np.abs(cols[name]) <= limit))
+        if big.size:
+            raise AccelcalError(
+                f"{path}: column {name} row {int(big[0])} = {cols[name][big[0]]:.6g} is beyond "
+                f"any physical value (magnitude up to {limit:g}{unit}); is the file corrupt?")
     angles, outputs = _group(path, cols["angle"], cols["output"])
     return TumbleRecord(
         angles_rad=np.radians(angles), outputs=outputs, rotation_axis=meta["rotation_axis"],

@@ -18,7 +18,8 @@ Metadata fields: ``sample_rate_hz``, ``frequency_hz`` (vibration),
 [IA, OA, PA] and ``amplitude_g``), and the informative ``phase_rad``,
 ``sampling``, ``noise_g``, ``quantum`` (output unit), and the optional
 laboratory fields ``serial``, ``operator``, ``date``, ``local_gravity``
-(:mod:`accelcal.io.lab_metadata`; pass them in ``provenance`` to write them).
+(:mod:`accelcal.io.lab_metadata`; pass them in ``provenance`` to write them)
+and ``simulated`` (written as true for a :attr:`VibrafugeRun.simulated` run).
 
 The simulator (:mod:`accelcal.rigs.vibrafuge`) produces a
 :class:`VibrafugeRun`; the VRE method
@@ -39,6 +40,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.lab_metadata import check_lab_metadata
+from accelcal.io.limits import shown
 from accelcal.io.records import read_record, write_record
 from accelcal.units import OUTPUT_UNITS
 
@@ -47,6 +49,17 @@ KIND = "vibrafuge"
 
 SAMPLE_RATE_RTOL = 1e-9
 """Relative tolerance for a time column to match ``sample_rate_hz``."""
+
+MAX_MAGNITUDE = 1e9
+"""Largest magnitude read for a sample (output unit), an overload or amplitude (g),
+a rate or frequency (Hz), a phase (rad), a noise level or quantum, or a scale
+factor (output unit per g): far beyond any vibrafuge test, and small enough that
+squares and sums of a record stay within the float range. A larger value is a
+corrupt cell, not a measurement."""
+
+MIN_SCALE_FACTOR = 1e-9
+"""Smallest magnitude of ``scale_factor`` read (output unit per g): dividing by a
+smaller one would turn rounding noise into VRE beyond the float range."""
 
 
 @dataclass(frozen=True)
@@ -82,6 +95,10 @@ class VibrafugeRun:
         Standard deviation of the added noise, g (0: none).
     quantum : float
         Output quantisation step in ``output_unit`` (0: none).
+    simulated : bool
+        True for records a simulator made (:mod:`accelcal.rigs.vibrafuge`):
+        written as the laboratory field ``"simulated": true``, so that
+        calibration records made from the file say so.
     """
 
     static: np.ndarray
@@ -97,6 +114,7 @@ class VibrafugeRun:
     sampling: str = "measured"
     noise: float = 0.0
     quantum: float = 0.0
+    simulated: bool = False
 
     @property
     def t(self) -> np.ndarray:
@@ -140,6 +158,7 @@ def write_vibrafuge(path, run: VibrafugeRun, *, provenance: dict | None = None) 
             for b, a in zip(run.overload, run.amplitude, strict=True)
         ],
         **(provenance or {}),
+        **({"simulated": True} if run.simulated else {}),
     }
     columns = {
         "point": np.repeat(np.arange(P), n),
@@ -153,11 +172,15 @@ def write_vibrafuge(path, run: VibrafugeRun, *, provenance: dict | None = None) 
 def _number(meta, key, path, *, positive=False, nonzero=False) -> float:
     value = meta.get(key)
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise AccelcalError(f"{path}: metadata {key} must be a finite number, got {value!r}")
+        raise AccelcalError(f"{path}: metadata {key} must be a finite number, got {shown(value)}")
     if positive and value <= 0:
         raise AccelcalError(f"{path}: metadata {key} = {value} must be positive")
     if nonzero and value == 0:
         raise AccelcalError(f"{path}: metadata {key} must be non-zero")
+    low = MIN_SCALE_FACTOR if nonzero else 0.0
+    if not low <= abs(value) <= MAX_MAGNITUDE:
+        raise AccelcalError(f"{path}: metadata {key} = {value:.6g} is beyond any physical value "
+                            f"(magnitude {low:g} to {MAX_MAGNITUDE:g}); is the file corrupt?")
     return float(value)
 
 
@@ -168,7 +191,11 @@ def _vector(value, what, path) -> list[float]:
           and all(isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x)
                   for x in value))
     if not ok:
-        raise AccelcalError(f"{path}: {what} must be 3 finite numbers [IA, OA, PA], got {value!r}")
+        raise AccelcalError(
+            f"{path}: {what} must be 3 finite numbers [IA, OA, PA], got {shown(value)}")
+    if max(abs(x) for x in value) > MAX_MAGNITUDE:
+        raise AccelcalError(f"{path}: {what} = {shown(value)} is beyond any physical value "
+                            f"(components up to {MAX_MAGNITUDE:g}); is the file corrupt?")
     return [float(x) for x in value]
 
 
@@ -188,13 +215,14 @@ def read_vibrafuge(path) -> VibrafugeRun:
                            "direction", "points"),
         required_columns=("point", "t", "static", "vibrating"),
     )
-    check_lab_metadata(meta, path)
+    lab = check_lab_metadata(meta, path)
     fs = _number(meta, "sample_rate_hz", path, positive=True)
     f = _number(meta, "frequency_hz", path, positive=True)
     k1 = _number(meta, "scale_factor", path, nonzero=True)
     unit = meta["output_unit"]
     if unit not in OUTPUT_UNITS:
-        raise AccelcalError(f"{path}: output_unit {unit!r} is not one of {', '.join(OUTPUT_UNITS)}")
+        raise AccelcalError(
+            f"{path}: output_unit {shown(unit)} is not one of {', '.join(OUTPUT_UNITS)}")
     u = np.array(_vector(meta["direction"], "direction", path))
     if not np.linalg.norm(u) > 0:
         raise AccelcalError(f"{path}: direction is the zero vector")
@@ -219,18 +247,30 @@ def read_vibrafuge(path) -> VibrafugeRun:
             "samples for every point (write points of different lengths to separate files)"
         )
     n = n_rows // P
+    for name in ("t", "static", "vibrating"):
+        big = np.flatnonzero(~(np.abs(cols[name]) <= MAX_MAGNITUDE))
+        if big.size:
+            raise AccelcalError(
+                f"{path}: column {name} row {int(big[0])} = {cols[name][big[0]]:.6g} is beyond "
+                f"any physical value (magnitude up to {MAX_MAGNITUDE:g}); is the file corrupt?")
     t = cols["t"].reshape(P, n)
     if n > 1:
         dt = np.diff(t, axis=1)
-        rate = 1.0 / dt
-        bad = np.abs(rate - fs) > SAMPLE_RATE_RTOL * fs
+        stuck = ~(dt > 0)
+        if stuck.any():
+            k, j = (int(i[0]) for i in np.nonzero(stuck))
+            raise AccelcalError(
+                f"{path}: column t of point {k} does not increase at row {k * n + j + 1} "
+                f"({t[k, j]:.9g} s to {t[k, j + 1]:.9g} s); sample times must increase "
+                "at 1/sample_rate_hz"
+            )
+        bad = ~(np.abs(dt * fs - 1.0) <= SAMPLE_RATE_RTOL)
         if bad.any():
             k = int(np.flatnonzero(bad.any(axis=1))[0])
-            lo, hi = rate[k].min(), rate[k].max()
             raise AccelcalError(
-                f"{path}: unequal sample rates: point {k}'s time column is sampled at "
-                f"{lo:.9g}..{hi:.9g} Hz but sample_rate_hz is {fs:g} Hz; both records must "
-                "be sampled uniformly at sample_rate_hz"
+                f"{path}: unequal sample rates: point {k}'s time column steps by "
+                f"{dt[k].min():.9g}..{dt[k].max():.9g} s but sample_rate_hz is {fs:g} Hz; "
+                "both records must be sampled uniformly at sample_rate_hz"
             )
     return VibrafugeRun(
         static=cols["static"].reshape(P, n), vibrating=cols["vibrating"].reshape(P, n),
@@ -239,6 +279,7 @@ def read_vibrafuge(path) -> VibrafugeRun:
         phase=_optional(meta, "phase_rad", path), scale_factor=k1, output_unit=unit,
         sampling=str(meta.get("sampling", "measured")),
         noise=_optional(meta, "noise_g", path), quantum=_optional(meta, "quantum", path),
+        simulated=lab.simulated,
     )
 
 

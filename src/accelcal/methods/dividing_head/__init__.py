@@ -20,9 +20,12 @@ Data: nominal head angles, sensor outputs and mount phases
 options a method takes). Monte Carlo: :func:`head_uncertainty` (GUM-S1
 uncertainty of a reduction of measured data) and :func:`run_study` (formal
 SDs against actual errors over simulated experiments). Modules: ``theory``
-(basis, alias, names), ``data``, ``single``, ``four``, ``joint``,
-``reduce``, ``result``, ``mc``, ``study`` (``study_kernel``,
-``study_bank``), ``figures``, ``report``.
+(basis, alias, names), ``data``, ``single``, ``four`` (with ``factors``:
+the steps as O(n) factors), ``joint`` (with ``arrow``: the O(n) solver and
+identifiability), ``reduce``, ``result``, ``sizes`` (memory estimates,
+dense limits), ``mc``, ``study`` (``study_kernel``, ``study_bank``),
+``figures``, ``report``. Reductions of measured data take time and memory
+linear in the number of readings.
 
 References
 ----------
@@ -33,6 +36,7 @@ References
 """
 
 from accelcal.methods.dividing_head.data import HeadData
+from accelcal.methods.dividing_head.factors import FourFactors
 from accelcal.methods.dividing_head.figures import figures
 from accelcal.methods.dividing_head.four import (
     FOUR_COVARIANCES,
@@ -86,6 +90,7 @@ __all__ = [
     "STUDY_BLOCK",
     "STUDY_METHODS",
     "SUB_BLOCK",
+    "FourFactors",
     "FourOperator",
     "HeadData",
     "HeadSampler",

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.formats.dividing_head import HeadRecord, check_positions
+from accelcal.io.formats.dividing_head import MAX_OUTPUT, HeadRecord, check_positions
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,8 @@ class HeadData:
         Raises
         ------
         AccelcalError
-            For duplicated or non-finite angles, NaN readings, or a number
+            For duplicated or non-finite angles, NaN readings or readings
+            beyond :data:`~accelcal.io.formats.dividing_head.MAX_OUTPUT`, or a number
             of mount phases (or sensor names) that does not match the output
             columns.
         """
@@ -77,6 +78,11 @@ class HeadData:
                 f"output reading at index {tuple(int(i) for i in bad)} is NaN or inf; "
                 "remove or re-measure that position"
             )
+        if np.abs(u).max(initial=0.0) > MAX_OUTPUT:
+            raise AccelcalError(
+                f"an output reading of {np.abs(u).max():.3g} is beyond +-{MAX_OUTPUT:g} "
+                f"{output_unit}: not a reading; check the values and the output unit",
+                parameter="outputs")
         repeats = u.shape[0] if u.ndim == 3 else 1
         u = u.mean(axis=0) if u.ndim == 3 else u
         phi = np.asarray(mounts, dtype=float).reshape(-1)
@@ -97,7 +103,7 @@ class HeadData:
         nominal = () if nominal_scale_factors is None else \
             tuple(float(x) for x in np.asarray(nominal_scale_factors, dtype=float).reshape(-1))
         if nominal and (len(nominal) != u.shape[0] or not all(
-                np.isfinite(x) and x != 0 for x in nominal)):
+                np.isfinite(x) and x != 0 and abs(x) <= MAX_OUTPUT for x in nominal)):
             raise AccelcalError(
                 f"give one finite, non-zero nominal scale factor per sensor column "
                 f"({u.shape[0]}), got {len(nominal)}", parameter="nominal_scale_factors",

@@ -37,9 +37,23 @@ def figures(reduction, *, truth=None) -> list:
         ``dividing_head_angle_error``.
     """
     out = [residual_figure(reduction)]
-    if reduction.shared is not None:
+    if head_error(reduction) is not None:
         out.append(angle_error_figure(reduction, truth))
     return out
+
+
+def head_error(reduction):
+    """The separated head error and its standard uncertainties, rad, or None.
+
+    From ``shared``, or (beyond
+    :data:`~accelcal.methods.dividing_head.sizes.MAX_DENSE_POSITIONS`
+    positions) from ``observations['d_alpha']`` and ``['d_alpha_std']``.
+    """
+    if reduction.shared is not None:
+        return reduction.shared.values, reduction.shared.std
+    if "d_alpha" in reduction.observations:
+        return reduction.observations["d_alpha"], reduction.observations["d_alpha_std"]
+    return None
 
 
 def _figure():
@@ -72,8 +86,8 @@ def angle_error_figure(reduction, truth=None) -> tuple:
     """The separated head angle error with 1 sigma error bars (and the truth, gauge removed)."""
     rad = np.asarray(reduction.observations["positions"])
     x = rad / DEG
-    est = reduction.shared.values / ARCSEC
-    sd = reduction.shared.std / ARCSEC
+    values, std = head_error(reduction)
+    est, sd = np.asarray(values) / ARCSEC, np.asarray(std) / ARCSEC
     fig = _figure()
     ax = fig.add_subplot()
     ax.errorbar(x, est, yerr=sd, marker="o", ms=3, capsize=2, lw=1, label="separated")

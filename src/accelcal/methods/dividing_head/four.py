@@ -4,9 +4,11 @@ Steps 0-7: normalise each sensor by its own scale factor; separate the
 harmonics >= 4 of the head error from V_z and harmonics 2, 3 from sensor
 1; compensate every sensor and fit Psi(beta_k); remove the first-harmonic
 alias when the first harmonic is given; K_O* absorbs misalignment and the
-mean head error; covariance. Every step is a linear operator of the
-normalised outputs (:class:`FourOperator`), built once per design, so the
-Monte Carlo sampler applies the same code to many trials at once.
+mean head error; covariance. Every step is linear in the normalised
+outputs: :class:`~accelcal.methods.dividing_head.factors.FourFactors` holds
+the steps as factors linear in the number of positions (the reduction of
+measured data), :class:`FourOperator` their dense ``(K n)``-column form for
+the Monte Carlo paths, which apply it to many trials at once.
 
 References
 ----------
@@ -21,23 +23,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.limits import shown
 from accelcal.methods.dividing_head.data import HeadData
+from accelcal.methods.dividing_head.factors import FourFactors
 from accelcal.methods.dividing_head.joint import identifiability
 from accelcal.methods.dividing_head.result import (
     K_O_STAR,
+    angle_fields,
     first_harmonic_terms,
     head_reduction,
 )
-from accelcal.methods.dividing_head.single import scale_factors, single_operator
-from accelcal.methods.dividing_head.theory import (
-    COEFFICIENTS,
-    alias_jacobian,
-    angle_names,
-    coefficient_units,
-    harmonics,
-    is_uniform,
-)
+from accelcal.methods.dividing_head.single import scale_factors
+from accelcal.methods.dividing_head.sizes import MAX_DENSE_POSITIONS
+from accelcal.methods.dividing_head.theory import COEFFICIENTS, coefficient_units
 from accelcal.results import Assumption, Estimate, Reduction
+from accelcal.signal.resources import check_memory
 
 
 def residual_noise_variances(operator: np.ndarray, residuals: np.ndarray, *,
@@ -54,8 +54,9 @@ def residual_noise_variances(operator: np.ndarray, residuals: np.ndarray, *,
 
     Parameters
     ----------
-    operator : numpy.ndarray, shape (K, n, K, n)
-        Residual operator ``R`` (sensor, position, sensor, reading).
+    operator : numpy.ndarray, shape (K, n, K, n) or (K, K)
+        Residual operator ``R`` (sensor, position, sensor, reading), or
+        directly its moments ``M`` (:meth:`FourFactors.residual_moments`).
     residuals : numpy.ndarray, shape (..., K, n)
 
     Returns
@@ -67,7 +68,8 @@ def residual_noise_variances(operator: np.ndarray, residuals: np.ndarray, *,
     .. [1] docs/dividing-head.md, the four-sensor covariance; Dong2014 eq. (30)
        for the single-sensor case (M diagonal, n - 5).
     """
-    moments = np.einsum("kjlm,kjlm->kl", operator, operator)
+    moments = operator if operator.ndim == 2 else \
+        np.einsum("kjlm,kjlm->kl", operator, operator)
     rss = np.einsum("...kn,...kn->...k", residuals, residuals)
     common = rss.sum(axis=-1) / moments.sum()
     if pooled:
@@ -79,10 +81,12 @@ def residual_noise_variances(operator: np.ndarray, residuals: np.ndarray, *,
 
 @dataclass(frozen=True)
 class FourOperator:
-    """Linear operators of the corrected four-sensor reduction for one design.
+    """Dense linear operators of the corrected four-sensor reduction for one design.
 
     All act on normalised outputs ``U'_k = U_k / K_I,k`` flattened sensor-major
-    to a vector of length ``K n``.
+    to a vector of length ``K n``; formed from :class:`FourFactors` for the
+    Monte Carlo paths (quadratic in n: the reduction of measured data uses
+    the factors).
 
     Attributes
     ----------
@@ -111,53 +115,16 @@ class FourOperator:
         Raises
         ------
         AccelcalError
-            If the positions are not equally spaced over the circle, fewer
-            than 12, or the mounts do not cancel in V_z (sum exp(2 i phi) != 0).
-
-        References
-        ----------
-        .. [1] Dong2014, eqs. (15)-(26), corrected as [DOMAIN] section 4,
-           reduction steps 1-4.
+            As :meth:`FourFactors.build`, or when the ``(K n)^2`` operators
+            would not fit in memory.
         """
-        alpha = np.asarray(positions, dtype=float)
-        phi = np.asarray(mounts, dtype=float)
-        n, k = alpha.size, phi.size
-        if n < 12:
-            raise AccelcalError(
-                f"method four needs at least 12 equally spaced positions (harmonics up to 5 "
-                f"of the head error are separated); got {n}"
-            )
-        if not is_uniform(alpha):
-            raise AccelcalError(
-                "method four needs equally spaced positions over the full circle; "
-                "use method joint for other position sets"
-            )
-        if k < 2 or abs(np.exp(2j * phi).sum()) > 1e-9 * k:
-            raise AccelcalError(
-                "method four needs mounts whose doubled phases cancel (sum of exp(2i phi) = 0), "
-                "e.g. 0,90,180,270 or 0,90 deg; use method joint for other mounts"
-            )
-        beta = alpha[None, :] + phi[:, None]
-        cosb = np.cos(beta)
-        eye = np.eye(k * n).reshape(k, n, k * n)  # eye[k] selects sensor k's outputs
-        # Step 1: V_z = sum_k U'_k cos(beta_k); its harmonics >= 4 are (K/2) d_alpha.
-        wz = np.einsum("kn,knm->nm", cosb, eye)  # Eq. (15) [DOMAIN]
-        h3 = harmonics(alpha, 3)
-        p3 = np.eye(n) - h3 @ np.linalg.pinv(h3)
-        d_ge4 = p3 @ wz / (0.5 * k)  # Eq. (17) [Dong2014], factor K/2 [DOMAIN]
-        # Step 2: sensor 1's fit after removing d_ge4: d2, d3 directly (= 2 M(3rd) - d4 ...).
-        h23 = np.stack([np.cos(2 * alpha), np.sin(2 * alpha), np.cos(3 * alpha),
-                        np.sin(3 * alpha)], axis=-1)
-        fit1 = np.concatenate([harmonics(alpha, 2), h23 * cosb[0][:, None]], axis=-1)
-        d23 = np.linalg.pinv(fit1)[5:] @ (eye[0] - cosb[0][:, None] * d_ge4)  # Eq. (21) [DOMAIN]
-        # Step 3: d_hi = harmonics 2, 3 and >= 4 of d_alpha.
-        d_hi = d_ge4 + h23 @ d23
-        # Step 4: V'_k = U'_k - d_hi cos(beta_k), regressed on Psi(beta_k).
-        pinv, hat_res, cov_unit = single_operator(beta)
-        v = eye - cosb[:, :, None] * d_hi[None]  # Eq. (22) corrected [DOMAIN]
-        coef = pinv @ v  # Eq. (24) [Dong2014]
-        resid = hat_res @ v  # Eq. (29) [Dong2014]
-        return cls(coef, resid, d_hi, cov_unit, alias_jacobian(phi))
+        k, n = np.size(mounts), np.size(positions)
+        check_memory(k * n, k * n, 3 + 1 / k, f"the dense four-sensor operators of {n} "
+                     f"positions x {k} sensors (Monte Carlo paths)",
+                     hint="the formal uncertainty (linear in the readings) has no such limit")
+        fac = FourFactors.build(positions, mounts)
+        coef, resid, angle = fac.dense()
+        return cls(coef, resid, angle, fac.cov_unit, fac.alias)
 
     def noise_variances(self, residuals: np.ndarray) -> np.ndarray:
         """Noise variance of each sensor's normalised outputs from the step-4 residuals.
@@ -195,6 +162,15 @@ class FourOperator:
 
 
 FOUR_COVARIANCES = ("paper", "propagated")
+"""Covariances of :func:`four` (default ``propagated``)."""
+
+PAPER_COVARIANCE_TEXT = (
+    "covariance 'paper': Dong2014 eq. (31), each sensor's residual variance times "
+    "(Psi' Psi)^-1; it omits the noise the separated head error carries into every "
+    "sensor's fit and is optimistic: its SDs are 1.3-1.9x too small, covering the 95 % "
+    "interval 0.65-0.87 of the time instead of 0.95 (docs/dividing-head.md; the default "
+    "covariance='propagated' covers 0.90-0.955)"
+)
 
 
 def four(
@@ -202,7 +178,7 @@ def four(
     *,
     first_harmonic=None,
     first_harmonic_sd=0.0,
-    covariance: str = "paper",
+    covariance: str = "propagated",
 ) -> Reduction:
     """Four-sensor separation of the head's angle error, as corrected in [DOMAIN].
 
@@ -210,7 +186,8 @@ def four(
     of d_alpha from V_z; 2 harmonics 2, 3 from sensor 1; 3-4 compensate
     each sensor and fit Psi(beta_k); 5 remove the first-harmonic alias if
     d1 is given; 6 K_O* = K_O + K_I (eta + d0); 7 covariance, scaled back
-    by K_I.
+    by K_I. Time and memory are linear in the number of readings
+    (:class:`FourFactors`).
 
     Parameters
     ----------
@@ -224,24 +201,28 @@ def four(
         Standard uncertainty of (d1c, d1s), rad. With ``first_harmonic`` it
         is the measurement's uncertainty; without it, a bound on the
         neglected first harmonic carried as a systematic uncertainty.
-    covariance : {"paper", "propagated"}
+    covariance : {"propagated", "paper"}
+        ``propagated`` (default): the readings' noise (each sensor's
+        variance estimated without bias from all residuals,
+        :func:`residual_noise_variances`) propagated exactly through the
+        linear steps 1-5, with the covariances between sensors (and, up to
+        :data:`~accelcal.methods.dividing_head.sizes.MAX_DENSE_POSITIONS`
+        positions, with the head error) in ``Reduction.covariance``.
         ``paper``: step 7, ``s^2 (Psi' Psi)^-1`` per sensor from its own
-        residuals (Dong2014 eq. (31)); it omits the noise that the separated
-        head error carries into every sensor's fit and understates the
-        scatter (about 1.4 times for four sensors at 24 positions).
-        ``propagated``: the readings' noise (each sensor's variance estimated
-        without bias from all residuals, :func:`residual_noise_variances`)
-        propagated exactly through the linear steps 1-5, with the
-        covariances between sensors and with the head error in
-        ``Reduction.covariance``. Both add the first-harmonic term.
+        residuals (Dong2014 eq. (31)); optimistic: it omits the noise that
+        the separated head error carries into every sensor's fit (SDs
+        1.3-1.9x too small, 95 % coverage 0.65-0.87; the assumption
+        ``covariance`` says so). Both add the first-harmonic term.
 
     Returns
     -------
     Reduction
         Method ``dividing-head/four``: per-sensor coefficients (output unit),
         the separated head error (harmonics >= 2, plus the first harmonic
-        when given) as ``shared``, the identifiability of the joint design,
-        and assumptions ``first_harmonic`` and ``covariance``.
+        when given) as ``shared`` (up to ``MAX_DENSE_POSITIONS`` positions;
+        beyond, ``observations['d_alpha']`` and ``['d_alpha_std']``), the
+        identifiability of the joint design, and assumptions
+        ``first_harmonic`` and ``covariance``.
 
     References
     ----------
@@ -249,55 +230,61 @@ def four(
     """
     if covariance not in FOUR_COVARIANCES:
         raise AccelcalError(
-            f"{covariance!r} is not one of {', '.join(FOUR_COVARIANCES)}", parameter="covariance"
-        )
-    op = FourOperator.build(data.positions, data.mounts)
+            f"{shown(covariance)} is not one of {', '.join(FOUR_COVARIANCES)}",
+            parameter="covariance")
+    fac = FourFactors.build(data.positions, data.mounts)
     k_i = scale_factors(data)  # Step 0 [DOMAIN]
-    u = (data.outputs / k_i[:, None]).reshape(-1)
-    x = op.coef @ u
-    resid = op.resid @ u
+    u = data.outputs / k_i[:, None]
+    x, resid, d_hi = fac.apply(u)
     n, k = data.positions.size, data.n_sensors
+    dense = n <= MAX_DENSE_POSITIONS
     h1, h1_cov, h1_assumptions = first_harmonic_terms(first_harmonic, first_harmonic_sd)
-    x = x - op.alias @ h1  # Step 5 [DOMAIN]; Eq. (27)-(28) corrected
+    x = x - fac.alias @ h1  # Step 5 [DOMAIN]; Eq. (27)-(28) corrected
     c1 = np.stack([np.cos(data.positions), np.sin(data.positions)], axis=-1)
-    d_hi = op.angle @ u
     if first_harmonic is not None:
         d_hi = d_hi + c1 @ h1
     # first-harmonic part of [coefficients (volts), head error]: -alias h1 and, when given, +c1 h1
-    h1_map = np.concatenate([-(op.alias * k_i[:, None, None]).reshape(5 * k, 2),
-                             c1 if first_harmonic is not None else np.zeros((n, 2))])
-    full = None
+    h1_x = -(fac.alias * k_i[:, None, None]).reshape(5 * k, 2)
+    h1_d = c1 if first_harmonic is not None else np.zeros((n, 2))
     if covariance == "paper":
         s2 = np.einsum("kn,kn->k", resid, resid) / (n - 5)  # Eq. (30) [Dong2014]
-        cov = s2[:, None, None] * op.cov_unit  # Eq. (31) [Dong2014]
-        cov = cov + op.alias @ h1_cov @ np.swapaxes(op.alias, -1, -2)
-        cov = k_i[:, None, None] ** 2 * cov
-        d_cov = float(s2.mean()) * op.angle @ op.angle.T + h1_map[5 * k:] @ h1_cov @ \
-            h1_map[5 * k:].T
-        cov_note = ("covariance from each sensor's residual variance (Dong2014 eq. (31)); it "
-                    "omits the noise carried in by the separated head error (1.3-1.5x too "
-                    "small for four sensors at 24 positions; covariance='propagated')")
+        blocks = s2[:, None, None] * fac.cov_unit  # Eq. (31) [Dong2014]
+        cov_x = np.zeros((5 * k, 5 * k))
+        for j in range(k):
+            cov_x[5 * j:5 * j + 5, 5 * j:5 * j + 5] = blocks[j]
+        variances = np.full(k, float(s2.mean()))
+        cov_note = PAPER_COVARIANCE_TEXT
         angle_note = "covariance from the pooled residual variance"
     else:
-        scale = np.concatenate([np.repeat(k_i, 5), np.ones(n)])
-        full = op.propagated_covariance(op.noise_variances(resid)) * np.outer(scale, scale)
-        full = full + h1_map @ h1_cov @ h1_map.T
-        cov = np.stack([full[5 * j:5 * j + 5, 5 * j:5 * j + 5] for j in range(k)])
-        d_cov = full[5 * k:, 5 * k:]
+        variances = residual_noise_variances(fac.residual_moments(), resid)
+        cov_x = fac.coefficient_covariance(variances)
         cov_note = angle_note = ("covariance propagated from the readings' noise through every "
                                  "step (head error's share included)")
+    cov_d, cov_xd = fac.angle_covariance(variances, dense=dense)
+    scale = np.repeat(k_i, 5)
+    cov_x = cov_x * np.outer(scale, scale) + h1_x @ h1_cov @ h1_x.T
+    full = None
+    if dense:
+        cov_d = cov_d + h1_d @ h1_cov @ h1_d.T
+        if covariance == "propagated":
+            cov_xd = cov_xd * scale[:, None] + h1_x @ h1_cov @ h1_d.T
+            full = np.block([[cov_x, cov_xd], [cov_xd.T, cov_d]])
+    else:
+        cov_d = cov_d + np.einsum("ni,ij,nj->n", h1_d, h1_cov, h1_d)
+        if covariance == "propagated":
+            full = cov_x
+    cov = np.stack([cov_x[5 * j:5 * j + 5, 5 * j:5 * j + 5] for j in range(k)])
     units = coefficient_units(data.output_unit)
     sensors = tuple(
         Estimate(COEFFICIENTS, k_i[j] * x[j], cov[j], units, "four",
                  residuals=k_i[j] * resid[j], dof=n - 5)
         for j in range(k)
     )
-    names = angle_names(n)
-    angle = Estimate(names, d_hi, d_cov, dict.fromkeys(names, "rad"), "four",
-                     notes=(angle_note,))
     assumptions = (*h1_assumptions, K_O_STAR, Assumption("covariance", covariance, "", cov_note))
+    shared, observations, notes = angle_fields(d_hi, cov_d, "four", angle_note)
     return head_reduction(
-        data, "four", sensors, shared=angle, covariance=full, dof=n - 5,
+        data, "four", sensors, shared=shared, covariance=full, dof=n - 5,
         identifiability=identifiability(data.positions, data.mounts, data.sensors),
         assumptions=assumptions, provenance={"covariance": covariance},
+        observations=observations, notes=notes,
     )

@@ -28,14 +28,18 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.identifiability import Identifiability, analyse
-from accelcal.io.formats.dividing_head import check_positions
+from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD, check_positions
+from accelcal.io.limits import shown
+from accelcal.methods.dividing_head.arrow import design_identifiability, solve_arrow
 from accelcal.methods.dividing_head.data import HeadData
 from accelcal.methods.dividing_head.result import (
     K_O_STAR,
+    angle_fields,
     first_harmonic_terms,
     head_reduction,
 )
 from accelcal.methods.dividing_head.single import scale_factors
+from accelcal.methods.dividing_head.sizes import MAX_DENSE_POSITIONS, check_count
 from accelcal.methods.dividing_head.theory import (
     COEFFICIENTS,
     angle_names,
@@ -43,6 +47,7 @@ from accelcal.methods.dividing_head.theory import (
     psi,
 )
 from accelcal.results import Assumption, Estimate, Reduction
+from accelcal.signal.resources import check_memory
 
 ZERO_ENTRY = 1e-12
 """Design entries (sines and cosines, |x| <= 1) below this are taken as zero: rounding
@@ -139,17 +144,18 @@ def identifiability(positions, mounts, sensors=None) -> Identifiability:
 
 @functools.lru_cache(maxsize=16)
 def _identifiability(alpha: bytes, phi: bytes, labels: tuple) -> Identifiability:
-    """:func:`identifiability` of one design, computed once (every reduction of it asks)."""
+    """:func:`identifiability` of one design, computed once (every reduction of it asks).
+
+    O(n) time and memory (:func:`~accelcal.methods.dividing_head.arrow.design_identifiability`).
+    Entries are products of sines and cosines of angles known to ~1e-15 rad: below
+    ZERO_ENTRY they are rounded zeros (cos 90 deg = 6e-17), which column equilibration
+    would otherwise inflate to a unit column (a head error no sensor sees, e.g. at
+    90 deg with mounts 0/180, would look observable).
+    """
     alpha, phi = np.frombuffer(alpha), np.frombuffer(phi)
-    a, dcols = joint_design(alpha, phi)
-    design = np.concatenate([a, dcols], axis=1)
-    # Entries are products of sines and cosines of angles known to ~1e-15 rad: below
-    # ZERO_ENTRY they are rounded zeros (cos 90 deg = 6e-17), which column equilibration
-    # would otherwise inflate to a unit column (a head error no sensor sees, e.g. at
-    # 90 deg with mounts 0/180, would look observable).
-    design[np.abs(design) < ZERO_ENTRY] = 0.0
+    beta = alpha[None, :] + phi[:, None]
     names = (*(f"{s} {c}" for s in labels for c in COEFFICIENTS), *angle_names(alpha.size))
-    ident = analyse(design, names)
+    ident = design_identifiability(psi(beta), np.cos(beta), names, ZERO_ENTRY)
     ident.null_space.setflags(write=False)  # shared by every caller of the cache
     return ident
 
@@ -161,7 +167,11 @@ def null_space_dim(ident: Identifiability) -> int:
 
 @dataclass(frozen=True)
 class JointOperator:
-    """Linear operators of the gauge-constrained joint least squares.
+    """Dense linear operators of the gauge-constrained joint least squares (Monte Carlo paths).
+
+    Quadratic in the number of positions: :func:`joint` (the reduction of
+    measured data) solves the same problem with
+    :func:`~accelcal.methods.dividing_head.arrow.solve_arrow` in linear time.
 
     Unknowns are the normalised coefficients of every sensor and the head
     error ``d = C g + Z z``, where ``C = [1, cos a, sin a]`` carries the
@@ -207,6 +217,10 @@ class JointOperator:
         alpha = np.asarray(positions, dtype=float)
         phi = np.asarray(mounts, dtype=float)
         k, n = phi.size, alpha.size
+        size = k * n + 5 * k + n
+        check_memory(size, size, 4, f"the dense joint operators of {n} positions x {k} "
+                     "sensors (Monte Carlo paths)",
+                     hint="the formal uncertainty (linear in the readings) has no such limit")
         a, dcols = joint_design(alpha, phi)
         c, z = gauge_basis(alpha, True)
         red = np.concatenate([a, dcols @ z], axis=1)
@@ -249,6 +263,9 @@ def joint(
 ) -> Reduction:
     """Joint least squares for all sensors and per-position head errors.
 
+    Time and memory are linear in the number of readings
+    (:func:`~accelcal.methods.dividing_head.arrow.solve_arrow`).
+
     Parameters
     ----------
     data : HeadData
@@ -271,13 +288,16 @@ def joint(
         second-order residual of the linear solution. Autocollimator
         readings enter the iteration as the same pseudo-observations.
     max_iterations : int
-        Gauss-Newton iteration limit.
+        Gauss-Newton iteration limit (>= 1).
 
     Returns
     -------
     Reduction
         Method ``dividing-head/joint``: per-sensor coefficients, the
-        per-position angle errors (``shared``), the full covariance, the
+        per-position angle errors (``shared`` up to
+        :data:`~accelcal.methods.dividing_head.sizes.MAX_DENSE_POSITIONS`
+        positions, else ``observations['d_alpha']``, ``['d_alpha_std']``),
+        the covariance (full, or the coefficients' beyond that size), the
         identifiability of the unconstrained design, and assumptions
         ``first_harmonic`` (given, estimated or zero), ``mean_error``,
         ``autocollimator_sd`` and ``gauss_newton`` where they apply.
@@ -288,61 +308,167 @@ def joint(
     """
     alpha, phi = data.positions, data.mounts
     k, n = phi.size, alpha.size
-    op = JointOperator.build(alpha, phi)
-    ident = identifiability(alpha, phi, data.sensors)
+    if not np.isfinite(mean_error) or abs(mean_error) > MAX_ANGLE_ERROR_RAD:
+        raise AccelcalError(f"must be a finite angle within +-{MAX_ANGLE_ERROR_RAD:.4g} rad "
+                            f"(1 deg), got {shown(mean_error)}", parameter="mean_error")
+    if gauss_newton:
+        check_count(max_iterations, "the iteration limit", 1, parameter="max_iterations")
+    ident = _check_design(alpha, phi, data.sensors)
     k_i = scale_factors(data)  # Step 0 [DOMAIN]
-    u = (data.outputs / k_i[:, None]).reshape(-1)
+    u = data.outputs / k_i[:, None]
     h1, h1_cov, assumptions = first_harmonic_terms(first_harmonic, first_harmonic_sd)
     g = np.array([float(mean_error), *h1])
-    theta = op.to_full @ (op.pinv @ u) + op.gauge @ g
-    resid = op.resid @ u
-    s2 = float(resid @ resid) / op.dof
-    cov = s2 * op.cov_unit + op.gauge[:, 1:] @ h1_cov @ op.gauge[:, 1:].T
-    dof = op.dof
+    beta = data.angles()
+    a, b = psi(beta), np.cos(beta)
+    c3 = gauge_columns(alpha, True)
+    names = [f"x{i}" for i in range(5 * k)]
+    # the solution and its sensitivity to the first harmonic's gauge value (two more columns)
+    y = np.stack([u - b * (c3 @ g), b * c3[:, 1], b * c3[:, 2]], axis=-1)
+    sol = solve_arrow(a, b, y, c3, names=names)
+    x, d = sol.x[:, 0], sol.d[:, 0] + c3 @ g
+    gauge = (-sol.x[:, 1:], c3[:, 1:] - sol.d[:, 1:])  # d[x, d]/d(d1c, d1s)
+    resid = u - np.einsum("knp,kp->kn", a, x.reshape(k, 5)) - b * d
+    dof = k * n - (5 * k + n - 3)
+    s2 = float(np.sum(resid**2)) / dof
+    h1_term = gauge
     observations = {}
     if autocollimator is not None:
-        theta, cov, extra, sigma = _with_autocollimator(
-            data, u=u, g=g, h1_fixed=first_harmonic is not None, readings=autocollimator,
-            sd=autocollimator_sd, s2=s2,
-        )
-        if first_harmonic is not None:
-            cov = cov + op.gauge[:, 1:] @ h1_cov @ op.gauge[:, 1:].T
-        a, dcols = joint_design(alpha, phi)
-        resid = u - a @ theta[:5 * k] - dcols @ theta[5 * k:]
-        assumptions = (*assumptions, extra)
-        observations["autocollimator"] = np.asarray(autocollimator, dtype=float).reshape(-1)
-    scale = np.concatenate([np.repeat(k_i, 5), np.ones(n)])
-    theta = theta * scale
-    cov = cov * np.outer(scale, scale)
-    resid_v = resid.reshape(k, n) * k_i[:, None]
+        readings = _readings(autocollimator, autocollimator_sd, n)
+        sigma = np.sqrt(s2) if s2 > 0 else float(autocollimator_sd)
+        cg = gauge_columns(alpha, first_harmonic is not None)
+        gc = g[:cg.shape[1]]
+        prior = (sigma / autocollimator_sd, _free_part(readings, cg)[:, None])
+        sol = solve_arrow(a, b, (u - b * (cg @ gc))[..., None], cg, prior=prior, names=names)
+        x, d = sol.x[:, 0], sol.d[:, 0] + cg @ gc
+        resid = u - np.einsum("knp,kp->kn", a, x.reshape(k, 5)) - b * d
+        s2 = sigma**2  # the pseudo rows fix the scale: data rows weighted by 1/sigma
+        h1_term = gauge if first_harmonic is not None else None
+        text = (f"autocollimator readings used as pseudo-observations "
+                f"(sd {autocollimator_sd:.3g} rad)")
+        assumptions = (*assumptions, Assumption("autocollimator_sd", float(autocollimator_sd),
+                                                "rad", text))
+        observations["autocollimator"] = readings
+    dense = n <= MAX_DENSE_POSITIONS
+    xscale = np.repeat(k_i, 5)
+    theta_x, resid_v = x * xscale, resid * k_i[:, None]
     if gauss_newton:
-        pseudo = None
-        if autocollimator is not None:
-            pseudo = (np.asarray(autocollimator, dtype=float).reshape(-1),
-                      float(autocollimator_sd), sigma)
-        theta, cov, resid_v, dof, gn = _gauss_newton(
-            data, theta, g, h1_cov=h1_cov, op=op, max_iterations=max_iterations,
-            h1_fixed=autocollimator is None or first_harmonic is not None, pseudo=pseudo,
-        )
+        pseudo = None if autocollimator is None else (readings, float(autocollimator_sd), sigma)
+        h1_fixed = autocollimator is None or first_harmonic is not None
+        theta_x, d, resid_v, sol, s2, gn = _gauss_newton(
+            data, theta_x, d, g, max_iterations=max_iterations, h1_fixed=h1_fixed,
+            pseudo=pseudo, dof=dof)
+        h1_term = gauge if h1_fixed else None
         assumptions = (*assumptions, gn)
+        xscale = np.ones(5 * k)  # the iteration's unknowns are in the output unit
+    cov_x, cov_xd, cov_d = _covariances(sol, s2, h1_term, h1_cov, xscale=xscale, k_i=k_i,
+                                        dense=dense)
     if autocollimator is not None and first_harmonic is None:
-        assumptions = _estimated_first_harmonic(alpha, theta[5 * k:], assumptions)
+        assumptions = _estimated_first_harmonic(alpha, d, assumptions)
     units = coefficient_units(data.output_unit)
     sensors = tuple(
-        Estimate(COEFFICIENTS, theta[5 * i:5 * i + 5], cov[5 * i:5 * i + 5, 5 * i:5 * i + 5],
+        Estimate(COEFFICIENTS, theta_x[5 * i:5 * i + 5], cov_x[5 * i:5 * i + 5, 5 * i:5 * i + 5],
                  units, "joint", residuals=resid_v[i], dof=dof)
         for i in range(k)
     )
-    names = angle_names(n)
-    angle = Estimate(names, theta[5 * k:], cov[5 * k:, 5 * k:], dict.fromkeys(names, "rad"),
-                     "joint", dof=dof)
+    shared, extra, notes = angle_fields(d, cov_d, "joint", "covariance of the joint solution")
+    full = np.block([[cov_x, cov_xd], [cov_xd.T, cov_d]]) if dense else cov_x
     assumptions = (*assumptions, K_O_STAR,
                    Assumption("mean_error", float(mean_error), "rad"))
+    if shared is not None:
+        shared = Estimate(shared.names, shared.values, shared.covariance, shared.units, "joint",
+                          dof=dof)
     return head_reduction(
-        data, "joint", sensors, pooled_sigma=True, shared=angle, covariance=cov, dof=dof,
-        identifiability=ident, assumptions=assumptions, observations=observations,
+        data, "joint", sensors, pooled_sigma=True, shared=shared, covariance=full, dof=dof,
+        identifiability=ident, assumptions=assumptions, observations={**observations, **extra},
+        notes=notes,
         provenance={"gauss_newton": bool(gauss_newton), "max_iterations": int(max_iterations)},
     )
+
+
+def joint_noise_variance(data: HeadData) -> float:
+    """Variance of the normalised readings from the linear joint fit without readings (r'r/dof).
+
+    Linear in the number of readings.
+    """
+    alpha, phi = data.positions, data.mounts
+    k, n = phi.size, alpha.size
+    _check_design(alpha, phi, data.sensors)
+    u = data.outputs / scale_factors(data)[:, None]
+    beta = data.angles()
+    a, b = psi(beta), np.cos(beta)
+    sol = solve_arrow(a, b, u[..., None], gauge_columns(alpha, True))
+    resid = u - np.einsum("knp,kp->kn", a, sol.x[:, 0].reshape(k, 5)) - b * sol.d[:, 0]
+    return float(np.sum(resid**2)) / (k * n - (5 * k + n - 3))
+
+
+def gauge_columns(alpha, with_first_harmonic: bool) -> np.ndarray:
+    """The gauge directions of the head error: ``[1]`` or ``[1, cos a, sin a]``, ``(n, 1 | 3)``."""
+    cols = [np.ones_like(alpha)]
+    if with_first_harmonic:
+        cols += [np.cos(alpha), np.sin(alpha)]
+    return np.stack(cols, axis=-1)
+
+
+def _check_design(alpha, phi, sensors) -> Identifiability:
+    """The design's identifiability; refuse one without degrees of freedom or not identifiable."""
+    k, n = phi.size, alpha.size
+    p = 5 * k + n - 3
+    if k * n <= p:
+        raise AccelcalError(
+            f"method joint: {k} sensors x {n} positions = {k * n} readings for "
+            f"{p} unknowns leave no degree of freedom; add positions or sensors"
+        )
+    ident = identifiability(alpha, phi, sensors)
+    if null_space_dim(ident) > 3:
+        raise AccelcalError(
+            f"method joint: the design is not identifiable (null space dimension "
+            f"{null_space_dim(ident)}, 3 removable by the gauge); "
+            "use two or more sensors not 180 deg apart"
+        )
+    return ident
+
+
+def _readings(readings, sd, n) -> np.ndarray:
+    """Checked autocollimator readings (rad)."""
+    r = np.asarray(readings, dtype=float).reshape(-1)
+    if r.size != n or not np.isfinite(r).all():
+        raise AccelcalError(
+            f"need {n} finite readings (one per position), got {r.size}",
+            parameter="autocollimator",
+        )
+    if np.abs(r).max() > MAX_ANGLE_ERROR_RAD:
+        raise AccelcalError(f"readings beyond +-1 deg ({np.abs(r).max():.3g} rad) are not a "
+                            "head's angle error; check the unit (rad)", parameter="autocollimator")
+    if sd is None or not np.isfinite(sd) or sd <= 0 or sd > MAX_ANGLE_ERROR_RAD:
+        raise AccelcalError("autocollimator readings need their standard uncertainty "
+                            "(> 0 and at most 1 deg, in rad)", parameter="autocollimator_sd")
+    return r
+
+
+def _free_part(readings, c) -> np.ndarray:
+    """The readings minus their least-squares part along the gauge columns ``c``."""
+    return readings - c @ np.linalg.lstsq(c, readings, rcond=None)[0]
+
+
+def _covariances(sol, s2, h1_term, h1_cov, *, xscale, k_i, dense):
+    """Covariances of the coefficients (output unit), with the head error and of the head error.
+
+    ``h1_term`` = (d x/d h1, d d/d h1) of the linear solution (normalised
+    coefficients) or None; its coefficient rows are scaled by ``k_i``.
+    """
+    cov_x = s2 * sol.vx * np.outer(xscale, xscale)
+    cov_d = s2 * sol.cov_d(dense=dense)
+    cov_xd = -s2 * (sol.vx * xscale[:, None]) @ sol.pd.T if dense else None
+    if h1_term is not None:
+        gx = h1_term[0] * np.repeat(k_i, 5)[:, None]
+        gd = h1_term[1]
+        cov_x = cov_x + gx @ h1_cov @ gx.T
+        if dense:
+            cov_xd = cov_xd + gx @ h1_cov @ gd.T
+            cov_d = cov_d + gd @ h1_cov @ gd.T
+        else:
+            cov_d = cov_d + np.einsum("ni,ij,nj->n", gd, h1_cov, gd)
+    return cov_x, cov_xd, cov_d
 
 
 def _estimated_first_harmonic(alpha, d, assumptions) -> tuple:
@@ -356,119 +482,59 @@ def _estimated_first_harmonic(alpha, d, assumptions) -> tuple:
             Assumption("first_harmonic_value", (float(h1[0]), float(h1[1])), "rad"), *kept)
 
 
-def _with_autocollimator(data, *, u, g, h1_fixed, readings, sd, s2):
-    """Weighted joint fit with autocollimator pseudo-observations on the free part of d.
-
-    Returns the estimates, their covariance, the ``autocollimator_sd`` assumption,
-    and the noise ``sigma`` of
-    the normalised readings that weighs the data rows against the readings.
-    """
-    alpha, phi = data.positions, data.mounts
-    k, n = phi.size, alpha.size
-    r = np.asarray(readings, dtype=float).reshape(-1)
-    if r.size != n or not np.isfinite(r).all():
-        raise AccelcalError(
-            f"need {n} finite readings (one per position), got {r.size}",
-            parameter="autocollimator",
-        )
-    if sd is None or not np.isfinite(sd) or sd <= 0:
-        raise AccelcalError("autocollimator readings need their standard uncertainty (> 0 rad)",
-                            parameter="autocollimator_sd")
-    a, dcols = joint_design(alpha, phi)
-    c, z = gauge_basis(alpha, h1_fixed)
-    gc = g[: c.shape[1]]
-    sigma = np.sqrt(s2) if s2 > 0 else sd
-    design = np.concatenate([
-        np.concatenate([a, dcols @ z], axis=1) / sigma,
-        np.concatenate([np.zeros((z.shape[1], 5 * k)), np.eye(z.shape[1])], axis=1) / sd,
-    ])
-    # z = Z' r has covariance sd^2 I and no dependence on the readings' zero.
-    y = np.concatenate([(u - dcols @ (c @ gc)) / sigma, (z.T @ r) / sd])
-    q, rr = np.linalg.qr(design)
-    sol = np.linalg.solve(rr, q.T @ y)
-    rinv = np.linalg.inv(rr)
-    to_full = np.zeros((5 * k + n, design.shape[1]))
-    to_full[:5 * k, :5 * k] = np.eye(5 * k)
-    to_full[5 * k:, 5 * k:] = z
-    theta = to_full @ sol
-    theta[5 * k:] += c @ gc
-    cov = to_full @ (rinv @ rinv.T) @ to_full.T
-    text = f"autocollimator readings used as pseudo-observations (sd {sd:.3g} rad)"
-    return theta, cov, Assumption("autocollimator_sd", float(sd), "rad", text), sigma
-
-
-def _gauss_newton(data, theta, g, *, h1_cov, op, max_iterations, h1_fixed=True, pseudo=None):
+def _gauss_newton(data, theta_x, d, g, *, max_iterations, h1_fixed, pseudo, dof):
     """Refine the joint solution on the exact model, in the output unit.
 
     The model ``U_kj = Psi(beta_kj + d_j) . theta_k`` is solved by
-    Gauss-Newton with ``d = C g + Z z`` (the gauge: the mean, and the first
-    harmonic when ``h1_fixed``), rows weighted by 1/K_I of their sensor.
-    ``pseudo = (readings, sd, sigma)`` adds the autocollimator readings as
-    pseudo-observations of the free part ``Z' d`` (standard uncertainty
-    ``sd``; ``sigma`` is the noise of the normalised readings, which weighs
-    the two kinds of row), as in the linear solution; the covariance is
-    then that of the whitened system.
+    Gauss-Newton with the step of ``d`` orthogonal to the gauge (the mean,
+    and the first harmonic when ``h1_fixed``), rows weighted by 1/K_I of
+    their sensor. ``pseudo = (readings, sd, sigma)`` adds the autocollimator
+    readings as pseudo-observations of the free part of ``d`` (standard
+    uncertainty ``sd``; ``sigma`` is the noise of the normalised readings,
+    which weighs the two kinds of row), as in the linear solution; the
+    covariance is then that of the whitened system.
+
+    Returns
+    -------
+    theta_x, d, residuals (output unit), the last step's solution (its
+    covariance factors), the variance ``s2`` of the weighted rows, and the
+    ``gauss_newton`` assumption.
     """
-    alpha, phi = data.positions, data.mounts
-    k, n = phi.size, alpha.size
-    c, z = gauge_basis(alpha, h1_fixed)
+    alpha = data.positions
+    k = data.n_sensors
+    cg = gauge_columns(alpha, h1_fixed)
+    d_fixed = cg @ g[:cg.shape[1]]
     beta = data.angles()
-    w = 1.0 / theta[1:5 * k:5]
-    th = theta[:5 * k].copy()
-    zz = z.T @ theta[5 * k:]
-    d_fixed = c @ g[:c.shape[1]]
-    m = z.shape[1]
-    if pseudo is not None:
-        readings, sd, sigma = pseudo
-        z_meas = z.T @ readings  # independent of the readings' zero (z is orthogonal to 1)
-        # pseudo rows in the units of the normalised readings: weight sigma / sd
-        prior = np.concatenate([np.zeros((m, 5 * k)), np.eye(m)], axis=1) * (sigma / sd)
+    w = 1.0 / theta_x[1::5]
+    th, d = theta_x.copy(), d.copy()
+    target = None if pseudo is None else _free_part(pseudo[0], cg)
+    names = [f"x{i}" for i in range(5 * k)]
     converged = False
-    for _ in range(max(1, int(max_iterations))):
-        d = d_fixed + z @ zz
+    for _ in range(int(max_iterations)):
         gam = beta + d[None, :]
-        p = psi(gam)  # (K, n, 5)
         t = th.reshape(k, 5)
-        f = np.einsum("knp,kp->kn", p, t)
+        a = psi(gam)
+        f = np.einsum("knp,kp->kn", a, t)
         fprime = (t[:, 1:2] * np.cos(gam) - t[:, 2:3] * np.sin(gam)
                   + t[:, 3:4] * np.cos(2 * gam) + t[:, 4:5] * np.sin(2 * gam))
-        jac = np.zeros((k, n, 5 * k + m))
-        for i in range(k):
-            jac[i, :, 5 * i:5 * i + 5] = p[i]
-        jac[:, :, 5 * k:] = fprime[:, :, None] * z[None]
-        jac = (jac * w[:, None, None]).reshape(k * n, -1)
-        res = ((data.outputs - f) * w[:, None]).reshape(-1)
-        if pseudo is not None:
-            jac = np.concatenate([jac, prior])
-            res = np.concatenate([res, (z_meas - zz) * (sigma / sd)])
-        step = np.linalg.lstsq(jac, res, rcond=None)[0]
-        th = th + step[:5 * k]
-        zz = zz + step[5 * k:]
-        if np.abs(step[:5 * k] * np.repeat(w, 5)).max() < 1e-14 and \
-                np.abs(step[5 * k:]).max() < 1e-14:
+        res = (data.outputs - f) * w[:, None]
+        prior = None if pseudo is None else \
+            (pseudo[2] / pseudo[1], (target - (d - d_fixed))[:, None])
+        sol = solve_arrow(a * w[:, None, None], fprime * w[:, None], res[..., None], cg,
+                          prior=prior, names=names)
+        th = th + sol.x[:, 0]
+        d = d + sol.d[:, 0]
+        if np.abs(sol.x[:, 0] * np.repeat(w, 5)).max() < 1e-14 and \
+                np.abs(sol.d[:, 0]).max() < 1e-14:
             converged = True
             break
-    d = d_fixed + z @ zz
     gam = beta + d[None, :]
-    f = np.einsum("knp,kp->kn", psi(gam), th.reshape(k, 5))
-    resid_v = data.outputs - f
-    res_w = (resid_v * w[:, None]).reshape(-1)
-    dof = op.dof
-    _q, r = np.linalg.qr(jac)
-    rinv = np.linalg.inv(r)
-    to_full = np.zeros((5 * k + n, jac.shape[1]))
-    to_full[:5 * k, :5 * k] = np.eye(5 * k)
-    to_full[5 * k:, 5 * k:] = z
+    resid_v = data.outputs - np.einsum("knp,kp->kn", psi(gam), th.reshape(k, 5))
+    res_w = resid_v * w[:, None]
     # the weighted rows are in normalised units: their variance is s2 (estimated
     # here), or sigma^2 (the linear solution's) when pseudo rows fix the scale
-    s2 = float(res_w @ res_w) / dof if pseudo is None else pseudo[2] ** 2
-    new_cov = s2 * to_full @ (rinv @ rinv.T) @ to_full.T
-    scale = np.concatenate([np.repeat(1.0 / w, 5), np.ones(n)])
-    if h1_fixed:
-        # the first-harmonic term of the linear solution (same gauge sensitivity to first order)
-        new_cov = new_cov + (op.gauge[:, 1:] * scale[:, None]) @ h1_cov @ \
-            (op.gauge[:, 1:] * scale[:, None]).T
+    s2 = float(np.sum(res_w**2)) / dof if pseudo is None else pseudo[2] ** 2
     text = "Gauss-Newton on the exact model " + ("converged" if converged else
                                                  f"stopped after {max_iterations} iterations")
     gn = Assumption("gauss_newton", "converged" if converged else "stopped", "", text)
-    return np.concatenate([th, d]), new_cov, resid_v, dof, gn
+    return th, d, resid_v, sol, s2, gn

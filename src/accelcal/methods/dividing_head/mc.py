@@ -17,7 +17,7 @@ Synthetic data sets are drawn from the fitted coefficients of every sensor
   the drawn head error plus Gaussian noise of their standard uncertainty.
 
 Each data set is reduced by the same linear operators as the measured data
-(:func:`~accelcal.methods.dividing_head.single.single_operator`,
+(:func:`~accelcal.methods.dividing_head.single.single_pinv`,
 :class:`~accelcal.methods.dividing_head.four.FourOperator`,
 :class:`~accelcal.methods.dividing_head.joint.JointOperator`), after the same
 normalisation by each sensor's fitted scale factor, vectorised over trials.
@@ -39,13 +39,28 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD
+from accelcal.io.limits import shown
 from accelcal.methods.dividing_head.data import HeadData
+from accelcal.methods.dividing_head.factors import FourFactors
 from accelcal.methods.dividing_head.four import FourOperator, residual_noise_variances
-from accelcal.methods.dividing_head.joint import JointOperator, gauge_basis, joint_design
-from accelcal.methods.dividing_head.single import scale_factors, single_operator
+from accelcal.methods.dividing_head.joint import (
+    JointOperator,
+    gauge_basis,
+    joint_design,
+    joint_noise_variance,
+)
+from accelcal.methods.dividing_head.single import scale_factors, single_pinv
 from accelcal.methods.dividing_head.theory import COEFFICIENTS, method_name, psi
 from accelcal.results import Reduction
 from accelcal.uncertainty import McUncertainty, propagate
+
+SAMPLER_BYTES = 2**28
+"""Work memory of one batch of synthetic data sets (256 MiB)."""
+
+SAMPLER_ARRAYS = 12
+"""Arrays of ``t x K x n`` floats a batch holds at its peak (angles, the basis Psi (5),
+outputs, noise, normalised outputs, products)."""
 
 MC_METHODS = ("single", "four", "joint")
 """Reductions whose Monte Carlo uncertainty is available."""
@@ -98,11 +113,12 @@ class HeadSampler:
         if self.method not in MC_METHODS:
             raise AccelcalError(
                 f"Monte Carlo uncertainty is available for methods {_MC_LIST}, "
-                f"not {self.method!r}", parameter="method"
+                f"not {shown(self.method)}", parameter="method"
             )
         level = float(self.angle_error_level)
-        if not np.isfinite(level) or level < 0:
-            raise AccelcalError(f"the angle-error level must be finite and >= 0 rad, got {level}",
+        if not np.isfinite(level) or level < 0 or level > MAX_ANGLE_ERROR_RAD:
+            raise AccelcalError(f"the angle-error level must be finite, >= 0 and at most 1 deg "
+                                f"({MAX_ANGLE_ERROR_RAD:.4g} rad), got {level}",
                                 parameter="angle_error_level")
         sd = np.broadcast_to(np.asarray(
             0.0 if self.first_harmonic_sd is None else self.first_harmonic_sd, dtype=float), (2,))
@@ -111,7 +127,7 @@ class HeadSampler:
         c = np.stack([np.ones_like(alpha), np.cos(alpha), np.sin(alpha)], axis=-1)
         ops = {"beta": alpha[None, :] + phi[:, None], "c1": c[:, 1:],
                "gauge_proj": np.linalg.pinv(c), "first_harmonic_sd": sd.copy()}
-        ops["single_pinv"] = single_operator(ops["beta"])[0]
+        ops["single_pinv"] = single_pinv(ops["beta"])[0]
         if self.method == "four":
             ops["four"] = FourOperator.build(alpha, phi)
         elif self.method == "joint":
@@ -138,7 +154,19 @@ class HeadSampler:
         return d + h1 @ ops["c1"].T
 
     def __call__(self, rng: np.random.Generator, t: int) -> np.ndarray:
-        """Errors of ``t`` re-reduced synthetic data sets, shape ``(t, 5 K)``."""
+        """Errors of ``t`` re-reduced synthetic data sets, shape ``(t, 5 K)``.
+
+        Trials are taken :data:`SAMPLER_BYTES` of work memory at a time (all
+        at once for the usual position counts, so the random numbers come in
+        the same order for any ``t`` there).
+        """
+        k, n = np.shape(self.coefficients)[0], self.positions.size
+        step = max(1, int(SAMPLER_BYTES // (SAMPLER_ARRAYS * 8 * k * n)))
+        if t <= step:
+            return self._errors(rng, t)
+        return np.concatenate([self._errors(rng, min(step, t - i)) for i in range(0, t, step)])
+
+    def _errors(self, rng: np.random.Generator, t: int) -> np.ndarray:
         ops = self._ops
         coef = np.asarray(self.coefficients, dtype=float)
         k, n = coef.shape[0], self.positions.size
@@ -224,19 +252,19 @@ def noise_levels(data: HeadData, method: str) -> np.ndarray:
     """
     alpha, phi = data.positions, data.mounts
     k, n = phi.size, alpha.size
-    k_i = scale_factors(data)  # Step 0 [DOMAIN]
     if method == "single":
-        # unnormalised: the single fit does not divide by the scale factor
-        res_op = np.zeros((k, n, k, n))
-        res_op[np.arange(k), :, np.arange(k), :] = single_operator(data.angles())[1]
-        k_i = np.ones(k)
-    elif method == "four":
-        res_op = FourOperator.build(alpha, phi).resid.reshape(k, n, k, n)
-    else:
-        res_op = JointOperator.build(alpha, phi).resid.reshape(k, n, k, n)
-    u = (data.outputs / k_i[:, None]).reshape(-1)
-    r = np.einsum("knm,m->kn", res_op.reshape(k, n, k * n), u)
-    s2 = residual_noise_variances(res_op, r, pooled=method == "joint")
+        # unnormalised: the single fit does not divide by the scale factor; M = (n - 5) I
+        pinv = single_pinv(data.angles())[0]
+        x = np.einsum("kpn,kn->kp", pinv, data.outputs)
+        r = data.outputs - np.einsum("knp,kp->kn", psi(data.angles()), x)
+        return np.sqrt(residual_noise_variances((n - 5.0) * np.eye(k), r))
+    k_i = scale_factors(data)  # Step 0 [DOMAIN]
+    if method == "four":
+        fac = FourFactors.build(alpha, phi)
+        r = fac.apply(data.outputs / k_i[:, None])[1]
+        s2 = residual_noise_variances(fac.residual_moments(), r)
+    else:  # pooled: the joint residual operator is a projector, sum_kl M_kl = dof
+        s2 = np.full(k, joint_noise_variance(data))
     return np.sqrt(s2) * np.abs(k_i)
 
 
@@ -298,9 +326,7 @@ def head_uncertainty(
     noise = noise_levels(data, method)
     weight = None
     if autocollimator_sd is not None:
-        op = JointOperator.build(data.positions, data.mounts)
-        res = op.resid @ (data.outputs / scale_factors(data)[:, None]).reshape(-1)
-        weight = float(np.sqrt(res @ res / op.dof))  # the reduction's own weight
+        weight = float(np.sqrt(joint_noise_variance(data)))  # the reduction's own weight
     sampler = HeadSampler(
         data.positions, data.mounts, coef, noise, method,
         angle_error_level=angle_error_level,

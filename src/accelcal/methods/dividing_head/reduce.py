@@ -18,6 +18,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.dividing_head import HeadRecord
+from accelcal.io.limits import shown
 from accelcal.methods.dividing_head.data import HeadData
 from accelcal.methods.dividing_head.four import four
 from accelcal.methods.dividing_head.joint import joint
@@ -45,7 +46,7 @@ def check_options(method: str, options: dict) -> dict:
         For an unknown method, or an option the method does not take.
     """
     if method not in METHODS:
-        raise AccelcalError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}",
+        raise AccelcalError(f"unknown method {shown(method)}; choose one of {', '.join(METHODS)}",
                             parameter="method")
     given = {k: v for k, v in options.items() if v is not None}
     for name in given:

@@ -2,8 +2,9 @@
 
 Built from the :class:`~accelcal.results.Reduction`'s fields: the method,
 the number of sensors and positions, whether the head error was separated
-(``shared``), and the null space of the joint design
-(``identifiability``: unknowns minus rank).
+(``shared``, or its values in ``observations`` for many positions), and
+the null space of the joint design (``identifiability``: unknowns minus
+rank).
 
 References
 ----------
@@ -12,6 +13,7 @@ References
 """
 
 from accelcal.methods import ReportText
+from accelcal.methods.dividing_head.figures import head_error
 from accelcal.methods.dividing_head.theory import method_name
 
 ERRATA = (
@@ -37,10 +39,11 @@ def report_text(reduction) -> ReportText:
     k = reduction.n_sensors
     n = len(reduction.observations["positions"])
     who = f"{k} accelerometers" if k > 1 else "One accelerometer"
+    separated = head_error(reduction) is not None
     summary = (f"{who} on an indexing head at {n} positions, reduced "
-               f"{'together ' if reduction.shared is not None else ''}(method {method}). "
+               f"{'together ' if separated else ''}(method {method}). "
                "Estimates ± standard uncertainty (1 σ); ")
-    if reduction.shared is not None:
+    if separated:
         summary += "the head's angular position error is separated from the sensors' coefficients."
     else:
         summary += ("the head's angular position error is not modelled: it biases the "

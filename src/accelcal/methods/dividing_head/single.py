@@ -22,8 +22,18 @@ from accelcal.methods.dividing_head.theory import COEFFICIENTS, coefficient_unit
 from accelcal.results import Reduction
 
 
+def single_pinv(beta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares operator ``(K, 5, n)`` and ``(Psi' Psi)^-1`` ``(K, 5, 5)``: O(n)."""
+    a = psi(beta)
+    cov_unit = np.linalg.inv(np.swapaxes(a, -1, -2) @ a)
+    return cov_unit @ np.swapaxes(a, -1, -2), cov_unit
+
+
 def single_operator(beta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Least-squares operators of the single-sensor fit for angles ``beta`` ``(K, n)``.
+
+    The residual operator is ``n x n`` per sensor: for the Monte Carlo
+    paths (fixed, small position counts); reductions use :func:`single_pinv`.
 
     Returns
     -------
@@ -34,11 +44,9 @@ def single_operator(beta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     cov_unit : numpy.ndarray, shape (K, 5, 5)
         (Psi' Psi)^-1.
     """
-    a = psi(beta)
-    cov_unit = np.linalg.inv(np.swapaxes(a, -1, -2) @ a)
-    pinv = cov_unit @ np.swapaxes(a, -1, -2)
+    pinv, cov_unit = single_pinv(beta)
     n = beta.shape[-1]
-    return pinv, np.eye(n) - a @ pinv, cov_unit
+    return pinv, np.eye(n) - psi(beta) @ pinv, cov_unit
 
 
 def single(data: HeadData) -> Reduction:
@@ -91,7 +99,7 @@ def scale_factors(data_or_beta, outputs=None) -> np.ndarray:
         beta, outputs = data_or_beta.angles(), data_or_beta.outputs
     else:
         beta = data_or_beta
-    pinv = single_operator(beta)[0]
+    pinv = single_pinv(beta)[0]
     k_i = np.einsum("kn,...kn->...k", pinv[:, 1, :], outputs)
     if (np.abs(k_i) == 0).any():
         raise AccelcalError("a sensor's fitted scale factor is zero; check the output columns")

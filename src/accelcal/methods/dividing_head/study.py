@@ -48,12 +48,15 @@ References
    Monte Carlo RMS errors).
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from accelcal import montecarlo
 from accelcal.errors import AccelcalError
+from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD
+from accelcal.io.limits import shown
 from accelcal.methods.dividing_head.four import FourOperator
 from accelcal.methods.dividing_head.joint import JointOperator
 from accelcal.methods.dividing_head.study_kernel import HeadStudy
@@ -143,12 +146,13 @@ def run_study(
         Truth, positions, mounts, head error profile, first harmonic, noise.
         ``four`` methods need uniform positions (n >= 12) and balanced mounts.
     trials : int
-        Number of trials (>= 2).
+        Number of trials (2 ... :data:`accelcal.montecarlo.MAX_TRIALS`).
     seed : int
         Root seed (>= 0).
     h1_sd : float
         Standard deviation of the first-harmonic measurement given to the
-        ``known_h1`` methods, rad (their covariance includes it).
+        ``known_h1`` methods, rad (their covariance includes it); at most
+        1 deg.
     chunk : int, optional
         Trials per task, rounded up to whole seed blocks (default one
         block): scheduling and progress granularity. Does not change the
@@ -161,13 +165,14 @@ def run_study(
         Trials per seed block. Part of the study's identity (with the seed):
         changing it changes which random numbers each trial gets.
     workers : int, optional
-        Run on a Dask local cluster of this many worker processes.
+        Run on a Dask local cluster of this many worker processes (at most
+        :func:`accelcal.montecarlo.max_workers`).
     scheduler : str, optional
         Run on the Dask scheduler at this address (``tcp://host:8786``).
     progress : callable, optional
         ``progress(done, total)`` called as trials complete.
     timeout : float
-        Seconds to wait for ``scheduler`` to answer.
+        Seconds to wait for ``scheduler`` to answer (positive, at most one day).
 
     Returns
     -------
@@ -179,7 +184,7 @@ def run_study(
     .. [1] [DOMAIN] section 4: formal SDs against Monte Carlo RMS errors.
     """
     if isinstance(trials, bool) or not isinstance(trials, (int, np.integer)) or trials < 2:
-        raise AccelcalError(f"a study needs at least 2 trials, got {trials!r}",
+        raise AccelcalError(f"a study needs at least 2 trials, got {shown(trials)}",
                             parameter="trials")
     notes: tuple[str, ...] = ()
     if methods is None:
@@ -191,14 +196,16 @@ def run_study(
             f"unknown study method(s) {bad}; choose from {', '.join(STUDY_METHODS)}",
             parameter="methods",
         )
-    if not np.isfinite(h1_sd) or h1_sd < 0:
-        raise AccelcalError(f"must be finite and >= 0 rad, got {h1_sd}", parameter="h1_sd")
-    if chunk is not None and (isinstance(chunk, bool) or int(chunk) != chunk or chunk < 1):
-        raise AccelcalError(f"must be a positive number of trials, got {chunk!r}",
+    montecarlo.check_trials(trials)
+    if not 0 <= _real(h1_sd) <= MAX_ANGLE_ERROR_RAD:
+        raise AccelcalError(
+            f"must be a standard deviation >= 0 rad and at most 1 deg "
+            f"({MAX_ANGLE_ERROR_RAD:.4g} rad; a first-harmonic measurement's is a fraction of "
+            f"an arcsec), got {shown(h1_sd)}", parameter="h1_sd")
+    if chunk is not None and not (_real(chunk) >= 1 and int(chunk) == chunk):
+        raise AccelcalError(f"must be a positive number of trials, got {shown(chunk)}",
                             parameter="chunk")
-    if not timeout > 0:
-        raise AccelcalError(f"must be a positive number of seconds, got {timeout!r}",
-                            parameter="timeout")
+    montecarlo.check_parallel(workers, scheduler, timeout)
     study = HeadStudy(rig, methods, float(h1_sd))
     blocks_per_task = 1 if chunk is None else max(1, -(-int(chunk) // block_size))
     # Only means and RMS are needed: the engine keeps variances, not the p x p
@@ -211,6 +218,20 @@ def run_study(
     rms_error, mean_sd = study.summarise(result.rms, result.mean)
     unit = rig.models[0].output_unit
     return StudyResult(methods, rms_error, mean_sd, int(trials), unit, notes)
+
+
+def _real(value) -> float:
+    """``value`` as a finite float, else NaN, which fails every range check.
+
+    NaN for a bool, a non-number, an infinity or an integer beyond the float range.
+    """
+    if isinstance(value, bool):
+        return math.nan
+    try:
+        value = float(value)
+    except (TypeError, ValueError, OverflowError):
+        return math.nan
+    return value if math.isfinite(value) else math.nan
 
 
 def _applicable(rig) -> tuple[tuple[str, ...], tuple[str, ...]]:

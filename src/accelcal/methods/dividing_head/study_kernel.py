@@ -18,12 +18,14 @@ References
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.methods.dividing_head.factors import FourFactors
 from accelcal.methods.dividing_head.four import FourOperator
 from accelcal.methods.dividing_head.joint import JointOperator
 from accelcal.methods.dividing_head.single import single_operator
 from accelcal.methods.dividing_head.study_bank import SensorBank, scratch
 from accelcal.methods.dividing_head.theory import COEFFICIENTS, psi
 from accelcal.rigs.dividing_head import DividingHeadRig
+from accelcal.signal.resources import check_memory
 
 SUB_BLOCK = 512
 """Trials drawn and reduced at once inside a seed block (part of the identity)."""
@@ -59,6 +61,9 @@ class HeadStudy:
         self.h1_sd = float(h1_sd)
         alpha, phi = rig.positions, rig.mounts
         self.k, self.n = k, n = phi.size, alpha.size
+        # the designs are fixed: operators over all readings ((K n)^2), built once
+        check_memory(k * n, k * n, 6, f"a study of {n} positions x {k} sensors",
+                     parameter="positions")
         beta = rig.sensor_angles()
         self.sensors = SensorBank(rig.models, beta + rig.eta[:, None])
         design = psi(beta)  # (K, n, 5)
@@ -85,6 +90,7 @@ class HeadStudy:
         q = u_svd[:, sv > 1e-9 * sv[0]]  # (K (n - 5), rank)
         stage, x_gain = [], []
         if "four" in self.families:
+            factors = FourFactors.build(alpha, phi)
             four = FourOperator.build(alpha, phi)
             # Step 4 [DOMAIN]: V'_k = U'_k - d_hi cos(beta_k), then the single-sensor fit.
             # d_hi = four.angle @ U' depends on r only; y = q' (effect d_hi) carries it all.
@@ -96,7 +102,13 @@ class HeadStudy:
             _require_close(gain @ y_of_r, -x_of_d @ angle_r, "estimates follow from y")
             stage.append(y_of_r)
             x_gain.append(gain)
-            self.sd_unit["four"] = np.sqrt(np.diagonal(four.cov_unit, axis1=1, axis2=2))
+            # Four's formal SD is the propagated one: per trial sqrt(M s2), with s2 each
+            # sensor's noise variance solved without bias from its residual sum of squares
+            # (residual_noise_variances) and M the coefficients' variance per unit variance.
+            self.four_moments = factors.coefficient_moments()  # (5 K, K)
+            res_moments = factors.residual_moments()
+            self.four_unbias = np.linalg.inv(res_moments)  # (K, K)
+            self.four_pool = 1.0 / res_moments.sum()
             self.h1_gain["four"] = -four.alias
             self.sd_extra["four"] = np.einsum("kpi,ij,kpj->kp", four.alias, h1_cov, four.alias)
         if "joint" in self.families:
@@ -161,11 +173,14 @@ class HeadStudy:
 
     # ------------------------------------------------------------------ layout
     def _full_sd(self, method: str) -> bool:
-        """Whether a method's formal SD needs one output per coefficient (h1 term)."""
+        """Whether a method's formal SD needs one output per coefficient.
+
+        Four's propagated SD always does; the others' when an h1 term is added.
+        """
         family = method.split("_", maxsplit=1)[0]
-        return method.endswith("known_h1") and not method.endswith("unknown_h1") and bool(
-            np.any(self.sd_extra.get(family, 0.0))
-        )
+        return family == "four" or (
+            method.endswith("known_h1") and not method.endswith("unknown_h1")
+            and bool(np.any(self.sd_extra.get(family, 0.0))))
 
     def _names(self) -> tuple[str, ...]:
         sensors = [f"U{i + 1}" for i in range(self.k)]
@@ -287,6 +302,10 @@ class HeadStudy:
             if family in done and not full:
                 res_t[sd_rows] = done[family]
                 continue
+            if family == "four":
+                self._four_sd(rss["four"], known, abs_k_i, out=res_t[sd_rows].reshape(k, 5, t),
+                              work=work, done=done)
+                continue
             s2 = rss[family]  # times 1 / dof below
             if full:
                 var = s2[:, None] * (self.sd_unit[family] ** 2 / self.dof[family])[..., None] \
@@ -299,6 +318,30 @@ class HeadStudy:
             np.sqrt(factor, out=factor)
             factor *= abs_k_i
             done[family] = factor
+
+    def _four_sd(self, rss, known, abs_k_i, *, out, work, done) -> None:
+        """Four's propagated formal SDs ``(K, 5, T)`` into ``out`` from its residual sums.
+
+        ``s2 = M_res^-1 rss`` (each sensor's unbiased noise variance; pooled
+        for a trial where one is negative), then ``var = M s2`` (+ the h1 term
+        when known), ``SD = sqrt(var) |K_I|``. ``var`` is computed once per
+        sub-block for both four methods.
+        """
+        k, t = rss.shape
+        if "four_var" not in done:  # once per sub-block (``done``) for both four methods
+            s2 = np.matmul(self.four_unbias, rss, out=scratch(work, "four_s2", (k, t)))
+            bad = s2.min(axis=0) < 0
+            if bad.any():
+                s2[:, bad] = rss[:, bad].sum(axis=0) * self.four_pool
+            done["four_var"] = np.matmul(self.four_moments, s2,
+                                         out=scratch(work, "four_var", (5 * k, t)))
+        sd = out.reshape(5 * k, t)
+        if known:
+            np.add(done["four_var"], self.sd_extra["four"].reshape(5 * k, 1), out=sd)
+            np.sqrt(sd, out=sd)
+        else:
+            np.sqrt(done["four_var"], out=sd)
+        out *= abs_k_i[:, None]
 
     def _joint_rss(self, r: np.ndarray, y: np.ndarray, sq_r: np.ndarray) -> np.ndarray:
         """Pooled joint residual sum of squares ``|r - q y|^2``, shape ``(1, T)``.

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.formats.shaker import ShakerRecords
+from accelcal.io.formats.shaker import MAX_MAGNITUDE, MIN_SCALE_FACTOR, ShakerRecords
 from accelcal.methods.transverse.theory import (
     axial_sensitivity,
     check_axial,
@@ -286,8 +286,10 @@ def estimate_sT(records: ShakerRecords, estimator: str, *, s_I: float, axial: st
     .. [1] GuanTang, eqs. (11)-(12), (17)-(18), (21)-(23); IEEE Std 1057-2017.
     """
     check_estimator(estimator)
-    if not (np.isfinite(s_I) and s_I != 0):
-        raise AccelcalError(f"axial sensitivity {s_I} must be finite and non-zero")
+    if not MIN_SCALE_FACTOR <= abs(s_I) <= MAX_MAGNITUDE:
+        raise AccelcalError(
+            f"axial sensitivity {s_I:g} is not that of an accelerometer (magnitude "
+            f"{MIN_SCALE_FACTOR:g} to {MAX_MAGNITUDE:g} output unit per g)")
     check_axial(axial)
     ph = record_phasors(records)
     p_ref = ph["ref"].phasors[..., 0]

@@ -30,7 +30,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.fitting import least_squares
 from accelcal.identifiability import analyse
-from accelcal.io.formats.shaker import ShakerRecords
+from accelcal.io.formats.shaker import MAX_MAGNITUDE, MIN_SCALE_FACTOR, ShakerRecords
 from accelcal.methods.transverse.estimators import record_phasors, w_ratio
 from accelcal.model import ErrorModel
 from accelcal.results import Assumption, Reduction
@@ -192,6 +192,11 @@ def _system(records: ShakerRecords, route: str, terms, base: ErrorModel | None,
     if k1 is None or not np.isfinite(k1) or k1 == 0:
         raise AccelcalError("the fit needs the sensor's scale factor K1 (output unit per g)",
                             parameter="scale_factor")
+    if not MIN_SCALE_FACTOR <= abs(k1) <= MAX_MAGNITUDE:
+        raise AccelcalError(
+            f"{k1:g} is not the scale factor of an accelerometer (magnitude "
+            f"{MIN_SCALE_FACTOR:g} to {MAX_MAGNITUDE:g} output unit per g)",
+            parameter="scale_factor")
     if base is None:
         base = ErrorModel(K1=k1, output_unit=records.output_unit)
     ph = record_phasors(records)
@@ -292,13 +297,20 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
         raise AccelcalError("identify takes records of shape (angles, samples); "
                             "use identify_arrays for stacked trials")
     terms = tuple(terms)
-    design, y, k1, noisy, ph, held = _system(records, route, terms, base, scale_factor)
+    with np.errstate(over="ignore", invalid="ignore"):  # non-finite results are refused below
+        design, y, k1, noisy, ph, held = _system(records, route, terms, base, scale_factor)
     method = f"transverse-{route}"
     units = {t: _TERM_UNITS[t] for t in terms}
     provenance = {"angles": int(records.theta.size), "amplitude_g": records.amplitude,
                   "gravity_g": records.gravity, "scale_factor": k1}
+    finite = np.isfinite(design).all() and np.isfinite(y).all()
     est = least_squares(design, y, names=terms, units=units, method=method, sigma=1.0,
-                        provenance=provenance)
+                        provenance=provenance) if finite else None
+    if est is None or not (np.isfinite(est.values).all() and np.isfinite(est.covariance).all()):
+        raise AccelcalError(
+            "the coefficients or their uncertainties are not finite (beyond the float range): "
+            "the records' values are not those of a shaker test"
+        )
     source = ("given" if scale_factor is not None else
               "from the model" if base is not None else "from the records")
     unit = records.output_unit

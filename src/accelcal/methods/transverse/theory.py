@@ -179,13 +179,23 @@ def axial_sensitivity(sensor, definition: str = "eq20") -> float:
 def check_angles(angles_deg, *, minimum: int = 1) -> np.ndarray:
     """Validate direction angles in degrees; return them in radians.
 
-    Angles must be finite, lie within one full turn (``-360 <= theta <= 360``
-    and ``max - min < 360``) and be distinct modulo 360.
+    Angles must be finite, lie within one full turn, ``0 <= theta < 360``,
+    and be distinct.
+
+    A direction has one spelling here, on purpose: -30 deg and 330 deg are the
+    same direction, but the angle names the record file
+    (``shaker_A5g_theta330.00.csv``), is stored as ``angle_deg`` and orders
+    the sweep, so two spellings would give two names and two orders for one
+    direction, and a negative value is more often a slip (the convention is
+    from PA towards OA, 0 to 360 deg) than a choice. Values outside are
+    refused with the equivalent value in [0, 360) in the message rather than
+    normalised silently.
 
     Raises
     ------
     AccelcalError
-        With the offending angle, or when fewer than ``minimum`` angles are given.
+        With the offending angle (and its equivalent in [0, 360)), or when
+        fewer than ``minimum`` angles are given.
 
     References
     ----------
@@ -199,14 +209,13 @@ def check_angles(angles_deg, *, minimum: int = 1) -> np.ndarray:
         )
     if not np.isfinite(a).all():
         raise AccelcalError("direction angles must be finite (degrees)")
-    bad = a[(a < -360) | (a > 360)]
-    if bad.size or a.max() - a.min() >= 360:
+    bad = a[(a < 0) | (a >= 360)]
+    if bad.size:
         raise AccelcalError(
-            f"direction angles must lie within one full turn (span < 360 deg, e.g. 0:355:5); "
-            f"got {a.min():g} to {a.max():g} deg"
+            f"direction angle {bad[0]:g} deg is outside one full turn [0, 360) deg; it is "
+            f"the direction {np.mod(bad[0], 360.0):g} deg: give that (e.g. 0:355:5)"
         )
-    wrapped = np.round(np.mod(a, 360.0), 9)
-    if np.unique(wrapped).size != a.size:
+    if np.unique(np.round(a, 9)).size != a.size:
         raise AccelcalError("direction angles repeat (modulo 360 deg); give each once")
     return np.deg2rad(a)
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from accelcal.errors import AccelcalError
 from accelcal.identifiability import (
     NULL_ATOL,
     Combination,
@@ -36,6 +37,12 @@ from accelcal.methods.tumble.geometry import (
     design_matrix,
     is_uniform,
 )
+from accelcal.signal.resources import check_memory
+
+MEMORY_FACTOR = 8
+"""Arrays of (positions x terms) float64 an analysis holds at its peak: the design,
+its column-equilibrated copy and QR factors, the trial designs of the suggested
+set (about 5 measured); 8 leaves a margin."""
 
 PRIORITY = ("K1", "K0", "Ko", "Kp", "K2", "Kio", "Kip", "K3", "K4", "Koo", "Kpp", *ASYMMETRY_TERMS)
 """Order in which terms are preferred when a choice among aliases is made."""
@@ -191,7 +198,10 @@ def identifiability(angles_rad, rotation_axis: str = "OA", *, terms=None) -> Ide
     ------
     AccelcalError
         For an unknown axis, a term that does not apply to it, no K1,
-        repeated terms, or non-finite or duplicated angles.
+        repeated terms, non-finite or duplicated angles, more positions than
+        fit in memory, or positions that cannot separate the scale factor K1
+        from the bias K0 (one position, or positions with the same input-axis
+        component): the least a tumble must determine.
 
     References
     ----------
@@ -209,9 +219,19 @@ def identifiability(angles_rad, rotation_axis: str = "OA", *, terms=None) -> Ide
     ('K1*(K0 + Kpp)', 'K1*(K2 + K4 - Kpp)', 'K1*(1 + K3)')
     """
     axis = check_axis(rotation_axis)
-    angles = check_angles(angles_rad)
     terms = check_terms(terms, axis, FULL_TERMS[axis])
-    return report_of(design_matrix(angles, axis, terms), angles, axis, terms)
+    check_memory(np.size(angles_rad), len(terms), MEMORY_FACTOR,
+                 f"the design of {np.size(angles_rad)} positions")
+    angles = check_angles(angles_rad)
+    report = report_of(design_matrix(angles, axis, terms), angles, axis, terms)
+    needed = [t for t in ("K0", "K1") if t in terms]
+    if not set(needed) <= set(report.suggested_terms):
+        raise AccelcalError(
+            f"{angles.size} position(s) about {axis} cannot separate "
+            f"{' from '.join(needed[::-1])} (rank {report.rank} of {len(terms)}): a tumble "
+            "needs at least two positions with different input-axis components, e.g. 4 "
+            "equally spaced ones")
+    return report
 
 
 def report_of(design, angles, axis, terms) -> IdentifiabilityReport:

@@ -10,8 +10,12 @@ g/g^n with first-order covariance propagation.
 
 Assumptions set (names for code, see docs/tumble.md): ``route``,
 ``rotation_axis``, ``noise`` (``"given"`` or ``"residuals"``),
-``noise_sd`` (output unit), ``repeats``, ``terms_taken_zero`` and
-``cross_nonlinearity`` (where they apply). Observations: ``angles`` (rad),
+``noise_sd`` (output unit), ``repeats``, ``terms_taken_zero``,
+``cross_nonlinearity`` and ``few_dof`` (the residual degrees of freedom, when
+the noise comes from fewer than :data:`accelcal.calibration.FEW_DOF` of them)
+where they apply. ``Reduction.dof`` is the degrees of freedom of the noise
+variance estimate (0 when ``sigma`` is given); every Estimate's ``dof`` is the
+residual degrees of freedom. Observations: ``angles`` (rad),
 ``outputs`` (averaged, output unit), ``fitted`` (output unit) and, for
 uniform positions, ``harmonics`` (k), ``fourier_A`` and ``fourier_B``.
 
@@ -200,9 +204,28 @@ def reduce_tumble(
     >>> round(res.estimate["K2"] / 2e-5, 6), res.method
     (1.0, 'tumble-fourier')
     """
-    sol = _solve(angles_rad, outputs, rotation_axis=rotation_axis, output_unit=output_unit,
-                 terms=terms, route=route, sigma=sigma, repeats=repeats, single=True)
+    with np.errstate(over="ignore", invalid="ignore"):  # non-finite results refused in _solve
+        sol = _solve(angles_rad, outputs, rotation_axis=rotation_axis, output_unit=output_unit,
+                     terms=terms, route=route, sigma=sigma, repeats=repeats, single=True)
     return _reduction(sol, output_unit, given=sigma is not None)
+
+
+def _few_dof(sol: _Solution, given: bool) -> Assumption | None:
+    """Assumption ``few_dof`` when the noise SD comes from few residual dof, else None.
+
+    Fewer than :data:`accelcal.calibration.FEW_DOF` (10): the SD's relative
+    uncertainty ``1/sqrt(2 dof)`` is over 22 % and the coverage factor
+    (Student's t, GUM G.3) well above 2.
+    """
+    from accelcal.calibration import COVERAGE_PROBABILITY, FEW_DOF, coverage_factor
+
+    if given or sol.dof >= FEW_DOF:
+        return None
+    return Assumption("few_dof", int(sol.dof), "", (
+        f"noise SD estimated from only {sol.dof} degree(s) of freedom (fewer than {FEW_DOF}): "
+        "the standard uncertainties are themselves uncertain; an interval of "
+        f"{100 * COVERAGE_PROBABILITY:g} % needs k = {coverage_factor(sol.dof):.3g} "
+        "(Student's t), not 2; measure more positions or repeats, or give the noise SD"))
 
 
 def tumble_arrays(
@@ -231,8 +254,9 @@ def tumble_arrays(
     ----------
     .. [1] IEEE1293, multipoint tumble analysis; DOMAIN section 5.
     """
-    sol = _solve(angles_rad, outputs, rotation_axis=rotation_axis, output_unit=output_unit,
-                 terms=terms, route=route, sigma=sigma, repeats=repeats, single=False)
+    with np.errstate(over="ignore", invalid="ignore"):  # non-finite results refused in _solve
+        sol = _solve(angles_rad, outputs, rotation_axis=rotation_axis, output_unit=output_unit,
+                     terms=terms, route=route, sigma=sigma, repeats=repeats, single=False)
     return TumbleArrays(
         names=sol.terms, units={t: term_unit(t, output_unit) for t in sol.terms},
         route=sol.route, values=sol.values, covariance=sol.covariance,
@@ -318,6 +342,12 @@ def _solve(angles_rad, outputs, *, rotation_axis, output_unit, terms, route, sig
     ident = np.array([t in report.identifiable for t in terms]) & k1_ok
     values = np.where(ident, values, np.nan)
     cov = np.where(ident[:, None] & ident[None, :], cov, np.nan)
+    if not (np.isfinite(values[..., ident]).all() and np.isfinite(cov[..., ident, :]
+                                                                   [..., ident]).all()):
+        raise AccelcalError(
+            "the estimates or their uncertainties are not finite (beyond the float range): the "
+            "outputs' magnitudes are not those of an accelerometer; check the outputs column"
+        )
     return _Solution(
         axis=axis, terms=terms, angles=angles, outputs=y, report=report, fourier=fc,
         route="fourier" if use_fourier else "lsq", b=b, cov_b=cov_b, values=values,
@@ -365,9 +395,11 @@ def _reduction(sol: _Solution, output_unit: str, *, given: bool) -> Reduction:
     terms, report = sol.terms, sol.report
     method = f"tumble-{sol.route}"
     units = {t: term_unit(t, output_unit) for t in terms}
+    few = _few_dof(sol, given)
     est = Estimate(
         names=terms, values=sol.values, covariance=sol.covariance, units=units, method=method,
-        residuals=sol.residuals, dof=sol.dof, notes=_notes(sol),
+        residuals=sol.residuals, dof=sol.dof,
+        notes=_notes(sol) + ((few.text,) if few is not None else ()),
         provenance={"rotation_axis": sol.axis, "positions": int(sol.angles.size),
                     "route": sol.route},
     )
@@ -465,4 +497,7 @@ def _assumptions(sol: _Solution, output_unit: str, *, given: bool) -> tuple[Assu
     cross = _cross_text(sol)
     if cross:
         out.append(Assumption("cross_nonlinearity", "Kpp" if axis == "OA" else "Koo", "", cross))
+    few = _few_dof(sol, given)
+    if few is not None:
+        out.append(few)
     return tuple(out)

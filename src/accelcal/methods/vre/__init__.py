@@ -10,7 +10,8 @@ while vibrating minus the mean at rest, in g. The package:
     :func:`relative_error`, :func:`vre_table`, :func:`vre_columns`,
     :func:`vector_vre`.
 :mod:`~accelcal.methods.vre.measure`
-    :func:`reduce_run`: vibrafuge records to measured VRE with uncertainty.
+    :func:`reduce_run`: vibrafuge records to measured VRE with uncertainty;
+    :func:`sampled_columns`: the design of point-sampled records, exact.
 :mod:`~accelcal.methods.vre.identify`
     :func:`identify`: the coefficients from measured VRE, as a
     :class:`~accelcal.results.Reduction` (family ``"vre"``, method
@@ -49,12 +50,13 @@ from accelcal.methods.vre.closed_form import (
 from accelcal.methods.vre.figures import figures, table_figures
 from accelcal.methods.vre.identify import FAMILY, METHOD, identify
 from accelcal.methods.vre.mc import VreSampler, vre_uncertainty
-from accelcal.methods.vre.measure import HARMONICS, VreMeasurement, reduce_run
+from accelcal.methods.vre.measure import HARMONICS, VreMeasurement, reduce_run, sampled_columns
 
 __all__ = [
     "ERRATA", "FAMILY", "HARMONICS", "METHOD", "PAPER_TERMS", "VRE_TERMS", "VreMeasurement",
     "VreSampler", "VreTable", "along_ia", "asymmetry_vre", "even_order_vre", "figures",
-    "identify", "reduce_run", "relative_error", "report_text", "sgn_shape", "table_figures",
+    "identify", "reduce_run", "relative_error", "report_text", "sampled_columns", "sgn_shape",
+    "table_figures",
     "vector_vre", "vre_columns", "vre_table", "vre_uncertainty",
 ]
 

@@ -253,7 +253,8 @@ def vre_table(model: ErrorModel, overloads, amplitudes) -> VreTable:
     Raises
     ------
     AccelcalError
-        For an empty grid, negative amplitudes or non-finite values.
+        For an empty grid, negative amplitudes, non-finite values, or a VRE
+        beyond the float range.
 
     References
     ----------
@@ -272,9 +273,14 @@ def vre_table(model: ErrorModel, overloads, amplitudes) -> VreTable:
     if b.size == 0 or A.size == 0:
         raise AccelcalError("the overload and amplitude grids must each have at least one value")
     bb, AA = np.meshgrid(b, A, indexing="ij")
-    du1 = even_order_vre(bb, AA, model.K2, model.K3, model.K4)
-    du2 = asymmetry_vre(bb, AA, model.K0_asym, model.K1_asym)
-    du = du1 + du2  # Eq. (23) [Guan2021]
+    with np.errstate(over="ignore", invalid="ignore"):  # non-finite values refused below
+        du1 = even_order_vre(bb, AA, model.K2, model.K3, model.K4)
+        du2 = asymmetry_vre(bb, AA, model.K0_asym, model.K1_asym)
+        du = du1 + du2  # Eq. (23) [Guan2021]
+    if not (np.isfinite(du1).all() and np.isfinite(du2).all() and np.isfinite(du).all()):
+        raise AccelcalError(
+            "the VRE is beyond the float range: the overloads, amplitudes or coefficients are "
+            "not those of an accelerometer; give smaller values")
     return VreTable(bb, AA, du1, du2, du, relative_error(du1, du2))
 
 

@@ -94,6 +94,7 @@ def identify(
     fixed=None,
     provenance=None,
     assumptions=(),
+    columns=None,
 ) -> Reduction:
     """Least-squares identification of VRE coefficients from a (b, A) design.
 
@@ -122,6 +123,13 @@ def identify(
         Further assumptions of the measurement (e.g.
         :meth:`~accelcal.methods.vre.VreMeasurement.assumptions` of the
         runs the points come from); repeats are dropped.
+    columns : dict of str to array_like, optional
+        The design: VRE per unit coefficient of each fitted and fixed term
+        at each point, shape (n,). Default the closed forms
+        (:func:`~accelcal.methods.vre.vre_columns`, exact for integrating
+        sampling); for point-sampled records pass
+        :meth:`~accelcal.methods.vre.VreMeasurement.design_columns`, which
+        removes the sign term's discretisation error.
 
     Returns
     -------
@@ -170,12 +178,19 @@ def identify(
             raise AccelcalError(f"uncertainty has {given.size} values for {n} measurements")
     # noise-free data (some uncertainty 0): fall back to the residual scale
     sigma = given if given is not None and (given > 0).all() else None
-    cols = vre_columns(b, A, direction)
+    with np.errstate(over="ignore", invalid="ignore"):  # non-finite designs refused below
+        cols = (vre_columns(b, A, direction) if columns is None
+                else _columns(columns, terms, fixed, n))
+        y = measured - sum((fixed[k] * cols[k] for k in fixed), np.zeros(n))
     d = np.broadcast_to(_unit_direction(direction), (n, 3))
-    y = measured - sum((fixed[k] * cols[k] for k in fixed), np.zeros(n))
     design = np.stack([np.broadcast_to(cols[t], (n,)) for t in terms], axis=1)
     units = {t: TERMS[t].unit for t in terms}
     prov = {"measurements": n, **(provenance or {})}
+    if not (np.isfinite(design).all() and np.isfinite(y).all()):
+        raise AccelcalError(
+            f"{METHOD}: the design or the VRE is not finite (beyond the float range): the "
+            "overloads, amplitudes or fixed coefficients are not those of a physical test"
+        )
     ident = analyse(design, terms, sigma=sigma, units=units)
     if ident.rank == 0:
         raise AccelcalError(
@@ -190,6 +205,7 @@ def identify(
         est, combos = _fit_deficient(design, y, terms, units, sigma, ident, prov)
         notes = ((f"{', '.join(ident.unidentifiable)}: fix some of them or add overloads, "
                   "amplitudes or directions that separate them"),)
+    _check_finite(est, combos, ident)
     weighting = _weighting(est, sigma)
     observations = {"overload": b, "amplitude": A, "direction": d, "vre": measured}
     if given is not None:
@@ -201,6 +217,32 @@ def identify(
         assumptions=tuple(dict.fromkeys((*weighting, *assumptions))),
         fixed=fixed, observations=observations, provenance=prov, notes=notes,
     )
+
+
+def _columns(columns, terms, fixed, n) -> dict[str, np.ndarray]:
+    """Given design columns, checked: one of n finite values for every term used."""
+    out = {}
+    for name in (*terms, *fixed):
+        if name not in columns:
+            raise AccelcalError(f"no design column for {name}", parameter="columns")
+        col = _finite(columns[name], "columns").reshape(-1)
+        if col.size != n:
+            raise AccelcalError(f"{name} has {col.size} values for {n} measurements",
+                                parameter="columns")
+        out[name] = col
+    return out
+
+
+def _check_finite(est: Estimate, combos, ident) -> None:
+    """Refuse estimates or uncertainties beyond the float range (never carried as results)."""
+    ok = np.array([t in ident.identifiable for t in est.names])
+    numbers = [est.values[ok], est.covariance[np.ix_(ok, ok)],
+               [c.value for c in combos], [c.std for c in combos]]
+    if not all(np.isfinite(x).all() for x in numbers):
+        raise AccelcalError(
+            f"{METHOD}: the estimates or their uncertainties are not finite (beyond the float "
+            "range): the VRE, overloads or amplitudes are not those of a physical test"
+        )
 
 
 def _weighting(est: Estimate, sigma) -> tuple[Assumption, ...]:

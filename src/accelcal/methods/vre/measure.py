@@ -13,6 +13,17 @@ residual noise after removing the periodic signal by synchronous averaging
 0..8 when the span holds fewer than two repeats of the sampled phases
 (:func:`accelcal.signal.periods.whole_period_mean`).
 
+Point-sampled records (``sampling == "point"``) average the output over the
+sampled phases only: the sign term of the asymmetry changes between samples,
+so their whole-period mean differs from the continuous mean of the closed
+forms by up to ``|K0'| / q + pi |K1'| A_i / (2 q)`` g for ``q`` distinct
+phases (2.7e-8 g in K0' for the default model and settings, larger than the
+noise of a 1 s record). The phases are known (frequency, sample rate and the
+record's ``phase``), so :meth:`VreMeasurement.design_columns` evaluates every
+term's VRE exactly as the records sample it (:func:`sampled_columns`) and
+:func:`~accelcal.methods.vre.identify` fits with those columns: no
+discretisation error is left to include in the uncertainty.
+
 References
 ----------
 .. [Guan2021] Guan W., Metrology & Measurement Technology 41(3), 2021,
@@ -24,7 +35,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from accelcal.errors import AccelcalError
 from accelcal.io.formats.vibrafuge import VibrafugeRun
+from accelcal.methods.vre.closed_form import vre_columns
 from accelcal.results import Assumption
 from accelcal.signal.periods import whole_period_mean
 
@@ -62,6 +75,9 @@ class VreMeasurement:
     sampling : str
         Sampling model of the records (``"integrating"``, ``"point"``,
         ``"measured"``).
+    phases : numpy.ndarray or None
+        For point-sampled records, the vibration phase of every sample of
+        the whole-period span, rad (shape ``(samples,)``); None otherwise.
     """
 
     overload: np.ndarray
@@ -77,6 +93,20 @@ class VreMeasurement:
     scale_factor: float = 1.0
     output_unit: str = "g"
     sampling: str = "measured"
+    phases: np.ndarray | None = None
+
+    def design_columns(self) -> dict[str, np.ndarray]:
+        """VRE per unit coefficient of every term at each point, as these records measure it.
+
+        The closed forms (:func:`~accelcal.methods.vre.vre_columns`: the
+        continuous whole-period mean, which integrating sampling delivers
+        exactly), or for point-sampled records the means over the sampled
+        phases (:func:`sampled_columns`). Pass them to
+        :func:`~accelcal.methods.vre.identify` as ``columns``.
+        """
+        if self.phases is None:
+            return vre_columns(self.overload, self.amplitude, self.direction)
+        return sampled_columns(self.overload, self.amplitude, self.direction, self.phases)
 
     def rows(self) -> list[dict]:
         """One dict per point (for tables and CSV/JSON output)."""
@@ -99,7 +129,10 @@ class VreMeasurement:
             Assumption("vre", "whole-period means",
                        text=("the VRE of each point is the whole-period mean vibrating minus "
                              "static, divided by the nominal scale factor")),
-            Assumption("sampling", self.sampling, text=f"records sampled: {self.sampling}"),
+            Assumption("sampling", self.sampling, text=(
+                f"records sampled: {self.sampling}" + (
+                    "; each term's VRE evaluated at the sampled phases (no discretisation "
+                    "error)" if self.phases is not None else ""))),
             Assumption("scale_factor", float(self.scale_factor), f"{self.output_unit}/g",
                        text=(f"nominal scale factor {self.scale_factor:.6g} "
                              f"{self.output_unit}/g")),
@@ -136,9 +169,65 @@ def reduce_run(run: VibrafugeRun, *, harmonics: int = HARMONICS) -> VreMeasureme
     k1 = run.scale_factor
     vre = (np.atleast_1d(vib.mean) - np.atleast_1d(sta.mean)) / k1  # Eq. (9)/(21) [Guan2021]
     u = np.hypot(np.atleast_1d(vib.std), np.atleast_1d(sta.std)) / abs(k1)
+    bad = np.flatnonzero(~(np.isfinite(vre) & np.isfinite(u)))
+    if bad.size:
+        raise AccelcalError(
+            f"point {int(bad[0])}: the VRE or its uncertainty is not finite (beyond the float "
+            "range): the records' values or the scale factor are not those of an accelerometer"
+        )
+    phases = None
+    if run.sampling == "point":
+        phases = 2.0 * np.pi * f * (np.arange(vib.samples) / fs) + run.phase
     return VreMeasurement(
         overload=run.overload, amplitude=run.amplitude, direction=run.direction, vre=vre,
         uncertainty=u, static_mean=np.atleast_1d(sta.mean), vibrating_mean=np.atleast_1d(vib.mean),
         periods=vib.periods, samples=vib.samples, discarded=vib.discarded,
-        scale_factor=k1, output_unit=run.output_unit, sampling=run.sampling,
+        scale_factor=k1, output_unit=run.output_unit, sampling=run.sampling, phases=phases,
     )
+
+
+def sampled_columns(overload, amplitude, direction, phases) -> dict[str, np.ndarray]:
+    """VRE per unit coefficient of every term, averaged over the sampled phases.
+
+    Parameters
+    ----------
+    overload : numpy.ndarray, shape (P, 3)
+        Overload vectors in IA, OA, PA, g.
+    amplitude : numpy.ndarray, shape (P,)
+        Vibration amplitudes, g.
+    direction : numpy.ndarray, shape (3,)
+        Unit vibration direction.
+    phases : numpy.ndarray, shape (M,)
+        Vibration phase of each sample of the whole-period span, rad.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray, shape (P,)
+        For each name of :data:`~accelcal.methods.vre.VRE_TERMS`: the mean of
+        the term's input function over the samples minus its value at rest,
+        with ``a_j = A u_j sin(theta_n) + b_j`` (for the asymmetry terms
+        ``1/2 (mean sgn a_i - sgn b_i)`` and ``1/2 (mean |a_i| - |b_i|)``).
+        Exact for point-sampled records; equal to the closed forms
+        (:func:`~accelcal.methods.vre.vre_columns`) as the phases become dense.
+
+    References
+    ----------
+    .. [1] Guan2021, eqs. (3), (4), (8), (21) (the terms averaged), evaluated
+       at the sample instants instead of over the continuous period.
+    """
+    b = np.asarray(overload, dtype=float)
+    s = np.sin(np.asarray(phases, dtype=float))
+    a = (np.asarray(amplitude, dtype=float)[:, None] * direction)[:, :, None] * s + b[:, :, None]
+    ai, ao, ap = a[:, 0], a[:, 1], a[:, 2]
+    bi, bo, bp = b[:, 0], b[:, 1], b[:, 2]
+
+    def vre(values, at_rest):  # Eq. (8) [Guan2021]: mean while vibrating minus at rest
+        return values.mean(axis=-1) - at_rest
+
+    return {
+        "K2": vre(ai**2, bi**2), "K3": vre(ai**3, bi**3), "K4": vre(ai**4, bi**4),
+        "Koo": vre(ao**2, bo**2), "Kpp": vre(ap**2, bp**2), "Kio": vre(ai * ao, bi * bo),
+        "Kip": vre(ai * ap, bi * bp), "Kop": vre(ao * ap, bo * bp),
+        "K0_asym": 0.5 * vre(np.sign(ai), np.sign(bi)),  # Eq. (3) [Guan2021]
+        "K1_asym": 0.5 * vre(np.abs(ai), np.abs(bi)),  # Eq. (3) [Guan2021]
+    }

@@ -1,0 +1,123 @@
+"""What a simulation or an analysis of sampled records may take: memory and randomness.
+
+A record of ``n`` samples on ``c`` channels holds ``8 n c`` bytes as float64;
+computing it takes a few such arrays at once. :func:`check_memory` estimates
+the bytes a computation will hold (samples x channels x 8 bytes x a factor
+the caller states from its temporaries) *before* allocating anything, and
+refuses, with one line saying how much it would need, what exceeds half of
+the memory available on this machine (:func:`available_memory`). So a
+sample rate of 1e12 Hz or a duration of 1e9 s ends at once with a message
+instead of a numpy allocation error or a machine that swaps.
+
+:func:`generator` turns a seed (a non-negative integer), a
+``numpy.random.Generator`` or None into a generator, refusing negative or
+non-integer seeds with a message that names the parameter.
+"""
+
+import math
+import os
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+
+MEMORY_SHARE = 0.5
+"""Share of the available memory a computation may take (the rest is for the
+system, the other programs and what the estimate leaves out)."""
+
+FLOAT_BYTES = 8
+"""Bytes of one float64 sample."""
+
+
+def available_memory() -> int:
+    """Memory available to a new computation, bytes.
+
+    ``MemAvailable`` of ``/proc/meminfo`` (Linux: free memory plus what the
+    kernel can reclaim), else the free physical pages of ``os.sysconf``,
+    else the physical memory; 2**40 bytes when none of these can be read.
+    """
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    for pages in ("SC_AVPHYS_PAGES", "SC_PHYS_PAGES"):
+        try:
+            return int(os.sysconf(pages)) * int(os.sysconf("SC_PAGE_SIZE"))
+        except (OSError, ValueError, AttributeError):
+            continue
+    return 2**40
+
+
+def shown_bytes(n: float) -> str:
+    """A byte count for people: ``512 bytes``, ``3.1 MiB``, ``7.3 TiB``, ``8e+20 bytes``."""
+    if not math.isfinite(n) or n >= 2**70:
+        return f"{n:.3g} bytes"
+    for unit, size in (("EiB", 2**60), ("PiB", 2**50), ("TiB", 2**40), ("GiB", 2**30),
+                       ("MiB", 2**20), ("KiB", 2**10)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n:.0f} bytes"
+
+
+def check_memory(samples: float, channels: float, factor: float, what: str, *,
+                 parameter: str | None = None, hint: str = "") -> float:
+    """Refuse a computation whose arrays would not fit in memory.
+
+    Parameters
+    ----------
+    samples : float
+        Samples per channel (may be a float: a product of user values is
+        checked before it is rounded or allocated).
+    channels : float
+        Channels (records, angles, points, trials...) of that length.
+    factor : float
+        Arrays of ``samples x channels`` float64 the computation holds at
+        its peak (temporaries included), as measured for it.
+    what : str
+        What would be computed, for the message (``"the vibrafuge records"``).
+    parameter : str, optional
+        The Python parameter to name in the error (the largest contributor).
+    hint : str
+        How to shrink the computation, appended to the message.
+
+    Returns
+    -------
+    float
+        The estimated bytes.
+
+    Raises
+    ------
+    AccelcalError
+        When the estimate exceeds :data:`MEMORY_SHARE` of
+        :func:`available_memory` (or is not finite).
+    """
+    need = float(samples) * float(channels) * FLOAT_BYTES * float(factor)
+    limit = MEMORY_SHARE * available_memory()
+    if not (math.isfinite(need) and need <= limit):
+        raise AccelcalError(
+            f"{what} would need about {shown_bytes(need)} of memory "
+            f"({float(samples):.3g} x {float(channels):.3g} values x 8 bytes x "
+            f"{factor:g}); this machine has {shown_bytes(limit)} to spare"
+            + (f"; {hint}" if hint else ""),
+            parameter=parameter,
+        )
+    return need
+
+
+def generator(seed, parameter: str = "seed") -> np.random.Generator:
+    """A random generator from a seed (integer >= 0), a Generator or None (fresh entropy).
+
+    Raises
+    ------
+    AccelcalError
+        For a negative seed, or one that is not an integer.
+    """
+    if seed is None or isinstance(seed, np.random.Generator):
+        return np.random.default_rng(seed)
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise AccelcalError(f"{seed!r} must be an integer >= 0 (or none, for a fresh seed)",
+                            parameter=parameter)
+    return np.random.default_rng(int(seed))
