@@ -191,8 +191,8 @@ def simulate_cmd(
         check_record_size,
         write_head_record,
     )
+    from accelcal.resources import generator
     from accelcal.rigs.dividing_head import simulate
-    from accelcal.signal.resources import generator
     from accelcal.units import ARCSEC
 
     rng = generator(seed)

@@ -115,8 +115,8 @@ def sweep_cmd(
     CSV/JSON keys: amplitude_g, angle_deg, sT (output unit per g), sT_rel (fraction).
     """
     from accelcal.methods.transverse import axial_sensitivity, sweep
+    from accelcal.resources import generator
     from accelcal.rigs.shaker import LinearModel
-    from accelcal.signal.resources import generator
 
     check_format(fmt)
     sensor = _sensor(model_file, paper, linear)
@@ -180,8 +180,8 @@ def simulate_cmd(
 
     from accelcal.io.formats.shaker import write_records
     from accelcal.methods.transverse import axial_sensitivity
+    from accelcal.resources import generator
     from accelcal.rigs.shaker import ShakerRig
-    from accelcal.signal.resources import generator
 
     sensor = _sensor(model_file, paper, linear)
     theta = _angles(angles)

@@ -108,8 +108,8 @@ def simulate(
     import numpy as np
 
     from accelcal.io.formats.vibrafuge import write_vibrafuge
+    from accelcal.resources import generator
     from accelcal.rigs.vibrafuge import simulate as run_sim
-    from accelcal.signal.resources import generator
     from accelcal.units import DEG
 
     model = load_model(model_file)

@@ -30,7 +30,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD, MAX_OUTPUT, check_positions
 from accelcal.model import ErrorModel
-from accelcal.signal.resources import check_memory, generator
+from accelcal.resources import check_memory, generator
 from accelcal.units import DEG
 
 DEFAULT_MOUNTS_DEG = (0.0, 90.0, 180.0, 270.0)
@@ -389,7 +389,7 @@ sines and cosines, the outputs, the noise and their sum, plus the columns writte
 def require_simulation_memory(n: int, k: int, repeats: int = 1, *, trials: int = 1) -> None:
     """Refuse a simulation of ``trials x repeats x k x n`` readings that cannot fit in memory.
 
-    :func:`accelcal.signal.resources.check_memory` with
+    :func:`accelcal.resources.check_memory` with
     :data:`SIMULATION_ARRAYS` arrays of the readings' size.
     """
     check_memory(float(trials) * repeats * n, k, SIMULATION_ARRAYS,

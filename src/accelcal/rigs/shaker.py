@@ -41,7 +41,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.shaker import MAX_MAGNITUDE, ShakerRecords
 from accelcal.model import MAX_SPECIFIC_FORCE_G, ErrorModel
-from accelcal.signal.resources import check_memory
+from accelcal.resources import check_memory
 from accelcal.units import OUTPUT_UNITS
 
 MEMORY_FACTOR = 20

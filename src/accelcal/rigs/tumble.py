@@ -23,7 +23,7 @@ from accelcal.errors import AccelcalError
 from accelcal.io.formats.tumble import MAX_ANGLE, MAX_OUTPUT, TumbleRecord
 from accelcal.methods.tumble.geometry import specific_force
 from accelcal.model import ErrorModel
-from accelcal.signal.resources import check_memory, generator
+from accelcal.resources import check_memory, generator
 
 MEMORY_FACTOR = 12
 """Arrays of (positions x repeats) float64 a simulation holds at its peak: the three

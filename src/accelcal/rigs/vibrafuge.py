@@ -40,7 +40,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.vibrafuge import MAX_MAGNITUDE, VibrafugeRun
 from accelcal.model import MAX_SPECIFIC_FORCE_G, ErrorModel
-from accelcal.signal.resources import check_memory
+from accelcal.resources import check_memory
 
 SAMPLING = ("integrating", "point")
 """Sampling models: mean over each sample interval, or instantaneous values."""
@@ -185,7 +185,7 @@ def simulate(
         beyond :data:`accelcal.model.MAX_SPECIFIC_FORCE_G`, values or outputs
         a vibrafuge file cannot hold (:data:`~accelcal.io.formats.vibrafuge.MAX_MAGNITUDE`),
         or records that would not fit in memory
-        (:func:`accelcal.signal.resources.check_memory`).
+        (:func:`accelcal.resources.check_memory`).
 
     References
     ----------

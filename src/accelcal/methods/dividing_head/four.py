@@ -36,8 +36,8 @@ from accelcal.methods.dividing_head.result import (
 from accelcal.methods.dividing_head.single import scale_factors
 from accelcal.methods.dividing_head.sizes import MAX_DENSE_POSITIONS
 from accelcal.methods.dividing_head.theory import COEFFICIENTS, coefficient_units
+from accelcal.resources import check_memory
 from accelcal.results import Assumption, Estimate, Reduction
-from accelcal.signal.resources import check_memory
 
 
 def residual_noise_variances(operator: np.ndarray, residuals: np.ndarray, *,

@@ -46,8 +46,8 @@ from accelcal.methods.dividing_head.theory import (
     coefficient_units,
     psi,
 )
+from accelcal.resources import check_memory
 from accelcal.results import Assumption, Estimate, Reduction
-from accelcal.signal.resources import check_memory
 
 ZERO_ENTRY = 1e-12
 """Design entries (sines and cosines, |x| <= 1) below this are taken as zero: rounding

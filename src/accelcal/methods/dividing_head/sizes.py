@@ -5,7 +5,7 @@ what is inherently ``n x n`` (the full covariance of ``n`` per-position
 head errors) is formed, up to :data:`MAX_DENSE_POSITIONS` positions, and
 beyond it each position's standard uncertainty is kept instead. Memory is
 estimated before allocating with
-:func:`accelcal.signal.resources.check_memory` (the dense Monte Carlo
+:func:`accelcal.resources.check_memory` (the dense Monte Carlo
 operators, studies and simulations).
 """
 

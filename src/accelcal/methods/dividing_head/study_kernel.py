@@ -24,8 +24,8 @@ from accelcal.methods.dividing_head.joint import JointOperator
 from accelcal.methods.dividing_head.single import single_operator
 from accelcal.methods.dividing_head.study_bank import SensorBank, scratch
 from accelcal.methods.dividing_head.theory import COEFFICIENTS, psi
+from accelcal.resources import check_memory
 from accelcal.rigs.dividing_head import DividingHeadRig
-from accelcal.signal.resources import check_memory
 
 SUB_BLOCK = 512
 """Trials drawn and reduced at once inside a seed block (part of the identity)."""

@@ -37,7 +37,7 @@ from accelcal.methods.tumble.geometry import (
     design_matrix,
     is_uniform,
 )
-from accelcal.signal.resources import check_memory
+from accelcal.resources import check_memory
 
 MEMORY_FACTOR = 8
 """Arrays of (positions x terms) float64 an analysis holds at its peak: the design,
