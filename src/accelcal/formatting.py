@@ -37,6 +37,15 @@ def pm(value: float, std: float) -> str:
     return f"{format_value(value, std)} ± {format_std(std)}"
 
 
+def format_engineering(items) -> str:
+    """Engineering units for people: ``-9.54 ± 0.68 µrad; -1.97 ± 0.14 arcsec``.
+
+    ``items`` are dicts with ``estimate``, ``std`` and ``unit`` (the
+    ``engineering`` list of :func:`accelcal.outputs.reduction_rows`).
+    """
+    return "; ".join(f"{pm(e['estimate'], e['std'])} {format_unit(e['unit'])}" for e in items)
+
+
 def format_unit(unit: str) -> str:
     """A unit with superscript powers and micro signs (``ug/g^2`` -> ``µg/g²``)."""
     text = unit.replace("^2", "²").replace("^3", "³").replace("^4", "⁴")

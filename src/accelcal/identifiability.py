@@ -155,8 +155,12 @@ def _equilibrate(design, sigma=None) -> tuple[np.ndarray, np.ndarray]:
     return a / scale, scale
 
 
-def _small_svd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Singular values and right singular vectors (p x p) without an n x n factor."""
+def small_svd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values (one per column, zeros appended) and right singular vectors (p x p).
+
+    A tall ``a`` is first reduced to its R factor, which has the same singular
+    values and right vectors, so no n x n factor is ever formed.
+    """
     n, p = a.shape
     if n > p:
         a = np.linalg.qr(a, mode="r")  # R has a's singular values and right vectors
@@ -210,7 +214,7 @@ def analyse(design, names, *, sigma=None, units=None) -> Identifiability:
     if len(names) != p:
         raise ValueError(f"analyse: {len(names)} names for a design of {p} columns")
     raw_norm = np.linalg.norm(np.asarray(design, dtype=float), axis=0)
-    sv, vt = _small_svd(a)
+    sv, vt = small_svd(a)
     rank = numerical_rank(sv)
     null = vt[rank:].T / scale[:, None]  # back to coefficient coordinates
     norms = np.linalg.norm(null, axis=0)
@@ -231,6 +235,14 @@ def analyse(design, names, *, sigma=None, units=None) -> Identifiability:
 def estimable_combinations(null, names, bad) -> list[tuple[tuple[str, float], ...]]:
     """Independent combinations of the flagged coefficients orthogonal to ``null``.
 
+    The combinations are returned in reduced row-echelon form, which is
+    unique for the subspace they span, in O(s r^2) for ``s`` flagged
+    coefficients and an ``r``-dimensional null space (no s x s matrix, so a
+    design with a million flagged head errors costs seconds): with
+    ``M = N_s'`` (r x s), the non-pivot columns ``J`` are chosen from the
+    right, each kept when independent of those kept to its right; every
+    other column i gives the row ``e_i - e_J M_J^-1 M_i``.
+
     Parameters
     ----------
     null : numpy.ndarray, shape (p, k)
@@ -242,44 +254,29 @@ def estimable_combinations(null, names, bad) -> list[tuple[tuple[str, float], ..
     Returns
     -------
     list of tuple of (str, float)
-        Each combination in reduced row-echelon form (leading weight 1),
-        weights below ``NULL_ATOL`` dropped.
+        Each combination with leading weight 1, weights below ``NULL_ATOL``
+        dropped.
     """
     sub = np.flatnonzero(np.asarray(bad))
     if sub.size == 0 or null.shape[1] == 0:
         return []
-    ns = null[sub]  # (s, k): a combination w on sub is estimable iff ns' w = 0
-    sv, vt = _small_svd(ns.T) if ns.shape[1] else (np.zeros(0), np.eye(sub.size))
-    r = numerical_rank(sv)
-    basis = vt[r:]  # rows span the estimable combinations on sub
-    if basis.shape[0] == 0:
-        return []
-    out = []
-    for row in _rref(basis):
-        keep = np.abs(row) > NULL_ATOL
-        if not keep.any():
-            continue
-        out.append(tuple((names[sub[i]], float(row[i])) for i in np.flatnonzero(keep)))
-    return out
-
-
-def _rref(a: np.ndarray) -> np.ndarray:
-    """Reduced row-echelon form with partial pivoting (rows independent)."""
-    a = np.array(a, dtype=float)
-    rows, cols = a.shape
-    r = 0
-    for c in range(cols):
-        if r == rows:
+    mat = null[sub].T  # (r, s): a combination w on sub is estimable iff mat @ w = 0
+    r = numerical_rank(np.linalg.svd(mat, compute_uv=False))
+    chosen: list[int] = []
+    for i in range(sub.size - 1, -1, -1):
+        if len(chosen) == r:
             break
-        piv = r + int(np.argmax(np.abs(a[r:, c])))
-        if abs(a[piv, c]) <= NULL_ATOL:
-            continue
-        a[[r, piv]] = a[[piv, r]]
-        a[r] /= a[r, c]
-        others = np.arange(rows) != r
-        a[others] -= np.outer(a[others, c], a[r])
-        r += 1
-    return a[:r]
+        if numerical_rank(np.linalg.svd(mat[:, [*chosen, i]], compute_uv=False)) > len(chosen):
+            chosen.append(i)
+    chosen.sort()
+    pivots = np.setdiff1d(np.arange(sub.size), chosen)
+    coef = -np.linalg.lstsq(mat[:, chosen], mat[:, pivots], rcond=None)[0]  # (|J|, pivots)
+    out = []
+    for col, i in enumerate(pivots):
+        weights = [(int(i), 1.0)] + [(int(j), float(coef[m, col])) for m, j in enumerate(chosen)
+                                     if j > i and abs(coef[m, col]) > NULL_ATOL]
+        out.append(tuple((names[sub[j]], v) for j, v in sorted(weights)))
+    return out
 
 
 def describe(weights: dict) -> str:

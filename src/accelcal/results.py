@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from accelcal.errors import AccelcalError
 from accelcal.identifiability import Combination, Identifiability
 
 
@@ -82,8 +83,6 @@ class Estimate:
                 f"got {values.shape} and {cov.shape}"
             )
         if np.isinf(values).any() or np.isinf(cov).any():
-            from accelcal.errors import AccelcalError
-
             raise AccelcalError(
                 f"{self.method}: the estimates or their uncertainties overflowed (infinite): an "
                 "input value is far out of range; check the inputs' magnitudes and units"

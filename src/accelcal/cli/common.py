@@ -185,11 +185,10 @@ def _json_value(value):
 
 
 def _table_cell(value, std=None, column: str = "") -> str:
-    from accelcal.formatting import format_std, format_unit, format_value, pm
+    from accelcal.formatting import format_engineering, format_std, format_unit, format_value
 
     if column == "engineering":
-        return "; ".join(f"{pm(e['estimate'], e['std'])} {format_unit(e['unit'])}"
-                         for e in value)
+        return format_engineering(value)
     value = _plain(value)
     if value is None:
         return "n/a"

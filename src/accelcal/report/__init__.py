@@ -16,7 +16,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from accelcal.formatting import format_correlation, format_std, format_unit, format_value, pm
+from accelcal.formatting import (
+    format_correlation,
+    format_engineering,
+    format_std,
+    format_unit,
+    format_value,
+)
 from accelcal.io.atomic import write_text_atomic
 
 
@@ -124,6 +130,7 @@ def _view(section: Section, number: int) -> dict:
     view["all_notes"] = list(dict.fromkeys([*section.notes, *record_notes]))
     if rec is not None:
         std = rec.std
+        k1 = _record_scale_factor(rec)
         with np.errstate(invalid="ignore", divide="ignore"):
             corr = rec.covariance / np.outer(std, std)
         view["record"] = {
@@ -136,7 +143,7 @@ def _view(section: Section, number: int) -> dict:
                 {"name": n, "unit": rec.units.get(n, ""), "estimate": float(v),
                  "std": float(s), "expanded": float(u),
                  "engineering": engineering_text(n, float(v), float(s), rec.units.get(n, ""),
-                                                 scale_factor=_record_scale_factor(rec))}
+                                                 scale_factor=k1)}
                 for n, v, s, u in zip(rec.names, rec.estimates, std, rec.expanded, strict=True)
             ],
             "correlation": corr.tolist() if len(rec.names) <= 10 else None,
@@ -145,14 +152,12 @@ def _view(section: Section, number: int) -> dict:
     return view
 
 
-def engineering_text(name, value, std, unit, *, scale_factor=None, nominal=None,
-                     quantity=None, most: int | None = None) -> str:
-    """``value ± std unit`` in a coefficient's engineering units (the first ``most``)."""
+def engineering_text(name, value, std, unit, *, scale_factor=None) -> str:
+    """``value ± std unit`` in each engineering unit of a record's coefficient."""
     from accelcal.engineering import engineering
 
-    eng = engineering(name, value, std, unit, scale_factor=scale_factor, nominal=nominal,
-                      quantity=quantity)
-    return "; ".join(f"{pm(e.estimate, e.std)} {format_unit(e.unit)}" for e in eng[:most])
+    return format_engineering(e.as_dict() for e in engineering(name, value, std, unit,
+                                                                 scale_factor=scale_factor))
 
 
 def _record_scale_factor(rec) -> float | None:

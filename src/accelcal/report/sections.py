@@ -16,8 +16,8 @@ References
 
 import numpy as np
 
-from accelcal.formatting import format_unit, pm
-from accelcal.report import Figure, Section, engineering_text, figure_svg
+from accelcal.formatting import format_engineering, format_unit, pm
+from accelcal.report import Figure, Section, figure_svg
 
 ERRATA_SEE = "Details, checks and the code that implements each correction: docs/errata.md"
 
@@ -88,12 +88,7 @@ def overview_rows(reduction, records) -> list[dict]:
                 continue
             cell = pm(r["estimate"], r["std"]) if r["status"] == "fitted" else \
                 f"{r['estimate']:.6g} (fixed)"
-            eng = engineering_text(coef, r["estimate"], r["std"], unit,
-                                   scale_factor=reduction.scale_factor(
-                                       reduction.sensor_names.index(sensor)),
-                                   nominal=reduction.nominal_of(
-                                       coef, reduction.sensor_names.index(sensor)),
-                                   quantity=reduction.quantities.get(coef), most=1)
+            eng = format_engineering(r["engineering"][:1])
             row[head] = f"{cell}\n({eng})" if eng and r["status"] == "fitted" else cell
         table.append(row)
     return table

@@ -11,28 +11,11 @@ methods reduce them, the command line reads and writes them.
 to its module; a new kind adds one line here.
 """
 
-import importlib
-
 KINDS = {
     "dividing-head": "accelcal.io.formats.dividing_head",
     "shaker": "accelcal.io.formats.shaker",
     "vibrafuge": "accelcal.io.formats.vibrafuge",
     "tumble": "accelcal.io.formats.tumble",
 }
-"""Record kind -> format module (imported on first use)."""
+"""Record kind -> format module (imported where used)."""
 
-
-def format_module(kind: str):
-    """The format module of record ``kind``.
-
-    Raises
-    ------
-    accelcal.errors.AccelcalError
-        For an unknown kind.
-    """
-    from accelcal.errors import AccelcalError
-
-    if kind not in KINDS:
-        raise AccelcalError(f"unknown record kind {kind!r}; known: {', '.join(KINDS)}",
-                            parameter="kind")
-    return importlib.import_module(KINDS[kind])

@@ -34,7 +34,9 @@ from accelcal.identifiability import (
     Combination,
     Identifiability,
     analyse,
+    estimable_combinations,
     numerical_rank,
+    small_svd,
 )
 
 BLOCK = 8192
@@ -223,7 +225,7 @@ def design_identifiability(a, b, names, zero: float) -> Identifiability:
     small[:rr, :p] = s[:, None] * vt
     small[:rr, p:] = np.eye(rr)
     small[rr:, :p] = r_e
-    sv_small, vt_small = _svd_square(small)
+    sv_small, vt_small = small_svd(small)
     n_live = int(live.sum())
     sv = np.sort(np.concatenate([sv_small, np.ones(n_live - rr), np.zeros(n - n_live)]))[::-1]
     rank = numerical_rank(sv)
@@ -247,46 +249,6 @@ def design_identifiability(a, b, names, zero: float) -> Identifiability:
         identifiable=tuple(nm for nm, bd in zip(names, bad, strict=True) if not bd),
         unobservable=tuple(nm for nm, c in zip(names, raw, strict=True) if c == 0.0),
         null_space=null,
-        combinations=tuple(Combination(wts) for wts in rref_combinations(null, names, bad)),
+        combinations=tuple(Combination(wts)
+                           for wts in estimable_combinations(null, names, bad)),
     )
-
-
-def _svd_square(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Singular values (one per column, zeros appended) and right vectors of a small matrix."""
-    _, sv, vt = np.linalg.svd(a, full_matrices=True)
-    return np.concatenate([sv, np.zeros(a.shape[1] - sv.size)]), vt
-
-
-def rref_combinations(null, names, bad) -> list[tuple[tuple[str, float], ...]]:
-    """The estimable combinations of the flagged coefficients, in reduced row-echelon form.
-
-    The same combinations as :func:`accelcal.identifiability.estimable_combinations`
-    (the reduced row-echelon form of a subspace is unique) in O(s r^2) for
-    ``s`` flagged coefficients and an ``r``-dimensional null space: with
-    ``M = N_s'`` (r x s), the non-pivot columns ``J`` are chosen from the
-    right, each column kept when independent of those kept to its right;
-    every other column i gives the row ``e_i - e_J M_J^-1 M_i``.
-    """
-    sub = np.flatnonzero(np.asarray(bad))
-    if sub.size == 0 or null.shape[1] == 0:
-        return []
-    mat = null[sub].T  # (r, s)
-    r = numerical_rank(np.linalg.svd(mat, compute_uv=False))
-    chosen: list[int] = []
-    for i in range(sub.size - 1, -1, -1):
-        if len(chosen) == r:
-            break
-        trial = mat[:, [*chosen, i]]
-        sv = np.linalg.svd(trial, compute_uv=False)
-        if numerical_rank(sv) == len(chosen) + 1:
-            chosen.append(i)
-    chosen.sort()
-    basic = mat[:, chosen]
-    pivots = np.setdiff1d(np.arange(sub.size), chosen)
-    coef = -np.linalg.lstsq(basic, mat[:, pivots], rcond=None)[0]  # (len(J), pivots)
-    out = []
-    for col, i in enumerate(pivots):
-        weights = [(int(i), 1.0)] + [(int(j), float(coef[m, col])) for m, j in enumerate(chosen)
-                                     if j > i and abs(coef[m, col]) > NULL_ATOL]
-        out.append(tuple((names[sub[j]], v) for j, v in sorted(weights)))
-    return out
