@@ -18,12 +18,21 @@ fixed date, so the output is the same on every run):
   0.1 s records at 2000 Hz;
 - ``model.json``: the default accelerometer's model file;
 - ``calibration_record.json``: the calibration record of sensor U1 of
-  ``indexing_head.csv`` (joint reduction).
+  ``indexing_head.csv`` (joint reduction);
+- ``triad.csv``: a triad (serial IMU-0001) in counts on the six Ferraris
+  positions at 50 Hz, 5 s still, 2 s per position;
+- ``triad_calibration.json``: its calibration by known orientations;
+- ``still.csv``: a still recording (noise kind) of ACC-0001, 60 s at 100 Hz,
+  white noise 20 ug/sqrt(Hz) and bias instability 5 ug;
+- ``thermal.csv``: a thermal-chamber test of ACC-0001 (8 plateaus, 12-point
+  tumbles, 30 s per position) and ``thermal_compensation.json``, its
+  second-order compensation model.
 
 Every record file carries the laboratory metadata ``serial``, ``operator``,
 ``date`` and ``local_gravity``.
 """
 
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -99,7 +108,60 @@ def make(directory) -> list[Path]:
     record = result.to_records(info, input_files=[out / "indexing_head.csv"])[0]
     record.save(out / "calibration_record.json")
     written.append(out / "calibration_record.json")
+    written += _triad(out)
+    written.append(_still(out))
+    written += _thermal(out)
     return written
+
+
+def _thermal(out: Path) -> list[Path]:
+    """A thermal-chamber record and its compensation model (order 2)."""
+    from accelcal.defaults import default_model
+    from accelcal.io.formats import thermal
+    from accelcal.methods.thermal import Compensation, reduce_thermal
+    from accelcal.rigs.thermal import DEFAULT_TEMPERATURE, Programme, simulate
+
+    model = default_model().replace(temperature=DEFAULT_TEMPERATURE)
+    rec = simulate(model, Programme(points=12, dwell=30.0, warmup=600.0), seed=0)
+    rec = dataclasses.replace(rec, metadata={**rec.metadata, **_lab(SERIALS[0])})
+    thermal.write(out / "thermal.csv", rec)
+    red = reduce_thermal(thermal.read(out / "thermal.csv"), order=2)
+    comp = out / "thermal_compensation.json"
+    Compensation.from_model(red.models[0], description="from thermal.csv").save(comp)
+    return [out / "thermal.csv", comp]
+
+
+def _still(out: Path) -> Path:
+    """A short still recording (record kind noise)."""
+    from accelcal.io.formats import noise
+    from accelcal.rigs.noise import simulate
+
+    rec = simulate(N=2e-5, B=5e-6, rate=100.0, duration=60.0, seed=5)
+    rec = type(rec)(rec.values, rec.rate, rec.unit, rec.channels,
+                    {**rec.metadata, **_lab(SERIALS[0])})
+    noise.write(out / "still.csv", rec)
+    return out / "still.csv"
+
+
+def _triad(out: Path) -> list[Path]:
+    """A six-position triad record and its known-orientation calibration."""
+    from accelcal.io.formats import triad as triad_format
+    from accelcal.methods.triad import TriadCalibration, calibrate_known, calibration_of
+    from accelcal.rigs.triad import simulate, six_positions
+
+    truth = TriadCalibration(bias=(120.0, -85.0, 40.0), scale=(4.79e-3, 4.81e-3, 4.78e-3),
+                             angles=(1.2e-3, -0.8e-3, 2.1e-3), input_unit="counts")
+    rec = simulate(truth, six_positions(), rate=50.0, dwell=2.0, motion=1.0, still=5.0,
+                   noise_sd=2.0, seed=4, gravity=LOCAL_GRAVITY)
+    rec = type(rec)(rec.t, rec.acc, rec.input_unit, rec.positions,
+                    {**rec.metadata, **_lab("IMU-0001")})
+    triad_format.write(out / "triad.csv", rec)
+    spans = [(p["start"], p["stop"]) for p in rec.positions]
+    means = np.array([rec.acc[a:b].mean(axis=0) for a, b in spans])
+    red = calibrate_known(means, [p["up"] for p in rec.positions], LOCAL_GRAVITY,
+                          input_unit="counts", counts=[b - a for a, b in spans])
+    calibration_of(red).save(out / "triad_calibration.json")
+    return [out / "triad.csv", out / "triad_calibration.json"]
 
 
 if __name__ == "__main__":

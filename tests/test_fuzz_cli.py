@@ -75,6 +75,27 @@ BASE: dict[str, list[str]] = {
     "tumble identify": ["--points", "8"],
     "tumble simulate": ["--out", "{out}/tumble.csv"],
     "tumble reduce": ["{tumble}"],
+    "triad detect": ["{examples}/triad.csv", "--init-static", "4"],
+    "triad calibrate": ["{examples}/triad.csv", "--out", "{out}/cal.json"],
+    "triad apply": ["{examples}/triad.csv", "--calibration", "{examples}/triad_calibration.json",
+                    "--out", "{out}/o.csv"],
+    "triad simulate": ["--out", "{out}/t.csv", "--still", "5", "--dwell", "2"],
+    "triad plan": [],
+    "noise adev": ["{examples}/still.csv"],
+    "noise fit": ["{examples}/still.csv"],
+    "noise psd": ["{examples}/still.csv"],
+    "noise simulate": ["--N", "2e-5", "--rate", "100", "--duration", "10",
+                       "--out", "{out}/still.csv"],
+    "noise stability": ["--serial", "ACC-0001", "--db", "{store}"],
+    "thermal simulate": ["--out", "{out}/th.csv", "--points", "8", "--dwell", "20", "--warmup",
+                         "0", "--setpoints", "-20,10,40,25,-5"],
+    "thermal reduce": ["{examples}/thermal.csv"],
+    "thermal compensate": ["{examples}/thermal.csv", "--model",
+                           "{examples}/thermal_compensation.json", "--out", "{out}/c.csv",
+                           "--allow-extrapolation"],
+    "import": ["{examples}/still.csv", "--kind", "noise", "--channels", "acc=acc",
+               "--out", "{out}/imported.csv"],
+    "inspect": ["{examples}/still.csv"],
     "records add": ["{record}", "--db", "{out}/new.sqlite"],
     "records list": ["--db", "{store}"],
     "records history": ["ACC-0001", "--db", "{store}"],
@@ -135,7 +156,7 @@ KINDS: dict[str, str] = {
     "out": "output", "record_out": "output", "plot": "output-dir", "db": "store",
     "fmt": "choice", "method": "choice", "route": "choice", "estimator": "choice",
     "axial": "choice", "sampling": "choice", "axis": "choice", "uncertainty": "choice",
-    "covariance": "choice", "scheduler": "str",
+    "covariance": "choice", "scheduler": "str", "imucal_out": "output",
 }
 """Parameter name -> kind of bad values (else from its annotation: float, int, str, Path)."""
 
@@ -413,16 +434,24 @@ def judge(case: dict, res: dict) -> str | None:
 
 
 def _fill(tmp: Path) -> dict:
-    """Shared input files of the matrix: a calibration record, a tumble record, a store."""
+    """Shared input files of the matrix: a calibration record, a tumble record, a store
+    (the record and two noise fits of ACC-0001)."""
     from accelcal.cli import main
 
     record = EXAMPLES / "calibration_record.json"
     tumble, store = tmp / "tumble.csv", tmp / "store.sqlite"
-    for args in (["tumble", "simulate", "--out", str(tumble), "--points", "12"],
-                 ["records", "add", str(record), "--db", str(store)]):
+    runs = [["tumble", "simulate", "--out", str(tumble), "--points", "12"],
+            ["records", "add", str(record), "--db", str(store)]]
+    for seed in ("1", "2"):  # two still recordings of ACC-0001: `noise stability` needs two
+        still, fit = tmp / f"still{seed}.csv", tmp / f"noise{seed}.json"
+        runs += [["noise", "simulate", "--N", "2e-5", "--B", "3e-6", "--rate", "50",
+                  "--duration", "20", "--seed", seed, "--out", str(still)],
+                 ["noise", "fit", str(still), "--record", str(fit), "--serial", "ACC-0001"],
+                 ["records", "add", str(fit), "--db", str(store)]]
+    for args in runs:
         with pytest.raises(SystemExit) as info:
             main(args)
-        assert info.value.code == 0
+        assert info.value.code == 0, args
     return {"record": str(record), "tumble": str(tumble), "store": str(store)}
 
 

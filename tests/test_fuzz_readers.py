@@ -117,6 +117,60 @@ def _tumble(suffix: str):
     return make
 
 
+def _triad(suffix: str):
+    def make(tmp: Path):
+        from accelcal.io.formats import triad
+        from accelcal.methods.triad import TriadCalibration
+        from accelcal.rigs.triad import simulate
+
+        cal = TriadCalibration(bias=(0.02, -0.01, 0.03), scale=(1.01, 0.99, 1.002),
+                               angles=(1e-3, -2e-3, 5e-4))
+        rec = simulate(cal, 12, rate=20.0, dwell=1.0, motion=0.5, still=2.0, noise_sd=1e-3,
+                       seed=2)
+        path = tmp / f"triad{suffix}"
+        triad.write(path, rec)
+        return path, path
+
+    return make
+
+
+def _noise(suffix: str):
+    def make(tmp: Path):
+        from accelcal.io.formats import noise
+        from accelcal.rigs.noise import simulate
+
+        rec = simulate(N=2e-5, B=3e-6, rate=50.0, duration=40.0, seed=1)
+        rec = type(rec)(rec.values, rec.rate, rec.unit, rec.channels,
+                        {**rec.metadata, "serial": "ACC-0001", "operator": "J. Smith",
+                         "date": "2026-11-20T09:30:00+00:00"})
+        path = tmp / f"noise{suffix}"
+        noise.write(path, rec)
+        return path, path
+
+    return make
+
+
+def _thermal(suffix: str):
+    def make(tmp: Path):
+        import dataclasses
+
+        from accelcal.defaults import default_model
+        from accelcal.io.formats import thermal
+        from accelcal.rigs.thermal import DEFAULT_TEMPERATURE, Programme, simulate
+
+        rec = simulate(default_model().replace(temperature=DEFAULT_TEMPERATURE),
+                       Programme(setpoints=(-20.0, 10.0, 40.0, 25.0, -5.0), warmup=600.0,
+                                 points=8, dwell=20.0), seed=1)
+        rec = dataclasses.replace(rec, metadata={**rec.metadata, "serial": "ACC-0001",
+                                                 "operator": "J. Smith",
+                                                 "date": "2026-11-20T09:30:00+00:00"})
+        path = tmp / f"thermal{suffix}"
+        thermal.write(path, rec)
+        return path, path
+
+    return make
+
+
 # ------------------------------------------------------------------------------ readers
 def _head(path):
     from accelcal.io.formats.dividing_head import read_head_record
@@ -140,6 +194,88 @@ def _tumble_read(path):
     from accelcal.io.formats.tumble import read
 
     return read(path)
+
+
+def _recording(**options):
+    def read(path):
+        from accelcal.io.recordings import InputOptions, read_recording
+
+        return read_recording(path, InputOptions(**options), channels=3)
+
+    return read
+
+
+def _imucal_seed(tmp: Path):
+    """The real imucal session's first 1,500 rows, labelled in a ``part`` column."""
+    import pandas as pd
+
+    real = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "imucal"
+    df = pd.read_csv(real / "example_ferraris_session.csv", nrows=1500)
+    df["part"] = np.where(np.arange(len(df)) < 800, "x_p", "x_a")
+    path = tmp / "session.csv"
+    df.to_csv(path, index=False)
+    return path, path
+
+
+def _daq_seed(suffix: str):
+    def make(tmp: Path):
+        import pandas as pd
+
+        rng = np.random.default_rng(5)
+        df = pd.DataFrame({"time_ms": np.arange(300) * 10.0, "X": rng.normal(0, 1, 300),
+                           "Y": rng.normal(0, 1, 300), "Z": rng.normal(1, 1, 300)})
+        path = tmp / f"daq{suffix}"
+        if suffix == ".csv":
+            df.to_csv(path, index=False, sep=";")
+        else:
+            df.to_parquet(path)
+        return path, path
+
+    return make
+
+
+def _imu_tk_seed(tmp: Path):
+    rng = np.random.default_rng(6)
+    data = np.column_stack([np.arange(300) * 0.01, rng.normal(0, 3000, (300, 3))])
+    path = tmp / "acc.txt"
+    np.savetxt(path, data, fmt="%.9g", delimiter=" ")
+    return path, path
+
+
+def _noise_read(path):
+    from accelcal.io.formats.noise import read
+
+    return read(path)
+
+
+def _thermal_read(path):
+    from accelcal.io.formats.thermal import read
+
+    return read(path)
+
+
+def _triad_read(path):
+    from accelcal.io.formats.triad import read
+
+    return read(path)
+
+
+def _daq_binary_seed(fmt: str):
+    """A DAQ file written by its own library (tests/daq_files.py): TDMS, HDF5, MAT v5, v7.3."""
+
+    def make(tmp: Path):
+        import daq_files
+
+        acc, temp = daq_files.signals(n=600)
+        writer, name = {"tdms": (daq_files.write_tdms, "run.tdms"),
+                        "hdf5": (daq_files.write_hdf5, "run.h5"),
+                        "mat": (daq_files.write_mat5, "run.mat"),
+                        "mat73": (daq_files.write_mat73, "run73.mat")}[fmt]
+        path = tmp / name
+        writer(path, acc, temp)
+        return path, path
+
+    return make
 
 
 def _model(path):
@@ -188,6 +324,8 @@ _HEAD_CMD = ("dividing-head", "reduce", "{file}", "--format", "json",
 _SHAKER_CMD = ("transverse", "fit", "{file}", "--format", "json", "--record", "{out}/rec.json")
 _VRE_CMD = ("vre", "fit", "{file}", "--format", "json", "--record", "{out}/rec.json")
 _TUMBLE_CMD = ("tumble", "reduce", "{file}", "--format", "json")
+_NOISE_CMD = ("noise", "fit", "{file}", "--format", "json")
+_THERMAL_CMD = ("thermal", "reduce", "{file}", "--format", "json", "--record", "{out}/rec.json")
 
 READERS: dict[str, Reader] = {
     "dividing-head.csv": Reader(_head, _example("indexing_head.csv"), "csv", _HEAD_CMD),
@@ -199,6 +337,12 @@ READERS: dict[str, Reader] = {
     "vibrafuge.parquet": Reader(_vibrafuge, _vibrafuge_parquet, "parquet", _VRE_CMD),
     "tumble.csv": Reader(_tumble_read, _tumble(".csv"), "csv", _TUMBLE_CMD),
     "tumble.parquet": Reader(_tumble_read, _tumble(".parquet"), "parquet", _TUMBLE_CMD),
+    "noise.csv": Reader(_noise_read, _noise(".csv"), "csv", _NOISE_CMD),
+    "noise.parquet": Reader(_noise_read, _noise(".parquet"), "parquet", _NOISE_CMD),
+    "thermal.csv": Reader(_thermal_read, _thermal(".csv"), "csv", _THERMAL_CMD),
+    "thermal.parquet": Reader(_thermal_read, _thermal(".parquet"), "parquet", _THERMAL_CMD),
+    "triad.csv": Reader(_triad_read, _triad(".csv"), "csv"),
+    "triad.parquet": Reader(_triad_read, _triad(".parquet"), "parquet"),
     "model": Reader(_model, _example("model.json"), "json",
                     ("model", "show", "{file}", "--format", "json")),
     "calibration-record": Reader(_calibration_record, _example("calibration_record.json"),
@@ -208,6 +352,22 @@ READERS: dict[str, Reader] = {
                                                              ".json", tmp / "r.json"),) * 2,
                                     "json", ("records", "add", "{file}", "--db",
                                              "{out}/store.sqlite")),
+    "recording.imucal": Reader(_recording(rate=102.4), _imucal_seed, "table"),
+    "recording.csv": Reader(_recording(columns=("X", "Y", "Z"), time="time_ms", time_unit="ms",
+                                       unit="g", delimiter=";"), _daq_seed(".csv"), "table"),
+    "recording.parquet": Reader(_recording(columns=("X", "Y", "Z"), time="time_ms",
+                                           time_unit="ms", unit="g"), _daq_seed(".parquet"),
+                                "parquet"),
+    "recording.imu_tk": Reader(_recording(unit="counts"), _imu_tk_seed, "text"),
+    "recording.tdms": Reader(_recording(columns=("Accel/X", "Accel/Y", "Accel/Z")),
+                             _daq_binary_seed("tdms"), "binary"),
+    "recording.hdf5": Reader(_recording(columns=("daq/acc[0]", "daq/acc[1]", "daq/acc[2]"),
+                                        time="daq/t"), _daq_binary_seed("hdf5"), "binary"),
+    "recording.mat": Reader(_recording(columns=("data[0]", "data[1]", "data[2]"), rate=1000.0,
+                                       unit="g"), _daq_binary_seed("mat"), "binary"),
+    "recording.mat73": Reader(_recording(columns=("data[0]", "data[1]", "data[2]"),
+                                         rate=1000.0, unit="g"), _daq_binary_seed("mat73"),
+                              "binary"),
     "lab-metadata.csv": Reader(_lab, _example("indexing_head.csv"), "csv"),
     "lab-metadata.parquet": Reader(_lab, _example("indexing_head.parquet"), "parquet"),
 }
@@ -411,7 +571,8 @@ def parquet_mutants(data: bytes) -> list[Mutant]:
     import pyarrow.parquet as pq
 
     table = pq.read_table(io.BytesIO(data))
-    meta = json.loads(table.schema.metadata[b"accelcal"])
+    own = table.schema.metadata and b"accelcal" in table.schema.metadata
+    meta = json.loads(table.schema.metadata[b"accelcal"]) if own else {}
 
     def write(t) -> bytes:
         sink = io.BytesIO()
@@ -421,7 +582,7 @@ def parquet_mutants(data: bytes) -> list[Mutant]:
     def rebuild(text: str) -> bytes:
         return write(table.replace_schema_metadata({"accelcal": text}))
 
-    out = _byte_mutants(2) + _metadata_mutants(meta, rebuild)
+    out = _byte_mutants(2) + (_metadata_mutants(meta, rebuild) if own else [])
     keep = table.schema.metadata
     for name in table.column_names:
         col = table.column(name).to_numpy()
@@ -476,7 +637,42 @@ def json_mutants(data: bytes) -> list[Mutant]:
     return out
 
 
-MUTANTS = {"csv": csv_mutants, "parquet": parquet_mutants, "json": json_mutants}
+def table_mutants(data: bytes) -> list[Mutant]:
+    """A lab's table (a header line, then rows; no accelcal metadata)."""
+    text = data.decode()
+    delimiter = ";" if ";" in text.split("\n")[0] else ","
+    lines = data.split(b"\n")
+    names = lines[0].decode().split(delimiter)
+
+    def rebuild_rows(nn, rows):
+        body = [r.replace(b",", delimiter.encode()) for r in rows]
+        return b"\n".join([delimiter.join(nn).encode("utf-8", "surrogatepass"), *body])
+
+    rows = [r.replace(delimiter.encode(), b",") for r in lines[1:]]
+    return _byte_mutants(4) + _line_mutants(data) + _cell_mutants(names, rows, rebuild_rows)
+
+
+def text_mutants(data: bytes) -> list[Mutant]:
+    """A headerless text table (imu_tk): bytes, lines and cells."""
+    lines = data.split(b"\n")
+    width = len(lines[0].split())
+    names = [f"c{k}" for k in range(width)]
+    rows = [b",".join(r.split()) for r in lines]
+    return (_byte_mutants(5) + _line_mutants(data)
+            + _cell_mutants(names, rows, lambda nn, rr: b"\n".join(r.replace(b",", b" ")
+                                                                   for r in rr)))
+
+
+def binary_mutants(data: bytes) -> list[Mutant]:
+    """A DAQ's binary file (TDMS, HDF5, MAT): truncations and byte flips (96 of them)."""
+    flips = [m for seed in (7, 8, 9) for m in _byte_mutants(seed)
+             if m.description.startswith("byte flip")]
+    return _byte_mutants(6) + [Mutant(f"{m.description} (set {k // 24 + 2})", m.make)
+                               for k, m in enumerate(flips)]
+
+
+MUTANTS = {"csv": csv_mutants, "parquet": parquet_mutants, "json": json_mutants,
+           "table": table_mutants, "text": text_mutants, "binary": binary_mutants}
 
 
 # ------------------------------------------------------------------------------ running

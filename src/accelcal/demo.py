@@ -13,7 +13,15 @@ The stages, each in its method's package:
 2. shaker (:mod:`accelcal.methods.transverse.demo`, GuanTang): 5 g along 12
    directions; cross-axis coefficients from the w and 2w phasors;
 3. vibrafuge (:mod:`accelcal.methods.vre.demo`, Guan2021): overloads 1, 2,
-   4 g times amplitudes 5..10 g; K2, K3, K0', K1'.
+   4 g times amplitudes 5..10 g; K2, K3, K0', K1';
+4. still recording (:mod:`accelcal.methods.noise.demo`, IEEE 952): Allan
+   deviation with confidence intervals and the noise coefficients;
+5. thermal chamber (:mod:`accelcal.methods.thermal.demo`): multipoint
+   tumbles at temperature plateaus, the temperature coefficients, hysteresis
+   and warm-up, and the compensation model;
+6. triad (:mod:`accelcal.methods.triad.demo`, Tedaldi2014): a three-axis
+   housing on 18 static positions, bias, scale factor and non-orthogonality
+   by the known-orientation and the gravity-norm routes.
 
 Every run is stamped with the current time (microseconds), which goes into
 the files' ``date`` and so into the records: running the demo twice adds
@@ -35,6 +43,9 @@ from accelcal.pipeline import CampaignResult
 SERIALS = ("ACC-0001", "ACC-0002", "ACC-0003", "ACC-0004")
 """Serial numbers of the demo's four accelerometers (ACC-0001 is the default model)."""
 
+TRIAD_SERIAL = "IMU-0001"
+"""Serial number of the demo's accelerometer triad (one housing of three axes)."""
+
 OPERATOR = "accelcal demo"
 LOCAL_GRAVITY = 9.80665
 """Local gravity written into the demo files, m/s^2 (standard gravity)."""
@@ -49,11 +60,15 @@ def lab(date: str, serial) -> dict:
 def stages() -> list:
     """The demo's tests, in order (a new method adds its stage here)."""
     from accelcal.methods.dividing_head import demo as head
+    from accelcal.methods.noise import demo as still
+    from accelcal.methods.thermal import demo as thermal
     from accelcal.methods.transverse import demo as shaker
+    from accelcal.methods.triad import demo as triad
     from accelcal.methods.vre import demo as vibrafuge
 
     return [head.stage(SERIALS, lab), shaker.stage(SERIALS[0], lab),
-            vibrafuge.stage(SERIALS[0], lab)]
+            vibrafuge.stage(SERIALS[0], lab), still.stage(SERIALS[0], lab),
+            thermal.stage(SERIALS[0], lab), triad.stage(TRIAD_SERIAL, lab)]
 
 
 def run(out="accelcal-demo", *, db=None, seed: int | None = None, progress: bool = True
@@ -84,8 +99,8 @@ def run(out="accelcal-demo", *, db=None, seed: int | None = None, progress: bool
     return run_campaign(
         stages(), out, db=db, seed=seed, progress=progress,
         title="Accelerometer calibration campaign (demo)",
-        subtitle=(f"Simulated campaign of {', '.join(SERIALS)}: indexing head, shaker "
-                  f"transverse sweep and vibrafuge grid; operator {OPERATOR}, date {{date}}, "
-                  "seed {seed}."),
+        subtitle=(f"Simulated campaign of {', '.join(SERIALS)} and the triad {TRIAD_SERIAL}: "
+                  "indexing head, shaker transverse sweep, vibrafuge grid, still recording, "
+                  f"thermal chamber and triad on static positions; operator {OPERATOR}, date {{date}}, seed {{seed}}."),
         history_serial=SERIALS[0],
     )

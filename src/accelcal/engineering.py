@@ -17,6 +17,10 @@ second order        K2, K_II, Kio, Kip, Kop, Koo, Kpp,     µg/g²
                     K_IO
 third order         K3                                     µg/g³
 fourth order        K4                                     µg/g⁴
+bias TC             K0_T1, K0_T2, K0_T3                    µg/°C, µg/°C², µg/°C³
+scale-factor TC     K1_T1, K1_T2, K1_T3 (relative)         ppm/°C, ppm/°C², ...
+misalignment TC     Ko_Tk, Kp_Tk                           µrad/°C^k
+second-order TC     K2_Tk                                  µg/g²/°C^k
 ==================  =====================================  ====================
 
 A coefficient in an output unit (``V``, ``V/g``, ``V/g^2``, ...) is first
@@ -49,7 +53,12 @@ QUANTITIES = {
     "Kop": "second", "Koo": "second", "Kpp": "second",
     "K3": "third", "K4": "fourth",
 }
-"""Quantity of each coefficient name (a reduction may override per coefficient)."""
+for _k in (1, 2, 3):
+    QUANTITIES |= {f"K0_T{_k}": f"bias/T{_k}", f"K1_T{_k}": f"ratio/T{_k}",
+                   f"Ko_T{_k}": f"misalignment/T{_k}", f"Kp_T{_k}": f"misalignment/T{_k}",
+                   f"K2_T{_k}": f"second/T{_k}"}
+"""Quantity of each coefficient name (a reduction may override per coefficient);
+``<quantity>/T<k>`` is its k-th temperature coefficient (per degC^k)."""
 
 _SCALES = {
     "bias": (("ug", 1e6),),
@@ -60,6 +69,10 @@ _SCALES = {
     "third": (("ug/g^3", 1e6),),
     "fourth": (("ug/g^4", 1e6),),
 }
+for _k in (1, 2, 3):
+    _per = "degC" if _k == 1 else f"degC^{_k}"
+    _SCALES |= {f"{q}/T{_k}": tuple((f"{u}/{_per}", f) for u, f in _SCALES[q])
+                for q in ("bias", "ratio", "misalignment", "second")}
 
 
 @dataclass(frozen=True)

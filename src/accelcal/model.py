@@ -9,7 +9,9 @@ the indicated acceleration in g is ::
            + 1/2 sgn(a_i) (K0' + K1' a_i) + eps
 
 with sgn(0) = 0 and eps ~ N(0, sigma^2) in g; the output E is that times the
-scale factor K1 in the model's output unit per g.
+scale factor K1 in the model's output unit per g. A model may carry
+:class:`~accelcal.terms.TemperatureTerms`: K0, K1, K2, Ko, Kp as polynomials
+in the sensor temperature about T0 (evaluated when a temperature is given).
 
 References
 ----------
@@ -21,6 +23,7 @@ References
 .. [Dong2014] Dong C., Liu Q., Ren S., Test methods of four integrated
    accelerometers on an indexing head, 2014, eq. (5).
 .. [IEEE1293] IEEE Std 1293-2018, model equation with K4.
+.. [DOMAIN] accelcal domain notes, section 8 (temperature polynomials).
 """
 
 import numbers
@@ -32,10 +35,18 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io import model_file
 from accelcal.io.limits import shown
-from accelcal.terms import TERMS, Term, term_unit, unknown_term_message
+from accelcal.terms import (
+    TERMS,
+    TemperatureTerms,
+    Term,
+    check_temperature,
+    term_unit,
+    unknown_term_message,
+)
 from accelcal.units import OUTPUT_UNITS, OutputUnit
 
-__all__ = ["TERMS", "ErrorModel", "Term", "term_unit", "unknown_term_message"]
+__all__ = ["TERMS", "ErrorModel", "TemperatureTerms", "Term", "term_unit",
+           "unknown_term_message"]
 
 
 _GUANTANG = {
@@ -93,6 +104,10 @@ class ErrorModel:
         Standard deviation of the output noise, g. Must be >= 0.
     output_unit : {"V", "mV", "mA", "g"}
         Unit of the output E.
+    temperature : TemperatureTerms, optional
+        Temperature coefficients about a reference T0; the terms above hold
+        at T0. None (the default): the coefficients do not depend on
+        temperature.
 
     References
     ----------
@@ -121,6 +136,7 @@ class ErrorModel:
     K1_asym: float = 0.0
     sigma: float = 0.0
     output_unit: OutputUnit = "V"
+    temperature: TemperatureTerms | None = None
 
     def __post_init__(self) -> None:
         for name in TERMS:
@@ -148,9 +164,12 @@ class ErrorModel:
                 f"ErrorModel output_unit {shown(self.output_unit)} is not one of "
                 f"{', '.join(OUTPUT_UNITS)}"
             )
+        if self.temperature is not None and not isinstance(self.temperature, TemperatureTerms):
+            raise AccelcalError("ErrorModel temperature must be a TemperatureTerms or None")
 
     # ------------------------------------------------------------------ output
-    def output_g(self, a_i, a_o=0.0, a_p=0.0, *, rng: np.random.Generator | None = None):
+    def output_g(self, a_i, a_o=0.0, a_p=0.0, *, rng: np.random.Generator | None = None,
+                 temperature=None):
         """Indicated acceleration E/K1 in g.
 
         Parameters
@@ -162,11 +181,16 @@ class ErrorModel:
             When given and ``sigma > 0``, adds independent Gaussian noise of
             standard deviation ``sigma`` to every output. Without it the
             output is the noise-free model.
+        temperature : array_like, optional
+            Sensor temperature, degC (broadcast with the inputs): the
+            coefficients are evaluated there (:meth:`terms_at`). Without it,
+            or without temperature terms, they are the model's own.
 
         Returns
         -------
         numpy.ndarray or float
-            E/K1 in g, of the broadcast shape of the inputs.
+            E/K1 in g (E/K1(T) with a temperature), of the broadcast shape
+            of the inputs.
 
         Raises
         ------
@@ -179,22 +203,31 @@ class ErrorModel:
         ----------
         .. [1] Guan2021, eqs. (1)-(3).
         """
+        return self._output_g(self._coefficients(temperature), a_i, a_o, a_p, rng)
+
+    def _coefficients(self, temperature) -> dict:
+        return self.terms() if temperature is None else self.terms_at(temperature)
+
+    @staticmethod
+    def _output_g(c: dict, a_i, a_o, a_p, rng):
         a_i, a_o, a_p = (_finite_array(v, n) for v, n in ((a_i, "a_i"), (a_o, "a_o"), (a_p, "a_p")))
         with np.errstate(over="ignore", invalid="ignore"):
             # Eq. (2) [Guan2021], with K4 [IEEE1293]; a_i polynomial in Horner form.
-            u = self.K0 + a_i * (1.0 + a_i * (self.K2 + a_i * (self.K3 + a_i * self.K4)))
-            u = u + a_o * (self.Ko + self.Koo * a_o + self.Kio * a_i + self.Kop * a_p)
-            u = u + a_p * (self.Kp + self.Kpp * a_p + self.Kip * a_i)
-            if self.K0_asym or self.K1_asym:
+            u = c["K0"] + a_i * (1.0 + a_i * (c["K2"] + a_i * (c["K3"] + a_i * c["K4"])))
+            u = u + a_o * (c["Ko"] + c["Koo"] * a_o + c["Kio"] * a_i + c["Kop"] * a_p)
+            u = u + a_p * (c["Kp"] + c["Kpp"] * a_p + c["Kip"] * a_i)
+            if c["K0_asym"] or c["K1_asym"]:
                 # Eq. (3) [Guan2021]; np.sign(0) == 0 exactly, as the paper defines sgn.
-                u = u + 0.5 * np.sign(a_i) * (self.K0_asym + self.K1_asym * a_i)
+                u = u + 0.5 * np.sign(a_i) * (c["K0_asym"] + c["K1_asym"] * a_i)
         _check_output(u)
-        if rng is not None and self.sigma > 0.0:
-            u = u + rng.normal(0.0, self.sigma, size=np.shape(u))
+        sigma = c["sigma"]
+        if rng is not None and sigma > 0.0:
+            u = u + rng.normal(0.0, sigma, size=np.shape(u))
         return u
 
-    def output(self, a_i, a_o=0.0, a_p=0.0, *, rng: np.random.Generator | None = None):
-        """Output E in the model's output unit: ``K1 * output_g(...)``.
+    def output(self, a_i, a_o=0.0, a_p=0.0, *, rng: np.random.Generator | None = None,
+               temperature=None):
+        """Output E in the model's output unit: ``K1 * output_g(...)`` (K1(T) at a temperature).
 
         Parameters and noise are as in :meth:`output_g`.
 
@@ -202,9 +235,35 @@ class ErrorModel:
         ----------
         .. [1] Guan2021, eq. (1): E = K1 U.
         """
+        c = self._coefficients(temperature)
         with np.errstate(over="ignore"):
-            out = self.K1 * self.output_g(a_i, a_o, a_p, rng=rng)
+            out = c["K1"] * self._output_g(c, a_i, a_o, a_p, rng)
         return _check_output(out)
+
+    def terms_at(self, temperature) -> dict:
+        """Every coefficient at sensor temperature T (degC), by name (arrays for array T).
+
+        ``K(T) = K + sum_k K_Tk (T - T0)^k`` for the additive terms and
+        ``K1(T) = K1 (1 + sum_k K1_Tk (T - T0)^k)`` [DOMAIN section 8]; terms
+        without temperature coefficients are the model's own.
+
+        Raises
+        ------
+        AccelcalError
+            For temperatures that are not finite, or outside the temperature
+            terms' valid range.
+        """
+        c = self.terms()
+        if self.temperature is None:
+            check_temperature(temperature)
+            return c
+        return self.temperature.apply(c, temperature)
+
+    def at_temperature(self, temperature: float) -> "ErrorModel":
+        """The model at one sensor temperature (degC), without temperature terms."""
+        c = self.terms_at(float(temperature))
+        return ErrorModel.from_terms({k: float(v) for k, v in c.items()},
+                                     output_unit=self.output_unit)
 
     # ------------------------------------------------------------------ terms
     def terms(self) -> dict[str, float]:
@@ -241,17 +300,21 @@ class ErrorModel:
             if name not in TERMS:
                 raise AccelcalError(model_file.unknown_term(name))
         if base is not None:
-            return cls(**{**base.terms(), **terms}, output_unit=base.output_unit)
+            return cls(**{**base.terms(), **terms}, output_unit=base.output_unit,
+                       temperature=base.temperature)
         return cls(**terms, output_unit=output_unit)
 
     def replace(self, **terms) -> "ErrorModel":
         """A copy with some terms changed, validated like the constructor.
 
         ``output_unit`` may be given too; it relabels the unit without
-        rescaling K1.
+        rescaling K1; so may ``temperature`` (TemperatureTerms or None).
         """
         unit = terms.pop("output_unit", self.output_unit)
-        return ErrorModel.from_terms({**self.terms(), **terms}, output_unit=unit)
+        temperature = terms.pop("temperature", self.temperature)
+        model = ErrorModel.from_terms({**self.terms(), **terms}, output_unit=unit)
+        return model if temperature is None else ErrorModel(
+            **model.terms(), output_unit=unit, temperature=temperature)
 
     # -------------------------------------------------------- paper notations
     @classmethod
@@ -360,7 +423,9 @@ class ErrorModel:
         """Validate decoded model-file contents and build the model; errors name ``source``."""
         coefficients, unit = model_file.validate(data, source=source)
         try:
-            return cls.from_terms(coefficients, output_unit=unit)
+            model = cls.from_terms(coefficients, output_unit=unit)
+            temperature = model_file.temperature_terms(data, source=source)
+            return model if temperature is None else model.replace(temperature=temperature)
         except model_file.ModelFileError:
             raise
         except ValueError as exc:

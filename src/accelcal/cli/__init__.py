@@ -12,6 +12,8 @@ import sys
 OPTION_NAMES: dict[str, str] = {
     "rotation_axis": "--axis",  # accelcal tumble
     "angles_rad": "--angles",  # accelcal tumble identify
+    "values": "FILE",
+    "rows": "--block-rows",  # accelcal import  # the samples of a recording (accelcal noise, triad)
 }
 """Library parameter -> command-line option, where the option is not ``--`` plus the
 parameter's name with ``-`` for ``_`` (see :meth:`accelcal.errors.AccelcalError.message_for`)."""

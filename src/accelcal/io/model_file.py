@@ -21,6 +21,21 @@ Format (``format_version`` 1)::
 optional; when present, every unit it gives must be the term's unit for the
 declared output unit (a file in mV/g labelled as V is refused). Unknown keys
 at any level are refused with a message naming them.
+
+A model with temperature terms (:class:`~accelcal.terms.TemperatureTerms`)
+is written as ``format_version`` 2, which adds one key (a model without them
+is written exactly as before, as version 1)::
+
+      "temperature": {
+        "reference_degC": 25.0,
+        "valid_range_degC": [-40.0, 70.0],          (optional)
+        "units": {"K0_T1": "g/degC", ...},          (optional, checked)
+        "coefficients": {"K0_T1": 2.1e-6, "K1_T1": -3.5e-5, ...}
+      }
+
+References
+----------
+.. [DOMAIN] accelcal domain notes, section 8 (temperature polynomials).
 """
 
 import json
@@ -29,16 +44,27 @@ from pathlib import Path
 from accelcal.errors import AccelcalError, ModelFileError
 from accelcal.io.atomic import write_text_atomic
 from accelcal.io.limits import MAX_JSON_BYTES, is_finite_number, load_json, read_bounded, shown
-from accelcal.terms import TERMS, term_unit, unknown_term_message
+from accelcal.terms import (
+    TEMPERATURE_TERMS,
+    TERMS,
+    TemperatureTerms,
+    term_unit,
+    unknown_term_message,
+)
 from accelcal.units import OUTPUT_UNITS
 
-__all__ = ["FORMAT_VERSION", "KIND", "ModelFileError", "dumps", "loads", "model_to_dict",
-           "read_text", "unknown_term", "validate", "write_text"]
+__all__ = ["FORMAT_VERSION", "KIND", "TEMPERATURE_FORMAT_VERSION", "ModelFileError", "dumps",
+           "loads", "model_to_dict", "read_text", "temperature_terms", "unknown_term", "validate",
+           "write_text"]
 
 FORMAT_VERSION = 1
+"""Version written for a model without temperature terms."""
+TEMPERATURE_FORMAT_VERSION = 2
+"""Version written for a model with temperature terms (the newest this accelcal reads)."""
 KIND = "accelcal.ErrorModel"
 _REQUIRED = ("format_version", "kind", "output_unit", "coefficients")
-_OPTIONAL = ("units", "description")
+_OPTIONAL = ("units", "description", "temperature")
+_TEMPERATURE_KEYS = ("reference_degC", "coefficients", "valid_range_degC", "units")
 
 
 def model_to_dict(model, description: str | None = None) -> dict:
@@ -52,6 +78,13 @@ def model_to_dict(model, description: str | None = None) -> dict:
     }
     if description:
         data["description"] = description
+    tt = getattr(model, "temperature", None)
+    if tt is not None:
+        data["format_version"] = TEMPERATURE_FORMAT_VERSION
+        data["temperature"] = {"reference_degC": tt.reference}
+        if tt.valid_range is not None:
+            data["temperature"]["valid_range_degC"] = list(tt.valid_range)
+        data["temperature"] |= {"units": tt.units(), "coefficients": tt.as_dict()}
     return data
 
 
@@ -92,11 +125,14 @@ def validate(data, *, source: str = "<dict>") -> tuple[dict, str]:
     version = data["format_version"]
     if isinstance(version, bool) or not isinstance(version, int):
         raise fail(f"format_version must be an integer, got {shown(version)}")
-    if version > FORMAT_VERSION:
+    if version > TEMPERATURE_FORMAT_VERSION:
         raise fail(
             f"format_version {version} is newer than this accelcal reads "
-            f"({FORMAT_VERSION}); upgrade accelcal"
+            f"({TEMPERATURE_FORMAT_VERSION}); upgrade accelcal"
         )
+    if "temperature" in data and version < TEMPERATURE_FORMAT_VERSION:
+        raise fail(f"temperature terms need format_version {TEMPERATURE_FORMAT_VERSION}, "
+                   f"the file says {version}")
     if version < 1:
         raise fail(f"format_version {version} is not a valid version (expected 1)")
     if data["kind"] != KIND:
@@ -134,6 +170,57 @@ def validate(data, *, source: str = "<dict>") -> tuple[dict, str]:
     if not isinstance(description, str):
         raise fail("description must be a string")
     return coefficients, unit
+
+
+def temperature_terms(data, *, source: str = "<dict>") -> TemperatureTerms | None:
+    """The temperature terms of a validated model file's contents (None without them).
+
+    Raises
+    ------
+    ModelFileError
+        Naming ``source`` and the field of ``temperature`` that is wrong.
+    """
+    section = data.get("temperature")
+    if section is None:
+        return None
+
+    def fail(msg: str) -> ModelFileError:
+        return ModelFileError(f"{source}: temperature: {msg}")
+
+    if not isinstance(section, dict):
+        raise fail("must be an object with reference_degC and coefficients")
+    unknown = sorted(set(section) - set(_TEMPERATURE_KEYS))
+    if unknown:
+        raise fail(f"unknown key(s) {', '.join(map(shown, unknown))}; allowed keys are "
+                   f"{', '.join(_TEMPERATURE_KEYS)}")
+    if "reference_degC" not in section or not is_finite_number(section["reference_degC"]):
+        raise fail("reference_degC (the reference temperature T0) must be a finite number")
+    coefficients = section.get("coefficients")
+    if not isinstance(coefficients, dict):
+        raise fail("coefficients must be an object mapping names such as K0_T1 to numbers")
+    for name, value in coefficients.items():
+        if name not in TEMPERATURE_TERMS:
+            raise fail(f"coefficients: {unknown_term(name, TEMPERATURE_TERMS)}")
+        if not is_finite_number(value):
+            raise fail(f"coefficients.{name} must be a finite number, got {shown(value)}")
+    units = section.get("units", {})
+    if not isinstance(units, dict):
+        raise fail("units must be an object mapping names to unit strings")
+    for name, given in units.items():
+        if name not in TEMPERATURE_TERMS:
+            raise fail(f"units: {unknown_term(name, TEMPERATURE_TERMS)}")
+        if given != TEMPERATURE_TERMS[name].unit:
+            raise fail(f"units.{name} is {shown(given)}, expected "
+                       f"{TEMPERATURE_TERMS[name].unit!r}; convert the value")
+    span = section.get("valid_range_degC")
+    if span is not None and not (isinstance(span, list) and len(span) == 2
+                                 and all(is_finite_number(v) for v in span)):
+        raise fail("valid_range_degC must be [low, high] in degC")
+    try:
+        return TemperatureTerms(section["reference_degC"], coefficients,
+                                None if span is None else tuple(span))
+    except AccelcalError as exc:
+        raise fail(exc.message) from None
 
 
 def unknown_term(name, valid=TERMS) -> str:

@@ -52,9 +52,9 @@ from accelcal.io.limits import (
 MARKER = "# accelcal record"
 FORMAT_VERSION = 1
 
-UNITS = ("s", "Hz", "deg", "rad", "arcsec", "g", "m/s^2", "V", "mV", "mA", "1", "-")
+UNITS = ("s", "Hz", "deg", "rad", "arcsec", "g", "m/s^2", "V", "mV", "mA", "1", "-", "degC")
 """Units a record column may have: time, frequency, angles, specific force,
-the output units, and ``1``/``-`` for counts and indices."""
+the output units, ``1``/``-`` for counts and indices, and temperature (degC)."""
 
 MAX_RECORD_BYTES = 2**30
 """Largest record file read (1 GiB): about 50 million CSV values, which as

@@ -22,8 +22,11 @@ from dataclasses import dataclass
 
 REGISTRY = {
     "dividing-head": "accelcal.methods.dividing_head",
+    "noise": "accelcal.methods.noise",
     "tumble": "accelcal.methods.tumble",
+    "thermal": "accelcal.methods.thermal",
     "transverse": "accelcal.methods.transverse",
+    "triad": "accelcal.methods.triad",
     "vre": "accelcal.methods.vre",
 }
 """Method family -> package (imported on first use)."""

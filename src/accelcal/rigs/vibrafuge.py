@@ -140,6 +140,7 @@ def simulate(
     quantum: float = 0.0,
     sampling: str = "integrating",
     rng: np.random.Generator | None = None,
+    centrifuge=None,
 ) -> VibrafugeRun:
     """Simulate the static and vibrating records of vibrafuge test points.
 
@@ -171,6 +172,13 @@ def simulate(
         Sampling model (see the module notes).
     rng : numpy.random.Generator, optional
         Source of the noise.
+    centrifuge : accelcal.rigs.centrifuge.CentrifugeRig, optional
+        The centrifuge that produces the overloads: the sensor then feels
+        :meth:`~accelcal.rigs.centrifuge.CentrifugeRig.overload` of each
+        nominal overload (the rig's radius, stretch, rate, misalignment and
+        proof-mass errors, and gravity on the vertical), while the run
+        records the nominal overloads, as a laboratory would. Default None:
+        the sensor feels the nominal overloads exactly.
 
     Returns
     -------
@@ -226,8 +234,14 @@ def simulate(
         raise AccelcalError(f"{T} s at {fs} Hz gives no samples; record longer",
                             parameter="duration")
 
+    felt = vectors
+    if centrifuge is not None:
+        if not callable(getattr(centrifuge, "overload", None)):
+            raise AccelcalError("must be a CentrifugeRig", parameter="centrifuge")
+        felt = centrifuge.overload(vectors)  # DOMAIN section 9: b from the centrifuge
+        _specific_force(felt, A, u)
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused below
-        static, vib = _records(model, vectors, A[:, None] * u, (f, fs, n, phase), sampling,
+        static, vib = _records(model, felt, A[:, None] * u, (f, fs, n, phase), sampling,
                                sigma, rng)
         if quantum > 0:
             static, vib = np.round(static / quantum) * quantum, np.round(vib / quantum) * quantum

@@ -16,6 +16,9 @@ KINDS = {
     "shaker": "accelcal.io.formats.shaker",
     "vibrafuge": "accelcal.io.formats.vibrafuge",
     "tumble": "accelcal.io.formats.tumble",
+    "triad": "accelcal.io.formats.triad",
+    "noise": "accelcal.io.formats.noise",
+    "thermal": "accelcal.io.formats.thermal",
 }
 """Record kind -> format module (imported where used)."""
 

@@ -67,7 +67,7 @@ _KNOWN = {
     "format_version", "kind", "units", "sensors", "mount_phases_deg", "nominal_scale_factors",
     "output_unit", "autocollimator_arcsec", "autocollimator_sd_arcsec", "first_harmonic_rad",
     "first_harmonic_sd_rad", "simulation", "serial", "operator", "date", "local_gravity",
-    "simulated",
+    "simulated", "provenance",
 }
 
 

@@ -1,0 +1,73 @@
+"""The input options of every command that reads a lab's recording.
+
+Each option is a module-level typer Option that commands declare as a
+default (``columns: str | None = COLUMNS``), so every command spells and
+documents them alike; :func:`input_options` turns their values into one
+:class:`~accelcal.io.recordings.InputOptions` (which checks them). The
+library names the Python parameters in its errors; the CLI shows the
+option (``--time-unit`` for ``time_unit``).
+"""
+
+from pathlib import Path
+
+import typer
+
+INPUT_FORMAT = typer.Option(
+    "auto", "--input-format",
+    help="auto, csv, parquet, imucal (acc_x,acc_y,acc_z in m/s^2 with a 'part' column or "
+         "--regions), imu_tk ('t x y z' rows separated by spaces), record (an accelcal "
+         "record), tdms (NI, channels group/channel), hdf5 (datasets by path, path[k] for a "
+         "column) or mat (MATLAB v5 or v7.3, var[k] for a column); auto tells them apart "
+         "from the file's first bytes.")
+COLUMNS = typer.Option(
+    None, "--columns",
+    help="The channels' columns, in order, separated by commas (e.g. X,Y,Z); default: "
+         "acc_x,acc_y,acc_z (imucal, triad records) or x,y,z (imu_tk).")
+COLUMN = typer.Option(
+    None, "--column", help="The channel's column (default: the record's own channel).")
+TIME = typer.Option(
+    None, "--time", help="Name of the time column (strictly increasing); or give --rate.")
+TIME_UNIT = typer.Option("s", "--time-unit", help="Unit of the time column: s, ms, us or ns.")
+RATE = typer.Option(None, "--rate", help="Sample rate in Hz, for files without a time column.")
+UNIT = typer.Option(
+    None, "--unit",
+    help="Unit of the values: counts, V, mV (raw outputs) or m/s^2, g, mg, ug; required for "
+         "files that do not state it (imucal sessions are in m/s^2, records, TDMS "
+         "unit_string and HDF5 unit attributes say theirs); with --scale, the unit of file "
+         "value x scale.")
+SCALE = typer.Option(
+    None, "--scale",
+    help="File value x scale = value in --unit (e.g. counts to g: the g per count).")
+DELIMITER = typer.Option(
+    None, "--delimiter", help="Field delimiter of a CSV file (one character; default ',').")
+REGIONS = typer.Option(
+    None, "--regions",
+    help="An imucal regions JSON ({\"x_p\": {\"start\": i, \"end\": j}, ...}, end exclusive) "
+         "labelling sample ranges.")
+
+
+def input_options(*, input_format: str = "auto", columns: str | None = None,
+                  column: str | None = None, time: str | None = None, time_unit: str = "s",
+                  rate: float | None = None, unit: str | None = None,
+                  delimiter: str | None = None, regions: Path | None = None,
+                  scale: float | None = None):
+    """The :class:`~accelcal.io.recordings.InputOptions` of a command's input options.
+
+    ``columns`` is a comma-separated list; ``column`` a single name (commands
+    reading one channel); give at most one of them.
+    """
+    from accelcal.errors import AccelcalError
+    from accelcal.io.recordings import InputOptions
+
+    if columns is not None and column is not None:
+        raise AccelcalError("give either --columns or --column, not both", parameter="columns")
+    names = None
+    if columns is not None:
+        names = tuple(c.strip() for c in columns.split(","))
+    elif column is not None:
+        names = (column.strip(),)
+    if delimiter == "\\t":
+        delimiter = "\t"
+    return InputOptions(input_format=input_format, columns=names, time=time,
+                        time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
+                        regions=regions, scale=scale)

@@ -1,0 +1,259 @@
+"""``accelcal noise``: Allan deviations, IEEE 952 coefficients, PSD and simulated still records.
+
+``adev`` and ``fit`` stream the recording (bounded memory: a block of rows,
+the kernels' chunks and a temporary phase file, :mod:`accelcal.methods.noise.stream`)
+for the overlapping kinds; ``adev --kind adev|mdev|hdev|totdev`` reads it
+whole. A gap in the time column, a NaN or empty cell, time going
+backwards, a constant signal, a record too short for the taus asked or a
+missing rate exit with status 2 and one line.
+"""
+
+import sys
+from pathlib import Path
+
+import typer
+
+from accelcal.cli import input_options as io_opts
+from accelcal.cli import record_options
+from accelcal.cli.common import check_format, emit, parse_grid
+from accelcal.errors import AccelcalError
+
+app = typer.Typer(
+    help="Noise and stability of still recordings: Allan deviations with confidence "
+         "intervals, IEEE 952 coefficients (Q, N, B, K, R), PSD, simulated records.",
+    no_args_is_help=True,
+)
+
+_TAUS_HELP = ("Tau set: octave (tau0 x 2^k), decade (1, 2, 4, 10, 20, 40 ... x tau0), all "
+              "(every m), or averaging times in seconds (0.1,1,10 or start:stop:step).")
+_TERMS_HELP = "IEEE 952 terms to fit, comma separated, from Q,N,B,K,R."
+
+
+def _taus(text: str):
+    return text if text in ("octave", "decade", "all") else parse_grid(text, "--taus")
+
+
+def _options(input_format, column, time, time_unit, rate, unit, scale, delimiter):  # noqa: PLR0917
+    return io_opts.input_options(input_format=input_format, column=column, time=time,
+                                 time_unit=time_unit, rate=rate, unit=unit, scale=scale,
+                                 delimiter=delimiter)
+
+
+def _progress(what: str):
+    from accelcal.cli.progress import DelayedProgress
+
+    return DelayedProgress(what)
+
+
+@app.command("adev")
+def adev(
+    file: Path = typer.Argument(..., help="Still recording (CSV, Parquet or noise record)."),
+    *,
+    input_format: str = io_opts.INPUT_FORMAT, column: str | None = io_opts.COLUMN,
+    time: str | None = io_opts.TIME, time_unit: str = io_opts.TIME_UNIT,
+    rate: float | None = io_opts.RATE, unit: str | None = io_opts.UNIT,
+    scale: float | None = io_opts.SCALE, delimiter: str | None = io_opts.DELIMITER,
+    kind: str = typer.Option("oadev", "--kind",
+                             help="adev, oadev, mdev, hdev, ohdev or totdev (NIST SP 1065)."),
+    taus: str = typer.Option("octave", "--taus", help=_TAUS_HELP),
+    confidence: float = typer.Option(0.683, "--confidence",
+                                     help="Confidence of the intervals (0.683: one sigma)."),
+    fmt: str = typer.Option("table", "--format", help="table, csv or json."),
+    plot: Path | None = typer.Option(None, "--plot", help="Directory for the figure."),
+) -> None:
+    """Allan-family deviation per tau: terms averaged, noise exponent, interval.
+
+    The CSV header is tau_s,n,alpha,dev,dev_low,dev_high.
+    """
+    from accelcal.methods.noise.stream import STREAM_KINDS, stream_deviation
+
+    check_format(fmt)
+    opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter)
+    if kind in STREAM_KINDS:
+        with _progress(f"{kind} of {file.name}") as progress:
+            dev, _, _ = stream_deviation(file, opts, kind=kind, taus=_taus(taus),
+                                         confidence=confidence, progress=progress)
+    else:
+        dev = _in_memory(file, opts, kind, _taus(taus), confidence)
+    emit(dev.rows(), fmt, title=f"{kind} of {file.name} ({dev.unit}; {confidence:.1%} intervals)")
+    if plot is not None:
+        from accelcal.methods.noise.figures import deviation_figure
+        from accelcal.plotting import save_figure
+
+        for p in save_figure(deviation_figure(dev), plot, f"noise_{kind}"):
+            print(f"wrote {p}", file=sys.stderr)
+
+
+def _in_memory(file, opts, kind, taus, confidence):
+    from accelcal.io.formats.noise import check_values
+    from accelcal.io.recordings import read_recording
+    from accelcal.methods.noise.deviations import deviation
+
+    rec = read_recording(file, opts, channels=1, what="still recording")
+    check_values(rec.values, 0, file.name)
+    gaps = rec.gaps()
+    if gaps.size:
+        raise AccelcalError(f"{file.name}: a gap in the time column after data row "
+                            f"{int(gaps[0]) + 1}; deviations need evenly spaced samples: split "
+                            "the record at the gap", parameter="values")
+    return deviation(rec.values[:, 0], rec.rate, kind=kind, taus=taus, confidence=confidence,
+                     unit=rec.unit)
+
+
+@app.command("fit")
+def fit(
+    file: Path = typer.Argument(..., help="Still recording (CSV, Parquet or noise record)."),
+    *,
+    input_format: str = io_opts.INPUT_FORMAT, column: str | None = io_opts.COLUMN,
+    time: str | None = io_opts.TIME, time_unit: str = io_opts.TIME_UNIT,
+    rate: float | None = io_opts.RATE, unit: str | None = io_opts.UNIT,
+    scale: float | None = io_opts.SCALE, delimiter: str | None = io_opts.DELIMITER,
+    terms: str = typer.Option("Q,N,B,K,R", "--terms", help=_TERMS_HELP),
+    taus: str = typer.Option("octave", "--taus", help=_TAUS_HELP),
+    fmt: str = typer.Option("table", "--format", help="table or json."),
+    plot: Path | None = typer.Option(None, "--plot", help="Directory for the figures."),
+    record_out: Path | None = typer.Option(
+        None, "--record", help="Write the calibration record (JSON) of the coefficients."),
+    serial: str | None = record_options.SERIAL,
+    operator: str | None = record_options.OPERATOR,
+) -> None:
+    """IEEE 952 coefficients by weighted non-negative least squares on the Allan variance.
+
+    JSON: unit, each term and <term>_std in the input unit (N unit*sqrt(s), B unit,
+    K unit/sqrt(s), Q unit*s, R unit/s), navigation units in "navigation".
+    """
+    import json
+
+    from accelcal.methods.noise.fit import check_terms, coefficients
+    from accelcal.methods.noise.stream import stream_fit
+
+    if fmt not in ("table", "json"):
+        raise AccelcalError(f"--format {fmt!r} is not one of table, json")
+    names = check_terms(terms)
+    opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter)
+    info = _lab(record_out, file, serial, operator)
+    with _progress(f"fit of {file.name}") as progress:
+        red = stream_fit(file, opts, terms=names, taus=_taus(taus), progress=progress)
+    if info is not None:
+        from accelcal.calibration import save_records
+
+        for p in save_records(red.to_records(info, input_files=[file]), record_out):
+            print(f"wrote {p}", file=sys.stderr)
+    if plot is not None:
+        for p in red.plot(plot):
+            print(f"wrote {p}", file=sys.stderr)
+    if fmt == "json":
+        sys.stdout.write(json.dumps(coefficients(red), indent=2, allow_nan=False) + "\n")
+        return
+    emit([{k: v for k, v in r.items() if not k.startswith("eng")} for r in red.rows()],
+         "table", title=f"IEEE 952 coefficients of {file.name}")
+    nav = coefficients(red)["navigation"]
+    rows = [{"term": t, **r} for t, lst in nav.items() for r in lst]
+    if rows:
+        emit(rows, "table", title="navigation units")
+    for note in red.notes:
+        print(f"note: {note}")
+
+
+def _lab(record_out, file, serial, operator):
+    """Laboratory metadata for --record: the file's (a record) or the options'."""
+    if record_out is None:
+        return record_options.lab_info_for(None, [file], serial=serial, operator=operator)
+    from accelcal.io.recordings.sources import open_source
+
+    if open_source(file, "auto", None).input_format == "record":
+        return record_options.lab_info_for(record_out, [file], serial=serial, operator=operator)
+    if serial is None:
+        raise AccelcalError("--record needs --serial (the file says no serial number)",
+                            parameter="serial")
+    import datetime as dt
+
+    from accelcal.io.lab_metadata import LabInfo
+
+    return LabInfo((serial,), operator or "", dt.datetime.now(dt.UTC).isoformat(
+        timespec="seconds"))
+
+
+@app.command("psd")
+def psd(
+    file: Path = typer.Argument(..., help="Still recording (CSV, Parquet or noise record)."),
+    *,
+    input_format: str = io_opts.INPUT_FORMAT, column: str | None = io_opts.COLUMN,
+    time: str | None = io_opts.TIME, time_unit: str = io_opts.TIME_UNIT,
+    rate: float | None = io_opts.RATE, unit: str | None = io_opts.UNIT,
+    scale: float | None = io_opts.SCALE, delimiter: str | None = io_opts.DELIMITER,
+    terms: str = typer.Option("Q,N,B,K,R", "--terms", help=_TERMS_HELP + " (levels marked)"),
+    fmt: str = typer.Option("table", "--format", help="table, csv or json."),
+    plot: Path | None = typer.Option(None, "--plot", help="Directory for the figures."),
+) -> None:
+    """One-sided Welch PSD (unit^2/Hz) with the fitted IEEE 952 levels beside it."""
+    import numpy as np
+
+    from accelcal.methods.noise.fit import check_terms
+    from accelcal.methods.noise.psd import levels
+    from accelcal.methods.noise.stream import stream_fit
+
+    check_format(fmt)
+    opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter)
+    with _progress(f"psd of {file.name}") as progress:
+        red = stream_fit(file, opts, terms=check_terms(terms), progress=progress)
+    f, p = (np.asarray(red.observations[k]) for k in ("psd_frequency", "psd"))
+    keep = f > 0
+    marks = levels({k: v for k, v in red.estimate.as_dict().items() if k != "bias"}, f[keep],
+                   red.provenance["rate_hz"])
+    rows = [{"frequency_hz": float(fk), "psd": float(pk),
+             **{f"level_{t}": float(v[i]) for t, v in marks.items()}}
+            for i, (fk, pk) in enumerate(zip(f[keep], p[keep], strict=True))]
+    emit(rows, fmt, title=f"one-sided PSD of {file.name} ({red.provenance['unit']}^2/Hz)")
+    if plot is not None:
+        for path in red.plot(plot):
+            print(f"wrote {path}", file=sys.stderr)
+
+
+@app.command("simulate")
+def simulate(
+    *,
+    out: Path = typer.Option(..., "--out", help="Noise record to write (.parquet or CSV)."),
+    white: float = typer.Option(0.0, "--N", help="White noise N, unit*sqrt(s)."),
+    instability: float = typer.Option(0.0, "--B", help="Bias instability B, unit."),
+    walk: float = typer.Option(0.0, "--K", help="Acceleration random walk K, unit/sqrt(s)."),
+    quantisation: float = typer.Option(0.0, "--Q", help="Quantisation Q, unit*s."),
+    ramp: float = typer.Option(0.0, "--R", help="Ramp R, unit/s."),
+    bias: float = typer.Option(0.0, "--bias", help="Constant bias, unit."),
+    rate: float = typer.Option(..., "--rate", help="Sample rate, Hz."),
+    duration: float = typer.Option(..., "--duration", help="Length, s."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the random generator."),
+    unit: str = typer.Option("g", "--unit", help="Unit of the samples: g, m/s^2, V, mV."),
+    serial: str | None = typer.Option(None, "--serial", help="Serial number written."),
+) -> None:
+    """Write a simulated still recording with known coefficients (streamed: any length)."""
+    from accelcal.io.formats.noise import check_header, write_blocks
+    from accelcal.rigs.noise import check_settings, simulate_blocks, truth_metadata
+
+    check_header(rate, unit, "--rate/--unit")
+    coefs = {"N": white, "B": instability, "K": walk, "Q": quantisation, "R": ramp}
+    check_settings(**coefs, rate=rate, duration=duration, bias=bias)
+    blocks = simulate_blocks(**coefs, rate=rate, duration=duration, seed=seed, bias=bias)
+    meta = truth_metadata(**coefs, bias=bias, seed=seed, b_range=None)
+    if serial is not None:
+        meta["serial"] = serial
+    with _progress(f"simulating {out.name}") as progress:
+        rows = write_blocks(out, blocks, rate=rate, unit=unit, metadata=meta, progress=progress,
+                            total=round(rate * duration))
+    typer.echo(f"wrote {out} ({rows} samples)")
+
+
+@app.command("stability")
+def stability(
+    serial: str = typer.Option(..., "--serial", help="Serial number of the accelerometer."),
+    db: str = typer.Option(..., "--db", help="Records store (SQLite path or database URL)."),
+    fmt: str = typer.Option("table", "--format", help="table, csv or json."),
+) -> None:
+    """Turn-on to turn-on bias repeatability beside in-run stability B (stored noise fits)."""
+    from accelcal.methods.noise.stability import from_store
+    from accelcal.store import Store
+
+    check_format(fmt)
+    with Store(db) as store:
+        red = from_store(store, serial)
+    emit(red.rows(), fmt, title=f"run-to-run stability of {serial} ({red.dof} dof)")

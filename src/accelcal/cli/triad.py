@@ -1,0 +1,393 @@
+"""``accelcal triad``: accelerometer triads on static positions (detect, calibrate, apply)."""
+
+from pathlib import Path
+
+import typer
+
+from accelcal.cli import record_options, triad_plan, uncertainty_options
+from accelcal.cli.common import check_format, emit
+from accelcal.cli.input_options import (
+    COLUMNS,
+    DELIMITER,
+    INPUT_FORMAT,
+    RATE,
+    REGIONS,
+    TIME,
+    TIME_UNIT,
+    UNIT,
+    input_options,
+)
+from accelcal.errors import AccelcalError
+
+app = typer.Typer(
+    help=("Accelerometer triads on static positions (Tedaldi 2014, Ferraris 1995): static "
+          "intervals, calibration with uncertainty (known or unknown orientations), applying "
+          "a calibration to a recording, simulated triads."),
+    no_args_is_help=True,
+)
+
+_FILE_HELP = "The recording: CSV, Parquet, an imucal session, an imu_tk file or a triad record."
+INIT_STATIC = typer.Option(
+    30.0, "--init-static",
+    help="Length of the still period at the start of the recording, s (Tedaldi: 30-50 s); "
+         "the threshold is relative to its variance.")
+WINDOW = typer.Option(1.0, "--window", help="Window of the moving variance, s (1-2 s).")
+MIN_LENGTH = typer.Option(2.0, "--min-length", help="Shortest static interval kept, s.")
+PLOT = typer.Option(None, "--plot", help="Directory for the figures (PNG and SVG).")
+
+
+def _read(file: Path, opts):
+    from accelcal.io.recordings import read_recording
+
+    return read_recording(file, opts, channels=3, what="triad recording")
+
+
+def _detect(rec, init_static: float, window: float, factor: float, min_length: float):
+    from accelcal.signal.static import detect_static
+
+    return detect_static(rec.values, rec.rate, init_static=init_static, window=window,
+                         factor=factor, min_length=min_length, time=rec.time, unit=rec.unit)
+
+
+def _save_intervals_figure(intervals, rec, plot: Path) -> None:
+    from accelcal.plotting import save_figure
+    from accelcal.signal.static import figure
+
+    for p in save_figure(figure(intervals, rec.values, time=rec.time), plot, "triad-intervals"):
+        typer.echo(f"wrote {p}", err=True)
+
+
+@app.command("detect")
+def detect(
+    file: Path = typer.Argument(..., help=_FILE_HELP),
+    *,
+    input_format: str = INPUT_FORMAT, columns: str | None = COLUMNS, time: str | None = TIME,
+    time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
+    delimiter: str | None = DELIMITER, regions: Path | None = REGIONS,
+    init_static: float = INIT_STATIC, window: float = WINDOW,
+    factor: float = typer.Option(
+        2.0, "--factor", help="Threshold: this many times the initial period's variance "
+                              "magnitude (Tedaldi sweeps 2-10)."),
+    min_length: float = MIN_LENGTH,
+    fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+    plot: Path | None = PLOT,
+) -> None:
+    """List the static intervals of a recording: times, lengths, means and noise per axis."""
+    check_format(fmt)
+    opts = input_options(input_format=input_format, columns=columns, time=time,
+                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
+                         regions=regions)
+    rec = _read(file, opts)
+    found = _detect(rec, init_static, window, factor, min_length)
+    if plot is not None:
+        _save_intervals_figure(found, rec, plot)
+    emit(found.rows(), fmt,
+         title=f"{file}: {len(found)} static intervals (threshold {found.threshold:.4g} "
+               f"{rec.unit}^2 = {factor:g} x the first {init_static:g} s)")
+
+
+def _gravity(gravity: float | None, latitude: float | None, height: float | None, rec) -> float:
+    from accelcal.methods.triad.gravity import check_gravity, normal_gravity
+
+    if gravity is not None:
+        if latitude is not None or height is not None:
+            raise AccelcalError("give either --gravity or --latitude (and --height), not both")
+        return check_gravity(gravity)
+    if latitude is not None:
+        return normal_gravity(latitude, 0.0 if height is None else height)
+    if height is not None:
+        raise AccelcalError("--height goes with --latitude (WGS84 normal gravity)")
+    value = rec.metadata.get("local_gravity", rec.metadata.get("gravity"))
+    if value is None:
+        raise AccelcalError("give the local gravity: --gravity G (m/s^2, measured) or "
+                            "--latitude DEG [--height M] (WGS84 normal gravity)")
+    return check_gravity(value)
+
+
+def _known(rec, positions: Path | None, detect_args):
+    """Known positions: --positions with detected intervals, imucal labels, record positions."""
+    from accelcal.methods.triad.imucal import listed_positions, positions_file, session_positions
+
+    if positions is not None:
+        found = _detect(rec, *detect_args)
+        return positions_file(positions, rec.values, found.start, found.stop), found
+    known = session_positions(rec)
+    if known is None and rec.metadata.get("positions"):
+        known = listed_positions(rec.values, rec.metadata["positions"], "the record's positions")
+    return known, None
+
+
+def _check_writable(path: Path | None) -> None:
+    """Refuse an output in a missing directory or over a directory before any work."""
+    from accelcal.io.limits import shown_path
+
+    if path is None:
+        return
+    if not path.parent.is_dir():
+        raise AccelcalError(f"cannot write {shown_path(path)}: directory "
+                            f"{shown_path(path.parent)} does not exist; create it first")
+    if path.exists() and not path.is_file():
+        raise AccelcalError(f"cannot write {shown_path(path)}: it exists and is not a regular "
+                            "file; give a file name")
+
+
+@app.command("calibrate")
+def calibrate(
+    file: Path = typer.Argument(..., help=_FILE_HELP),
+    *,
+    input_format: str = INPUT_FORMAT, columns: str | None = COLUMNS, time: str | None = TIME,
+    time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
+    delimiter: str | None = DELIMITER, regions: Path | None = REGIONS,
+    orientations: str | None = typer.Option(
+        None, "--orientations",
+        help="known (imucal labels or --regions, a triad record's positions, or --positions) "
+             "or unknown (gravity norm on the detected intervals); default: known when the "
+             "file or --positions gives them, else unknown."),
+    positions: Path | None = typer.Option(
+        None, "--positions",
+        help="JSON list of the up vector [x, y, z] of each detected static interval, in order "
+             "(or {\"label\": ..., \"up\": [x, y, z]} items): known orientations for any file."),
+    gravity: float | None = typer.Option(None, "--gravity", help="Local gravity, m/s^2."),
+    latitude: float | None = typer.Option(
+        None, "--latitude", help="Geodetic latitude, deg (WGS84 normal gravity)."),
+    height: float | None = typer.Option(None, "--height", help="Height, m (with --latitude)."),
+    quadratic: bool = typer.Option(False, "--quadratic", help="Fit per-axis quadratic terms."),
+    init_static: float = INIT_STATIC, window: float = WINDOW,
+    factor: float | None = typer.Option(
+        None, "--factor",
+        help="Threshold factor of the static detection; default: with unknown orientations "
+             "the one of 2..10 whose calibration leaves the smallest norm residual "
+             "(Tedaldi), else 2."),
+    min_length: float = MIN_LENGTH,
+    out: Path = typer.Option(..., "--out", help="Calibration file to write (accelcal JSON)."),
+    imucal_out: Path | None = typer.Option(
+        None, "--imucal-out", help="Also write the calibration in imucal's JSON layout."),
+    fmt: str = typer.Option("table", "--format", help="Output format: table or json."),
+    record_out: Path | None = typer.Option(
+        None, "--record", help="Write a calibration record (JSON) of the triad."),
+    serial: str | None = record_options.SERIAL,
+    plot: Path | None = PLOT,
+    uncertainty: str = uncertainty_options.UNCERTAINTY,
+    trials: int = uncertainty_options.TRIALS,
+    seed: int = uncertainty_options.SEED,
+) -> None:
+    """Calibrate a triad: bias, scale factor and non-orthogonality with their uncertainty.
+
+    Writes the calibration (--out; --imucal-out for imucal), prints the
+    coefficients and the norm residual |a| - g of every position before and
+    after calibration.
+    """
+    from accelcal.methods.triad.common import calibration_of
+    from accelcal.signal.static import check_settings
+
+    check_format(fmt)
+    if fmt == "csv":
+        raise AccelcalError("--format csv: calibrate prints two tables (coefficients and "
+                            "positions); use table or json")
+    if orientations not in (None, "known", "unknown"):
+        raise AccelcalError(f"--orientations {orientations!r} is not known or unknown")
+    if positions is not None and orientations == "unknown":
+        raise AccelcalError("--positions gives known orientations; drop --orientations unknown")
+    if imucal_out is not None and quadratic:
+        raise AccelcalError("--imucal-out: imucal's layout has no quadratic terms; drop "
+                            "--quadratic")
+    monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
+    check_settings(init_static=init_static, window=window, min_length=min_length,
+                   factor=2.0 if factor is None else factor)
+    for path in (out, imucal_out, record_out):
+        _check_writable(path)
+    opts = input_options(input_format=input_format, columns=columns, time=time,
+                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
+                         regions=regions)
+    rec = _read(file, opts)
+    files = [file] if rec.provenance.get("input_format") == "record" else []
+    info = record_options.lab_info_for(record_out, files, serial=serial, operator=None)
+    g = _gravity(gravity, latitude, height, rec)
+    detect_args = (init_static, window, 2.0 if factor is None else factor, min_length)
+    known, found = (None, None) if orientations == "unknown" else _known(rec, positions,
+                                                                         detect_args)
+    if orientations == "known" and known is None:
+        raise AccelcalError(
+            "--orientations known needs the positions' orientations: imucal labels (a 'part' "
+            "column or --regions), a triad record's positions, or --positions FILE")
+    red, sweep = _reduce(rec, g, known, detect_args, auto=factor is None, quadratic=quadratic)
+    found = found if known is not None else sweep[0]
+    rows = red.rows()
+    if monte_carlo:
+        from accelcal.methods.triad.mc import triad_uncertainty
+
+        with uncertainty_options.progress_bar() as progress:
+            mc = triad_uncertainty(red, trials=trials, seed=seed, progress=progress)
+        rows = uncertainty_options.merge(rows, mc)
+    cal = calibration_of(red)
+    if plot is not None:  # figures first: a bad directory stops before any file is written
+        for p in red.plot(plot):
+            typer.echo(f"wrote {p}", err=True)
+        if found is not None:
+            _save_intervals_figure(found, rec, plot)
+    cal.save(out)
+    typer.echo(f"wrote {out}", err=True)
+    if imucal_out is not None:
+        from accelcal.methods.triad.imucal import write_imucal
+
+        write_imucal(cal, imucal_out, comment=f"from {file.name}")
+        typer.echo(f"wrote {imucal_out}", err=True)
+    if info is not None:
+        from accelcal.calibration import save_records
+
+        for p in save_records(red.to_records(info, input_files=[file]), record_out):
+            typer.echo(f"wrote {p}", err=True)
+    _print_calibration(red, rows, found, sweep[1], fmt=fmt, file=file)
+
+
+def _reduce(rec, g: float, known, detect_args, *, auto: bool, quadratic: bool):
+    """The reduction, and (intervals, factor sweep rows) of the gravity-norm route."""
+    if known is not None:
+        from accelcal.methods.triad.known import calibrate_known
+
+        red = calibrate_known(known.means, known.up, g, input_unit=rec.unit, quadratic=quadratic,
+                              labels=known.labels, counts=known.counts)
+        return red, (None, None)
+    from accelcal.methods.triad.threshold import choose_factor
+    from accelcal.methods.triad.unknown import calibrate_unknown
+
+    init_static, window, _, min_length = detect_args
+    if auto:
+        choice = choose_factor(rec.values, rec.rate, g, init_static=init_static, window=window,
+                               min_length=min_length, input_unit=rec.unit, quadratic=quadratic,
+                               time=rec.time)
+        return choice.reduction, (choice.intervals, choice.rows)
+    found = _detect(rec, *detect_args)
+    red = calibrate_unknown(found.means, g, input_unit=rec.unit, quadratic=quadratic,
+                            labels=[f"I{k + 1}" for k in range(len(found))], counts=found.counts)
+    return red, (found, None)
+
+
+def _print_calibration(red, rows, found, sweep, *, fmt: str, file: Path) -> None:
+    import json
+
+    import numpy as np
+
+    obs = red.observations
+    labels = red.provenance["labels"]
+    positions = [{"position": label, "norm_before": float(b), "norm_after": float(a)}
+                 for label, b, a in zip(labels, obs["norm_before"], obs["norm_after"],
+                                        strict=True)]
+    if found is not None and len(found) == len(positions):
+        for row, (t0, t1) in zip(positions, found.times, strict=True):
+            row.update(start_s=float(t0), stop_s=float(t1))
+    cond = float(red.identifiability.condition_number) if red.identifiability else 0.0
+    summary = {"method": red.method, "gravity": red.provenance["gravity"],
+               "positions": len(positions), "dof": int(red.dof),
+               "condition_number": cond if np.isfinite(cond) and cond else float("nan")}
+    if fmt == "json":
+        from accelcal.cli.common import _json_value
+
+        doc = {**summary, "coefficients": rows, "norm_residuals": positions,
+               "factor_sweep": sweep or []}
+        typer.echo(json.dumps(_json_value(doc), indent=2, allow_nan=False))
+        return
+    emit(rows, "table", title=f"{file}: {red.method}, g = {summary['gravity']:.7g} m/s^2, "
+                              f"dof {summary['dof']}")
+    emit(positions, "table", title="norm residual |a| - g per position, m/s^2")
+    if sweep:
+        emit(sweep, "table", title="threshold factor sweep (Tedaldi)")
+    typer.echo(f"condition number {summary['condition_number']:.3g}")
+    for note in red.notes:
+        typer.echo(f"note: {note}")
+
+
+@app.command("apply")
+def apply(
+    file: Path = typer.Argument(..., help=_FILE_HELP),
+    *,
+    calibration: Path = typer.Option(
+        ..., "--calibration", help="Calibration file: accelcal's (triad calibrate --out) or "
+                                   "imucal's JSON (K_a, R_a, b_a)."),
+    input_format: str = INPUT_FORMAT, columns: str | None = COLUMNS, time: str | None = TIME,
+    time_unit: str = TIME_UNIT, rate: float | None = RATE,
+    unit: str | None = typer.Option(
+        None, "--unit", help="Unit of the values (default: the calibration's input unit; an "
+                             "acceleration unit is converted to it)."),
+    delimiter: str | None = DELIMITER,
+    output_unit: str = typer.Option("m/s^2", "--output-unit", help="m/s^2 or g (g_n)."),
+    out: Path = typer.Option(..., "--out", help="CSV file to write."),
+) -> None:
+    """Correct a recording: one output row per input row, in order (streamed).
+
+    The three channels become acc_x, acc_y, acc_z (calibrated specific force in
+    the body frame; the fixture frame for a known-orientation or imucal
+    calibration, as imucal gives it); every other column (time, labels, ...) is
+    copied as it is.
+    """
+    from accelcal.io.recordings import describe, iter_blocks
+    from accelcal.io.recordings.options import ACCELERATION_UNITS
+    from accelcal.io.recordings.sources import open_source
+    from accelcal.methods.triad.imucal import apply_stream, read_calibration
+
+    if output_unit not in ("m/s^2", "g"):
+        raise AccelcalError(f"--output-unit {output_unit!r} is not m/s^2 or g")
+    _check_writable(out)
+    cal = read_calibration(calibration, input_unit=unit)
+    source = open_source(file, input_format, delimiter)
+    if unit is None and source.input_format in ("csv", "parquet", "imu_tk"):
+        unit = cal.input_unit
+    opts = input_options(input_format=input_format, columns=columns, time=time,
+                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter)
+    prov, _ = describe(file, opts, channels=3, need_rate=False, what="triad recording")
+    factor = 1.0
+    if prov["unit"] != cal.input_unit:
+        if prov["unit"] not in ACCELERATION_UNITS or cal.input_unit not in ACCELERATION_UNITS:
+            raise AccelcalError(f"the calibration maps {cal.input_unit}, the recording is in "
+                                f"{prov['unit']}; give --unit {cal.input_unit} if it is")
+        factor = ACCELERATION_UNITS[prov["unit"]] / ACCELERATION_UNITS[cal.input_unit]
+    scale = 1.0 / ACCELERATION_UNITS[output_unit]
+    channels = prov["columns"]
+    frame = "reference" if cal.rotation is not None else "body"
+    blocks = iter_blocks(file, opts, channels=3, need_rate=False, what="triad recording")
+    apply_stream(blocks, source, channels, out,
+                 lambda u: cal.apply(u * factor, frame=frame) * scale)
+    typer.echo(f"wrote {out}", err=True)
+
+
+@app.command("simulate")
+def simulate(
+    *,
+    out: Path = typer.Option(..., "--out", help="Triad record file to write (CSV or .parquet)."),
+    positions: str = typer.Option(
+        "six", "--positions",
+        help="six (x, y, z up then down, imucal's order) or a number of random orientations."),
+    truth: Path | None = typer.Option(
+        None, "--truth", help="The simulated triad's calibration (accelcal or imucal JSON); "
+                              "default: a MEMS-like triad in m/s^2."),
+    rate: float = typer.Option(100.0, "--rate", help="Sample rate, Hz."),
+    dwell: float = typer.Option(5.0, "--dwell", help="Seconds held at each position."),
+    motion: float = typer.Option(2.0, "--motion", help="Seconds of each motion between them."),
+    still: float = typer.Option(30.0, "--still", help="Initial still period, s."),
+    noise: float = typer.Option(0.01, "--noise", help="Noise SD per sample and axis, input unit."),
+    gravity: float = typer.Option(9.80665, "--gravity", help="Local gravity, m/s^2."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the random generator (integer >= 0)."),
+) -> None:
+    """Write a simulated triad recording (true calibration, positions and noise in its metadata)."""
+    from accelcal.io.formats import triad as triad_format
+    from accelcal.methods.triad.imucal import read_calibration
+    from accelcal.methods.triad.model import TriadCalibration
+    from accelcal.rigs.triad import simulate as simulate_triad
+    from accelcal.rigs.triad import six_positions
+
+    if positions.strip() == "six":
+        up = six_positions()
+    elif positions.strip().isdigit():
+        up = int(positions)
+    else:
+        raise AccelcalError(f"--positions {positions[:40]!r} is not 'six' or a number")
+    _check_writable(out)
+    cal = (TriadCalibration([0.05, -0.08, 0.12], [1.01, 0.995, 1.02], [1e-3, -2e-3, 1.5e-3])
+           if truth is None else read_calibration(truth))
+    record = simulate_triad(cal, up, rate=rate, dwell=dwell, motion=motion, still=still,
+                            noise_sd=noise, seed=seed, gravity=gravity)
+    triad_format.write(out, record)
+    typer.echo(f"wrote {out}")
+
+
+app.command("plan")(triad_plan.plan)

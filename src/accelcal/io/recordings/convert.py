@@ -1,0 +1,302 @@
+"""A lab's recording converted into an accelcal record file of one kind (``accelcal import``).
+
+:func:`import_recording` streams the recording (:func:`~accelcal.io.recordings.iter_blocks`,
+one block at a time) into a record of the kind asked for
+(:mod:`~accelcal.io.recordings.kinds`): Parquet when the name ends in
+``.parquet``, one row group per block, written with
+:class:`pyarrow.parquet.ParquetWriter`; otherwise the CSV record layout,
+written block by block by Arrow's CSV writer. Memory is bounded by one
+block (``rows`` samples of every channel, a few copies of them) whatever the
+recording's length.
+
+The record's metadata carries the provenance: the file's name, SHA-256,
+format, channel map, units, scales, rate, the file's and the channels'
+properties, and for temperature channels their mean, minimum and maximum
+in degC (read in a first pass over those channels only). The record is
+written to a staging file beside the target, read back with the kind's
+own reader (a stream kind's long record: its first block with the reader,
+the whole by streaming it), and moved into place only when valid
+(:func:`accelcal.io.atomic.atomic_path`): nothing half-written is ever left.
+
+References
+----------
+.. [Parquet] Apache Parquet file format (row groups); Apache Arrow,
+   ``pyarrow.parquet.ParquetWriter``.
+.. [GUM] JCGM 100:2008, sec. 3.4.2 (a measurement's conditions are recorded
+   with its data).
+"""
+
+import contextlib
+import dataclasses
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+from accelcal.io.limits import check_label, shown, shown_name, shown_path
+from accelcal.io.recordings.kinds import STREAM_KINDS, TIME_KINDS, Layout, layout, validator
+from accelcal.io.recordings.options import TEMPERATURE_UNITS, InputOptions
+from accelcal.io.recordings.read import DEFAULT_BLOCK_ROWS, describe, iter_blocks
+
+RESERVED = ("format_version", "kind", "units", "provenance")
+"""Metadata keys the import writes itself."""
+
+
+def import_recording(path, options: InputOptions, *, kind: str, channels: dict, out,
+                     metadata: dict | None = None, temperature: dict | None = None,
+                     rows: int = DEFAULT_BLOCK_ROWS, progress=None) -> dict:
+    """Convert a recording into a record file of ``kind``, validated before it appears.
+
+    Parameters
+    ----------
+    path : path-like
+        The recording (any format :func:`~accelcal.io.recordings.read_recording` reads).
+    options : InputOptions
+        How to read it (its ``columns`` are replaced by the channel map's).
+    kind : str
+        Record kind (:func:`~accelcal.io.recordings.kinds.kinds`).
+    channels : dict
+        Record column -> the recording's channel (``{"acc_x": "Accel/X"}``).
+    out : path-like
+        The record file to write (``.parquet``: Parquet; else CSV).
+    metadata : dict, optional
+        The kind's metadata that a recording does not state (``serial``,
+        ``operator``, ``frequency_hz``, ``rotation_axis`` ...).
+    temperature : dict, optional
+        Name -> temperature channel (unit ``degC`` or ``K``), summarised in the provenance.
+    rows : int
+        Samples per block (the memory bound).
+    progress : callable, optional
+        ``progress(done, total)`` after each block (samples).
+
+    Returns
+    -------
+    dict
+        ``record``, ``kind``, ``samples``, ``columns`` and the ``provenance`` written.
+
+    Raises
+    ------
+    AccelcalError
+        One line, for a bad recording, map or metadata, or a record its kind's
+        reader refuses (nothing is written then).
+    """
+    out = Path(out)
+    channels, temperature = _check_map(channels, "channels"), _check_map(temperature or {},
+                                                                        "temperature")
+    metadata = _check_metadata(metadata or {})
+    if not out.parent.is_dir():
+        raise AccelcalError(f"cannot write {shown_path(out)}: directory "
+                            f"{shown_path(out.parent)} does not exist", parameter="out")
+    if out.name in ("", ".", "..") or out.is_dir():
+        raise AccelcalError(f"{shown_path(out)} is a directory; give the record's file name",
+                            parameter="out")
+    if not 1 <= rows <= MAX_BLOCK_ROWS:
+        raise AccelcalError(f"{rows} rows per block: give 1 to {MAX_BLOCK_ROWS}",
+                            parameter="rows")
+    timed = kind in STREAM_KINDS or kind in TIME_KINDS
+    opts = dataclasses.replace(options, columns=tuple(channels.values()), refuse_gaps=timed)
+    prov, rate = describe(path, opts, need_rate=timed, what=f"{kind} record")
+    source_units = prov.get("units") or dict.fromkeys(channels.values(), prov["unit"])
+    plan = layout(kind, channels, source_units, rate)
+    prov["channel_map"] = channels
+    if temperature:
+        prov["temperature_degC"] = _temperatures(path, options, temperature, rows)
+    meta = _merge(plan.metadata, metadata)
+    header = {"format_version": 1, "kind": kind, **meta, "units": plan.units,
+              "provenance": prov}
+    with tempfile.TemporaryDirectory(dir=out.parent, prefix=".accelcal-import-") as stage:
+        staged = Path(stage) / out.name
+        samples = _write(staged, header, plan, iter_blocks(path, opts, rows=rows, need_rate=timed),
+                         rate=rate,
+                         progress=progress, infos=prov.get("channels", {}))
+        _validate(staged, out, plan, samples, rows)
+        from accelcal.io.atomic import atomic_path
+
+        with atomic_path(out) as tmp:
+            os.replace(staged, tmp)
+    return {"record": str(out), "kind": kind, "samples": samples, "columns": list(plan.columns),
+            "provenance": prov}
+
+
+def _check_map(mapping, what: str) -> dict:
+    if not isinstance(mapping, dict) or (what == "channels" and not mapping):
+        raise AccelcalError(f"{what} must map record columns to the recording's channels, e.g. "
+                            "acc_x=Accel/X,acc_y=Accel/Y", parameter=what)
+    for col, source in mapping.items():
+        check_label(col, f"{what} column", parameter=what)
+        if not col.strip() or "," in col or not isinstance(source, str) or not source.strip():
+            raise AccelcalError(f"{what}: {shown(col)} = {shown(source)} is not a record column "
+                                "= channel pair", parameter=what)
+    if len(set(mapping.values())) != len(mapping):
+        raise AccelcalError(f"{what} map a channel to two columns", parameter=what)
+    return {str(k).strip(): v.strip() for k, v in mapping.items()}
+
+
+def _check_metadata(metadata: dict) -> dict:
+    if not isinstance(metadata, dict):
+        raise AccelcalError("metadata must be a table of fields (serial, operator, ...)",
+                            parameter="metadata")
+    reserved = [k for k in metadata if k in RESERVED]
+    if reserved:
+        raise AccelcalError(f"metadata field(s) {', '.join(reserved)} are written by the import "
+                            "itself", parameter="metadata")
+    try:
+        json.dumps(metadata, allow_nan=False)
+    except (TypeError, ValueError) as exc:
+        raise AccelcalError(f"metadata is not JSON-ready: {exc}", parameter="metadata") from None
+    return metadata
+
+
+def _merge(stated: dict, given: dict) -> dict:
+    """The recording's own metadata and the user's; a contradiction is refused."""
+    for key, value in stated.items():
+        if key in given and given[key] != value:
+            raise AccelcalError(f"metadata {key} = {shown(given[key])} contradicts the "
+                                f"recording ({shown(value)}); leave it out", parameter="metadata")
+    return {**given, **stated}
+
+
+def _temperatures(path, options: InputOptions, temperature: dict, rows: int) -> dict:
+    opts = dataclasses.replace(options, columns=tuple(temperature.values()), unit=None,
+                               scale=None, refuse_gaps=False)
+    prov, _ = describe(path, opts, need_rate=False)
+    units = prov.get("units") or dict.fromkeys(temperature.values(), prov["unit"])
+    for name, source in temperature.items():
+        if units[source] not in TEMPERATURE_UNITS:
+            raise AccelcalError(f"temperature {shown_name(name)}: channel {shown_name(source)} is "
+                                f"in {units[source]}, not degC or K", parameter="temperature")
+    offset = np.array([TEMPERATURE_UNITS[units[s]] for s in temperature.values()])
+    total, low, high, n = 0.0, np.inf, -np.inf, 0
+    for block in iter_blocks(path, opts, rows=rows, need_rate=False):
+        celsius = block.values + offset
+        total = total + celsius.sum(axis=0)
+        low, high = np.minimum(low, celsius.min(axis=0)), np.maximum(high, celsius.max(axis=0))
+        n += celsius.shape[0]
+    return {name: {"channel": src, "mean": float(total[k] / n), "min": float(low[k]),
+                   "max": float(high[k]), "file_unit": units[src]}
+            for k, (name, src) in enumerate(temperature.items())}
+
+
+def _columns(plan: Layout, block, rate, state: dict) -> dict:
+    """The record's columns of one block (the record units, the made columns)."""
+    sources = [s for s in plan.columns.values() if s is not None]
+    out = {}
+    for col, source in plan.columns.items():
+        if source is not None:
+            out[col] = block.values[:, sources.index(source)] * plan.factors[col]
+    if "t" in plan.columns and plan.columns["t"] is None:
+        n = block.values.shape[0]
+        row = block.start + np.arange(n)
+        if plan.kind == "vibrafuge" and "point" in out:
+            row = row - _point_starts(out["point"], block.start, state)
+            out["t"] = row / rate
+        else:
+            out["t"] = block.time if block.time is not None else row / rate
+    return {c: out[c] for c in plan.columns}
+
+
+def _point_starts(point: np.ndarray, start: int, state: dict) -> np.ndarray:
+    """The first row of each sample's point (points are contiguous), carried across blocks."""
+    rows = start + np.arange(point.size)
+    new = np.ones(point.size, dtype=bool)
+    new[1:] = point[1:] != point[:-1]
+    if state.get("point") is not None:
+        new[0] = point[0] != state["point"]
+    firsts = np.where(new, rows, -1)
+    firsts[0] = firsts[0] if new[0] else state.get("first", 0)
+    firsts = np.maximum.accumulate(firsts)
+    state["point"], state["first"] = point[-1], int(firsts[-1])
+    return firsts
+
+
+def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, infos) -> int:
+    import pyarrow as pa
+
+    names = list(plan.columns)
+    schema = pa.schema([(c, pa.float64()) for c in names],
+                       metadata={"accelcal": json.dumps(header, allow_nan=False)})
+    lengths = {i.get("length") for i in infos.values()}
+    total = lengths.pop() if len(lengths) == 1 else None
+    done, state = 0, {}
+    with _writer(staged, schema, header) as write:
+        for block in blocks:
+            cols = _columns(plan, block, rate, state)
+            write(pa.table(cols, schema=schema))
+            done += block.values.shape[0]
+            if progress is not None:
+                progress(done, max(done, total or done))
+    if not done:
+        raise AccelcalError("the recording has no samples")
+    return done
+
+
+MAX_BLOCK_ROWS = 1 << 26
+"""Most rows per block (64 Mi: 2 GiB of float64 for four channels)."""
+
+
+@contextlib.contextmanager
+def _writer(path: Path, schema, header: dict):
+    """Yield ``write(table)``: Parquet row groups, or CSV rows after the record's header."""
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    from accelcal.io.records import MARKER
+
+    if path.suffix.lower() == ".parquet":
+        with pq.ParquetWriter(path, schema) as sink:
+            yield sink.write_table
+        return
+    with open(path, "wb") as fh:
+        fh.write(f"{MARKER}\n# {json.dumps(header, allow_nan=False)}\n"
+                 f"{','.join(schema.names)}\n".encode())
+        bare = schema.remove_metadata()
+        with pacsv.CSVWriter(fh, bare, write_options=pacsv.WriteOptions(
+                include_header=False)) as sink:
+            yield lambda table: sink.write_table(table.replace_schema_metadata(None))
+
+
+def _validate(staged: Path, out: Path, plan: Layout, samples: int, rows: int) -> None:
+    """Read the staged record back with its kind's reader; errors name ``out``.
+
+    A stream kind's record longer than a block: the reader reads its first
+    block (a probe record with the same metadata), and the whole is streamed
+    back through :func:`~accelcal.io.recordings.iter_blocks`, so the memory
+    stays one block. Other kinds are read whole by their reader, as their
+    methods read them.
+    """
+    from accelcal.io.records import MAX_RECORD_VALUES
+
+    values = samples * len(plan.columns)
+    try:
+        if plan.kind in STREAM_KINDS and samples > rows:
+            _validate_long(staged, plan, samples, rows)
+        elif values <= MAX_RECORD_VALUES:
+            validator(plan.kind)(staged)
+        else:
+            raise AccelcalError(f"a {plan.kind} record holds at most {MAX_RECORD_VALUES} "
+                                f"values; this one would hold {values}: split the recording")
+    except AccelcalError as exc:
+        text = str(exc).replace(str(staged), str(out)).replace(staged.name, out.name)
+        raise AccelcalError(f"the {plan.kind} record would not be valid: {text}") from None
+
+
+def _validate_long(staged: Path, plan: Layout, samples: int, rows: int) -> None:
+    from accelcal.io.recordings.sources import open_source
+    from accelcal.io.records import write_record
+
+    meta = open_source(staged, "record", None).metadata
+    opts = InputOptions(input_format="record", columns=tuple(plan.columns))
+    blocks = iter_blocks(staged, opts, rows=rows, need_rate=False)
+    first = next(blocks)
+    probe = staged.with_name("probe-" + staged.name)
+    write_record(probe, plan.kind, {k: v for k, v in meta.items()
+                                    if k not in ("format_version", "kind")},
+                 {c: first.values[:, k] for k, c in enumerate(plan.columns)})
+    validator(plan.kind)(probe)
+    probe.unlink()
+    read = first.values.shape[0] + sum(b.values.shape[0] for b in blocks)
+    if read != samples:
+        raise AccelcalError(f"{read} samples read back of {samples} written")

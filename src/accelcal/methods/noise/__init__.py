@@ -1,0 +1,77 @@
+"""Noise and stability of still recordings: Allan deviations, IEEE 952 coefficients.
+
+The package:
+
+:mod:`~accelcal.methods.noise.deviations` (with ``dev_kernels``, ``taus``, ``edf``, ``identify``)
+    ADEV, overlapping ADEV, MDEV, HDEV, overlapping HDEV, TOTDEV with noise
+    identification, EDF and confidence intervals (NIST SP 1065).
+:mod:`~accelcal.methods.noise.fit`
+    :func:`fit`, :func:`fit_deviation`: the IEEE 952 coefficients Q, N, B,
+    K, R by weighted non-negative least squares on the Allan variance, with
+    uncertainties (family ``"noise"``, method ``"ieee952-fit"``);
+    :func:`coefficients`, :func:`navigation_units`.
+:mod:`~accelcal.methods.noise.covariance`
+    :func:`avar_covariance`: the covariance of Allan variances across taus.
+:mod:`~accelcal.methods.noise.psd`
+    :func:`welch_psd`, :class:`WelchAccumulator`, :func:`levels`.
+:mod:`~accelcal.methods.noise.stream`
+    :func:`stream_deviation`, :func:`stream_fit`: long records in bounded memory.
+:mod:`~accelcal.methods.noise.stability`
+    :func:`run_to_run`: turn-on to turn-on repeatability beside in-run stability.
+:mod:`~accelcal.methods.noise.figures`
+    :func:`figures`: deviation plot with bars and fitted terms, PSD plot.
+
+Record files of kind ``noise`` are :mod:`accelcal.io.formats.noise`; the
+simulator is :mod:`accelcal.rigs.noise`.
+
+References
+----------
+.. [IEEE952] IEEE Std 952-1997, Annex C.
+.. [IEEE1293] IEEE Std 1293-2018, annex.
+.. [Riley2008] Riley W. J., Handbook of Frequency Stability Analysis, NIST SP
+   1065, 2008.
+.. [ElSheimy2008] El-Sheimy N., Hou H., Niu X., Analysis and modeling of
+   inertial sensors using Allan variance, IEEE Trans. Instrum. Meas. 57(1), 2008.
+"""
+
+from accelcal.methods import ReportText
+from accelcal.methods.noise.figures import figures
+from accelcal.methods.noise.fit import (
+    FAMILY,
+    METHOD,
+    TERMS,
+    coefficients,
+    fit,
+    fit_deviation,
+    model_avar,
+    navigation_units,
+)
+
+__all__ = ["ERRATA", "FAMILY", "METHOD", "TERMS", "coefficients", "figures", "fit",
+           "fit_deviation", "model_avar", "navigation_units", "report_text"]
+
+ERRATA = ()
+"""No corrections of the references are shown."""
+
+
+def report_text(reduction) -> ReportText:
+    """Title and summary of a noise fit's report section."""
+    from accelcal.methods.noise.fit import coefficients as coefs
+
+    prov = reduction.provenance
+    hours = prov.get("samples", 0) / prov.get("rate_hz", 1.0) / 3600.0
+    nav = coefs(reduction)["navigation"]
+    parts = [f"{t} = {rows[0]['value']:.3g} ± {rows[0]['std']:.2g} {rows[0]['unit']}"
+             for t, rows in nav.items()]
+    stability = reduction.assumed("run_to_run")
+    extra = (f" Turn-on to turn-on bias repeatability {stability:.3g} {prov.get('unit', '')} "
+             "(SD of the run means) beside the in-run stability B." if stability else "")
+    return ReportText(
+        title="noise and stability (still recording)",
+        summary=(f"Still recording of {hours:.3g} h at {prov.get('rate_hz', 0):g} Hz; "
+                 "overlapping Allan deviation at octave taus with EDF-based intervals; IEEE 952 "
+                 "coefficients by weighted non-negative least squares on the Allan variance "
+                 "(uncertainties from the covariance of the Allan variances across taus). "
+                 + ("; ".join(parts) + "." if parts else "") + extra),
+        sensor_summary="IEEE 952 noise terms fitted to the overlapping Allan variance.",
+    )

@@ -1,0 +1,97 @@
+"""Accelerometer triad on static positions: bias, scale factor, non-orthogonality (issue 12).
+
+Three accelerometers in one housing are calibrated as a unit from the
+means of static intervals, by two routes:
+
+:mod:`~accelcal.methods.triad.model`
+    :class:`TriadCalibration` (``a = T (p + q ⊙ p²)``, ``p = K (u - b)``;
+    Tedaldi's triangular ``T``), :data:`PARAMS`, :data:`QUADRATIC`; JSON and
+    imucal's ``K_a, R_a, b_a`` layout both ways.
+:mod:`~accelcal.methods.triad.gravity`
+    :func:`normal_gravity` (WGS84, Somigliana, free-air height term).
+:mod:`~accelcal.methods.triad.known`
+    :func:`calibrate_known`: known orientations (six-position Ferraris,
+    turntable), linear least squares and an RQ split (method
+    ``"triad/known-orientations"``).
+:mod:`~accelcal.methods.triad.unknown`
+    :func:`calibrate_unknown`: unknown orientations, the gravity-norm
+    nonlinear least squares (method ``"triad/gravity-norm"``).
+:mod:`~accelcal.methods.triad.identify`
+    :func:`plan`: what a position set determines, before reducing.
+:mod:`~accelcal.methods.triad.mc`
+    :func:`triad_uncertainty`: Monte Carlo (GUM-S1) uncertainty.
+:mod:`~accelcal.methods.triad.figures`
+    :func:`figures`: norm residuals before/after, position directions.
+
+Static-interval detection (``static``) and the imucal session reader
+(``imucal``) are further modules of the package. The rig simulator is
+:mod:`accelcal.rigs.triad`, the record format :mod:`accelcal.io.formats.triad`.
+
+References
+----------
+.. [Tedaldi2014] Tedaldi D., Pretto A., Menegatti E., "A robust and easy to
+   implement method for IMU calibration without external equipments", ICRA
+   2014.
+.. [Ferraris1995] Ferraris F., Grimaldi U., Parvis M., "Procedure for
+   effortless in-field calibration of three-axis rate gyros and
+   accelerometers", Sensors and Materials 7(5), 1995.
+.. [TR8350.2] NIMA TR8350.2, World Geodetic System 1984, 3rd ed., 2000.
+"""
+
+from accelcal.methods import ReportText
+from accelcal.methods.triad.common import FAMILY, calibration_of, norm_residuals
+from accelcal.methods.triad.figures import figures
+from accelcal.methods.triad.gravity import normal_gravity
+from accelcal.methods.triad.identify import Plan, plan
+from accelcal.methods.triad.known import METHOD as KNOWN_METHOD
+from accelcal.methods.triad.known import calibrate_known
+from accelcal.methods.triad.mc import TriadSampler, triad_uncertainty
+from accelcal.methods.triad.model import PARAMS, QUADRATIC, TriadCalibration
+from accelcal.methods.triad.result import GAUGE
+from accelcal.methods.triad.unknown import METHOD as UNKNOWN_METHOD
+from accelcal.methods.triad.unknown import calibrate_unknown
+
+__all__ = [
+    "ERRATA", "FAMILY", "GAUGE", "KNOWN_METHOD", "PARAMS", "QUADRATIC", "UNKNOWN_METHOD", "Plan",
+    "TriadCalibration", "TriadSampler", "calibrate_known", "calibrate_unknown",
+    "calibration_of", "figures", "norm_residuals", "normal_gravity", "plan", "report_text",
+    "triad_uncertainty",
+]
+
+ERRATA = (
+    ("Body frame of Tedaldi's upper-triangular T: an accelerometer reads projections n_i·a, so "
+     "the sensor axes are the rows of T⁻¹ (normalised): z_body lies along the sensor z axis and "
+     "y_body in the sensor y-z plane, not x_body along sensor x with y_body in the x-y plane "
+     "(that statement fits the lower-triangular form). Derived and tested; accelcal keeps the "
+     "upper-triangular T with this frame."),
+    ("The gravity norm does not fix the polarity of an axis (s_i → −s_i with the angles it "
+     "enters and q_i) nor the rotation of the body frame; accelcal reports positive scale "
+     "factors and the triangular frame above."),
+    ("Known orientations: the readings are fitted as functions of the known specific force "
+     "(u = A f + b, noise in u), and A = K⁻¹ T⁻¹ Q split by RQ; the fixture-to-body rotation Q "
+     "is a gauge, reported as three angles, not a sensor parameter."),
+)
+"""Corrections and precisions of Tedaldi2014 / DOMAIN section 6 (docs/triad.md, docs/errata.md)."""
+
+
+def report_text(reduction) -> ReportText:
+    """The report's title and summary of a triad calibration."""
+    n = reduction.provenance.get("positions", 0)
+    unit = reduction.provenance.get("input_unit", "")
+    quad = " with per-axis quadratic terms" if reduction.provenance.get("quadratic") else ""
+    if reduction.method == KNOWN_METHOD:
+        how = (f"{n} positions of known orientation: linear least squares on the readings and "
+               "an RQ split into scale factors, non-orthogonality angles and the fixture "
+               "rotation (a gauge)")
+    else:
+        how = (f"{n} static positions of unknown orientation: gravity-norm nonlinear least "
+               "squares (Levenberg-Marquardt)")
+    return ReportText(
+        title="Accelerometer triad on static positions",
+        summary=(f"Triad calibration from {how}{quad}; raw output in {unit}, specific force in "
+                 f"m/s² at local gravity {reduction.provenance.get('gravity', float('nan')):.7g} "
+                 "m/s²; first-order covariance."),
+        sensor_summary="Model a = T (p + q p²), p = diag(s) (u − b), T upper triangular "
+                       "(Tedaldi).",
+        paper="Tedaldi2014",
+    )
