@@ -87,6 +87,9 @@ BASE: dict[str, list[str]] = {
     "noise simulate": ["--N", "2e-5", "--rate", "100", "--duration", "10",
                        "--out", "{out}/still.csv"],
     "noise stability": ["--serial", "ACC-0001", "--db", "{store}"],
+    "centrifuge simulate": ["--out", "{out}/c.csv", "--levels", "5:50:15"],
+    "centrifuge reduce": ["{centrifuge}"],
+    "centrifuge plan": ["--levels", "5:50:15", "--positions", "IA-in,IA-out,IA-tan"],
     "thermal simulate": ["--out", "{out}/th.csv", "--points", "8", "--dwell", "20", "--warmup",
                          "0", "--setpoints", "-20,10,40,25,-5"],
     "thermal reduce": ["{examples}/thermal.csv"],
@@ -103,8 +106,8 @@ BASE: dict[str, list[str]] = {
 }
 """A valid invocation of each command (placeholders: ``{out}`` a fresh directory per run,
 ``{examples}`` examples/data, ``{record}`` a calibration record, ``{tumble}`` a tumble
-record, ``{store}`` a store holding the record). Commands without required parameters may
-be left out (their base is empty)."""
+record, ``{centrifuge}`` a centrifuge record, ``{store}`` a store holding the record and two
+noise fits). Commands without required parameters may be left out (their base is empty)."""
 
 LONG_BY_DESIGN: dict[tuple[str, str, str], str] = {
     ("dividing-head study", "trials", "1000000000000"):
@@ -440,7 +443,10 @@ def _fill(tmp: Path) -> dict:
 
     record = EXAMPLES / "calibration_record.json"
     tumble, store = tmp / "tumble.csv", tmp / "store.sqlite"
+    centrifuge = tmp / "centrifuge.csv"
     runs = [["tumble", "simulate", "--out", str(tumble), "--points", "12"],
+            ["centrifuge", "simulate", "--out", str(centrifuge), "--levels", "5:50:15",
+             "--readings", "2"],
             ["records", "add", str(record), "--db", str(store)]]
     for seed in ("1", "2"):  # two still recordings of ACC-0001: `noise stability` needs two
         still, fit = tmp / f"still{seed}.csv", tmp / f"noise{seed}.json"
@@ -452,7 +458,8 @@ def _fill(tmp: Path) -> dict:
         with pytest.raises(SystemExit) as info:
             main(args)
         assert info.value.code == 0, args
-    return {"record": str(record), "tumble": str(tumble), "store": str(store)}
+    return {"record": str(record), "tumble": str(tumble), "store": str(store),
+            "centrifuge": str(centrifuge)}
 
 
 def _matrix():

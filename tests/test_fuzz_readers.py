@@ -171,6 +171,28 @@ def _thermal(suffix: str):
     return make
 
 
+def _centrifuge(suffix: str):
+    def make(tmp: Path):
+        import dataclasses
+
+        from accelcal.defaults import default_model
+        from accelcal.io.formats import centrifuge
+        from accelcal.rigs.centrifuge import simulate
+
+        rec = simulate(default_model(), ("IA-in", "IA-out", "IA-tan"), (5.0, 20.0, 35.0, 50.0),
+                       readings=2, spinup=1, seed=1,
+                       survey={"radius_error": {"value": 0.0, "sd": 1e-4}})
+        rec = dataclasses.replace(rec, metadata={**rec.metadata, "serial": "ACC-0001",
+                                                 "operator": "J. Smith",
+                                                 "date": "2026-11-20T09:30:00+00:00",
+                                                 "local_gravity": 9.80122})
+        path = tmp / f"centrifuge{suffix}"
+        centrifuge.write(path, rec)
+        return path, path
+
+    return make
+
+
 # ------------------------------------------------------------------------------ readers
 def _head(path):
     from accelcal.io.formats.dividing_head import read_head_record
@@ -254,6 +276,12 @@ def _thermal_read(path):
     return read(path)
 
 
+def _centrifuge_read(path):
+    from accelcal.io.formats.centrifuge import read
+
+    return read(path)
+
+
 def _triad_read(path):
     from accelcal.io.formats.triad import read
 
@@ -325,6 +353,8 @@ _SHAKER_CMD = ("transverse", "fit", "{file}", "--format", "json", "--record", "{
 _VRE_CMD = ("vre", "fit", "{file}", "--format", "json", "--record", "{out}/rec.json")
 _TUMBLE_CMD = ("tumble", "reduce", "{file}", "--format", "json")
 _NOISE_CMD = ("noise", "fit", "{file}", "--format", "json")
+_CENTRIFUGE_CMD = ("centrifuge", "reduce", "{file}", "--format", "json", "--record",
+                   "{out}/rec.json")
 _THERMAL_CMD = ("thermal", "reduce", "{file}", "--format", "json", "--record", "{out}/rec.json")
 
 READERS: dict[str, Reader] = {
@@ -339,6 +369,9 @@ READERS: dict[str, Reader] = {
     "tumble.parquet": Reader(_tumble_read, _tumble(".parquet"), "parquet", _TUMBLE_CMD),
     "noise.csv": Reader(_noise_read, _noise(".csv"), "csv", _NOISE_CMD),
     "noise.parquet": Reader(_noise_read, _noise(".parquet"), "parquet", _NOISE_CMD),
+    "centrifuge.csv": Reader(_centrifuge_read, _centrifuge(".csv"), "csv", _CENTRIFUGE_CMD),
+    "centrifuge.parquet": Reader(_centrifuge_read, _centrifuge(".parquet"), "parquet",
+                                 _CENTRIFUGE_CMD),
     "thermal.csv": Reader(_thermal_read, _thermal(".csv"), "csv", _THERMAL_CMD),
     "thermal.parquet": Reader(_thermal_read, _thermal(".parquet"), "parquet", _THERMAL_CMD),
     "triad.csv": Reader(_triad_read, _triad(".csv"), "csv"),

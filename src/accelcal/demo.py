@@ -19,7 +19,10 @@ The stages, each in its method's package:
 5. thermal chamber (:mod:`accelcal.methods.thermal.demo`): multipoint
    tumbles at temperature plateaus, the temperature coefficients, hysteresis
    and warm-up, and the compensation model;
-6. triad (:mod:`accelcal.methods.triad.demo`, Tedaldi2014): a three-axis
+6. centrifuge (:mod:`accelcal.methods.centrifuge.demo`, IEEE 836): levels
+   up to 50 g with IA inward, outward and tangential, reduced jointly with a
+   1 g tumble of the same sensor (K2, K3, K4, cross-coupling, radius error);
+7. triad (:mod:`accelcal.methods.triad.demo`, Tedaldi2014): a three-axis
    housing on 18 static positions, bias, scale factor and non-orthogonality
    by the known-orientation and the gravity-norm routes.
 
@@ -59,6 +62,7 @@ def lab(date: str, serial) -> dict:
 
 def stages() -> list:
     """The demo's tests, in order (a new method adds its stage here)."""
+    from accelcal.methods.centrifuge import demo as centrifuge
     from accelcal.methods.dividing_head import demo as head
     from accelcal.methods.noise import demo as still
     from accelcal.methods.thermal import demo as thermal
@@ -68,7 +72,8 @@ def stages() -> list:
 
     return [head.stage(SERIALS, lab), shaker.stage(SERIALS[0], lab),
             vibrafuge.stage(SERIALS[0], lab), still.stage(SERIALS[0], lab),
-            thermal.stage(SERIALS[0], lab), triad.stage(TRIAD_SERIAL, lab)]
+            thermal.stage(SERIALS[0], lab), centrifuge.stage(SERIALS[0], lab),
+            triad.stage(TRIAD_SERIAL, lab)]
 
 
 def run(out="accelcal-demo", *, db=None, seed: int | None = None, progress: bool = True
@@ -101,6 +106,7 @@ def run(out="accelcal-demo", *, db=None, seed: int | None = None, progress: bool
         title="Accelerometer calibration campaign (demo)",
         subtitle=(f"Simulated campaign of {', '.join(SERIALS)} and the triad {TRIAD_SERIAL}: "
                   "indexing head, shaker transverse sweep, vibrafuge grid, still recording, "
-                  f"thermal chamber and triad on static positions; operator {OPERATOR}, date {{date}}, seed {{seed}}."),
+                  "thermal chamber, centrifuge and triad on static positions; "
+                  f"operator {OPERATOR}, date {{date}}, seed {{seed}}."),
         history_serial=SERIALS[0],
     )

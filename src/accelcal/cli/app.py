@@ -3,6 +3,7 @@
 import typer
 
 from accelcal import __version__
+from accelcal.cli import centrifuge as centrifuge_cmd
 from accelcal.cli import demo as demo_cmd
 from accelcal.cli import dividing_head as dividing_head_cmd
 from accelcal.cli import importer as importer_cmd
@@ -35,6 +36,7 @@ app.add_typer(tumble_cmd.app, name="tumble")
 app.add_typer(triad_cmd.app, name="triad")
 app.add_typer(noise_cmd.app, name="noise")
 app.add_typer(thermal_cmd.app, name="thermal")
+app.add_typer(centrifuge_cmd.app, name="centrifuge")
 app.command("demo")(demo_cmd.demo)
 app.command("import")(importer_cmd.import_)
 app.command("inspect")(importer_cmd.inspect)

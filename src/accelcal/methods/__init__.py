@@ -21,6 +21,7 @@ import importlib
 from dataclasses import dataclass
 
 REGISTRY = {
+    "centrifuge": "accelcal.methods.centrifuge",
     "dividing-head": "accelcal.methods.dividing_head",
     "noise": "accelcal.methods.noise",
     "tumble": "accelcal.methods.tumble",

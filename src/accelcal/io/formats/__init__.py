@@ -19,6 +19,7 @@ KINDS = {
     "triad": "accelcal.io.formats.triad",
     "noise": "accelcal.io.formats.noise",
     "thermal": "accelcal.io.formats.thermal",
+    "centrifuge": "accelcal.io.formats.centrifuge",
 }
 """Record kind -> format module (imported where used)."""
 
