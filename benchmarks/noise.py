@@ -8,7 +8,7 @@ Run from the repository root::
 
 ``speed``: the overlapping Allan deviation at octave taus of one 1e7-sample
 series (white noise plus a random walk), each whole public call timed:
-``accelcal.methods.noise.deviations.deviation`` (deviations, noise
+``accelcal.signal.allan.deviations.deviation`` (deviations, noise
 identification per tau, Greenhall-Riley EDF, chi-square intervals) and
 ``allantools.oadev`` (deviations and its simple error bars), beside the
 floor of one read of the array (``np.sum``). Medians of 7 repeats,
@@ -57,7 +57,7 @@ def bench_speed(samples: int = 10_000_000, rate: float = 100.0) -> None:
     """accelcal vs allantools, oadev at octave taus of the same series."""
     import allantools
 
-    from accelcal.methods.noise.deviations import deviation
+    from accelcal.signal.allan.deviations import deviation
 
     rng = np.random.default_rng(1)
     y = 1e-4 * rng.standard_normal(samples) + 1e-7 * np.cumsum(rng.standard_normal(samples))

@@ -258,11 +258,72 @@ def _vre_cli(sampling: str):
     return VreCli()
 
 
+def _noise_all_terms():
+    """``accelcal noise fit`` by default: every IEEE 952 term (Q, N, B, K, R) fitted, on the
+    contract's still recordings (N and K only: Q, B and R are zero, at their bound)."""
+    from accelcal.methods.noise.fit import fit, fit_deviation
+    from test_noise_contract import RATE, TestContract
+
+    class NoiseAllTerms(TestContract):
+        def reduce(self, data):
+            if isinstance(data, np.ndarray):
+                return fit(data, RATE, unit="g")
+            return fit_deviation(data)
+
+    return NoiseAllTerms()
+
+
+def _thermal_auto_order():
+    """``accelcal thermal reduce`` by default: the polynomial order chosen by the F-test."""
+    from test_thermal_contract import AutoOrder
+
+    return AutoOrder()
+
+
+def _triad_unknown_eighteen():
+    """The gravity norm on the demo's design (the six axis directions and 12 random ones,
+    counts): 9 degrees of freedom, the Student-t coverage factor at work."""
+    from accelcal.rigs.triad import random_directions, six_positions
+    from test_triad_contract import TestContractGravityNorm
+
+    class TriadEighteen(TestContractGravityNorm):
+        def directions(self, rng):
+            return np.vstack([six_positions(), random_directions(12, rng)])
+
+    return TriadEighteen()
+
+
+def _triad_cli_default():
+    """``accelcal triad simulate --positions 24`` then ``triad calibrate`` with its defaults:
+    static intervals detected (30 s still period, 1 s window, 2 s shortest), the threshold
+    factor chosen by the calibration residual, the gravity norm with the intervals' own
+    noise (counts, 100 Hz, 5 s per position, 2 s motions)."""
+    from accelcal.methods.triad.threshold import choose_factor
+    from accelcal.rigs.triad import random_directions, simulate
+    from test_triad_contract import G, TestContractGravityNorm
+
+    class TriadCli(TestContractGravityNorm):
+        def simulate(self, truth, rng, noisy):
+            return simulate(truth, random_directions(24, rng), rate=100.0, dwell=5.0,
+                            motion=2.0, still=30.0, noise_sd=self.NOISE if noisy else 0.0,
+                            seed=rng, gravity=G)
+
+        def reduce(self, data):
+            return choose_factor(data.acc, 100.0, G, init_static=30.0, window=1.0,
+                                 min_length=2.0, input_unit=data.input_unit).reduction
+
+    return TriadCli()
+
+
 EXTRA_CASES: dict[str, Callable[[], ReductionContract]] = {
     "dividing-head four, default covariance": _four_default,
     "tumble fourier OA, 8 positions (1 dof)": _tumble_few_dof,
     "vre identify, CLI defaults, integrating": lambda: _vre_cli("integrating"),
     "vre identify, CLI defaults, point sampling": lambda: _vre_cli("point"),
+    "noise fit, CLI default terms Q,N,B,K,R": _noise_all_terms,
+    "thermal reduce, CLI default order auto": _thermal_auto_order,
+    "triad gravity norm, 18 positions (9 dof)": _triad_unknown_eighteen,
+    "triad calibrate, CLI defaults (detected intervals)": _triad_cli_default,
 }
 """Settings users reach that no contract runs: case name -> factory of a contract instance."""
 

@@ -25,9 +25,9 @@ TERMS = ("N", "K")
 
 
 def _model_deviation(coefs):
-    from accelcal.methods.noise.deviations import Deviation
-    from accelcal.methods.noise.edf import edf
-    from accelcal.methods.noise.taus import tau_grid
+    from accelcal.signal.allan.deviations import Deviation
+    from accelcal.signal.allan.edf import edf
+    from accelcal.signal.allan.taus import tau_grid
 
     m = tau_grid(SAMPLES, "octave")
     tau = m / RATE

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from accelcal import AccelcalError
-from accelcal.methods.noise.dev_kernels import phase
-from accelcal.methods.noise.deviations import KINDS, Deviation, compute, deviation
-from accelcal.methods.noise.identify import ACF_MIN_POINTS, alpha_range, noise_alphas
-from accelcal.methods.noise.taus import max_m, min_samples, n_terms, tau_grid, taus_to_m
+from accelcal.signal.allan.kernels import phase
+from accelcal.signal.allan.deviations import KINDS, Deviation, compute, deviation
+from accelcal.signal.allan.identify import ACF_MIN_POINTS, alpha_range, noise_alphas
+from accelcal.signal.allan.taus import max_m, min_samples, n_terms, tau_grid, taus_to_m
 
 
 def nbs14_1000() -> np.ndarray:
@@ -311,7 +311,7 @@ def test_bounded_mdev_sums_equal_the_whole_array_kernel(n, m, chunk, tmp_path):
     # R(m) of the noise identification may run on a streamed record's memmapped phase: the
     # chunked kernel must give the whole-array sums (same terms, summed in another order:
     # a few ulp of a sum of n positive terms, 1e-12 relative is ~1e4 ulp of room)
-    from accelcal.methods.noise.dev_kernels import mdev_sumsq, mdev_sumsq_bounded
+    from accelcal.signal.allan.kernels import mdev_sumsq, mdev_sumsq_bounded
 
     x = np.cumsum(np.random.default_rng(n + m).normal(size=n))
     mm = np.memmap(tmp_path / "x.f8", dtype=float, mode="w+", shape=(n,))

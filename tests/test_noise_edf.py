@@ -15,8 +15,8 @@ import pytest
 from scipy.stats import chi2
 
 from accelcal import AccelcalError
-from accelcal.methods.noise.dev_kernels import phase, variance_sums
-from accelcal.methods.noise.edf import (
+from accelcal.signal.allan.kernels import phase, variance_sums
+from accelcal.signal.allan.edf import (
     TABLE1,
     TABLE2,
     TABLE3,

@@ -15,8 +15,8 @@ import pytest
 from accelcal.errors import AccelcalError
 from accelcal.methods.noise import covariance as cov_mod
 from accelcal.methods.noise.covariance import avar_covariance
-from accelcal.methods.noise.dev_kernels import phase, variance_sums
-from accelcal.methods.noise.deviations import deviation
+from accelcal.signal.allan.kernels import phase, variance_sums
+from accelcal.signal.allan.deviations import deviation
 from accelcal.methods.noise.fit import (
     FACTORS,
     coefficients,
@@ -26,7 +26,7 @@ from accelcal.methods.noise.fit import (
     navigation_units,
 )
 from accelcal.methods.noise.psd import WelchAccumulator, levels, welch_psd
-from accelcal.methods.noise.taus import tau_grid
+from accelcal.signal.allan.taus import tau_grid
 from accelcal.rigs.noise import simulate_blocks
 
 RATE = 100.0
@@ -91,8 +91,8 @@ def test_term_factors_from_the_filters():
 
 def _model_dev(coefs, n=2**16):
     """A deviation curve equal to the model (no noise), with the EDF of white noise."""
-    from accelcal.methods.noise.deviations import Deviation
-    from accelcal.methods.noise.edf import edf
+    from accelcal.signal.allan.deviations import Deviation
+    from accelcal.signal.allan.edf import edf
 
     m = tau_grid(n, "octave")
     tau = m / RATE

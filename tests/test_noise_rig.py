@@ -14,7 +14,7 @@ import pytest
 
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import noise as noise_format
-from accelcal.methods.noise.deviations import deviation
+from accelcal.signal.allan.deviations import deviation
 from accelcal.methods.noise.fit import FACTORS, model_avar
 from accelcal.rigs.noise import (
     B_RANGE_RIPPLE,

@@ -3,7 +3,7 @@
 The phase is built over fixed chunks at absolute positions, so the
 streamed result is the same to the last bit whatever the block size, and
 the same as :func:`accelcal.methods.noise.stream.deviation_of_samples` in
-memory; against :func:`accelcal.methods.noise.deviations.deviation` (whose
+memory; against :func:`accelcal.signal.allan.deviations.deviation` (whose
 phase subtracts the whole record's mean instead of the first chunk's) the
 deviations agree to rounding (1e-9 relative: the phase's rounding at
 1e5 samples is ~1e-16 x 1e5 x the noise).
@@ -17,7 +17,7 @@ import pytest
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import noise as noise_format
 from accelcal.io.recordings import InputOptions
-from accelcal.methods.noise.deviations import deviation
+from accelcal.signal.allan.deviations import deviation
 from accelcal.methods.noise.fit import fit
 from accelcal.methods.noise.stream import (
     CHUNK,

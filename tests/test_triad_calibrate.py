@@ -366,3 +366,23 @@ def test_plan_refuses_to_predict_for_a_deficient_design():
     with pytest.raises(AccelcalError) as exc:
         plan(six_positions()).predicted_sd(float("nan"), 100)
     assert exc.value.parameter == "noise_sd"
+
+
+def test_engineering_units_of_a_triad_in_m_s2():
+    # a bias of 0.0980665 m/s^2 is 10,000 ug; a scale factor of 1.0001 (m/s^2)/(m/s^2) is
+    # 100 ppm above its nominal 1; in counts no engineering unit is claimed for either
+    rng = np.random.default_rng(8)
+    up = np.vstack([six_positions(), random_directions(12, rng)])
+    cal = TriadCalibration([0.0980665, 0, 0], [1.0001, 1, 1], [1e-3, 0, 0])
+    red = calibrate_known(cal.readings(G * up), up, G, noise_sd=1e-4)
+    rows = {r["coefficient"]: r for r in red.rows()}
+    assert rows["b_x"]["eng_unit"] == "ug"
+    assert rows["b_x"]["eng_estimate"] == pytest.approx(1e4, rel=1e-9)
+    assert rows["b_x"]["eng_std"] == pytest.approx(rows["b_x"]["std"] / G * 1e6, rel=1e-12)
+    assert rows["s_x"]["eng_unit"] == "ppm"
+    assert rows["s_x"]["eng_estimate"] == pytest.approx(100.0, rel=1e-6)
+    assert rows["a_yz"]["eng_unit"] == "urad"
+    counts = TriadCalibration([300, 0, 0], [6e-4, 6e-4, 6e-4], [0, 0, 0], input_unit="counts")
+    red = calibrate_known(counts.readings(G * up), up, G, input_unit="counts", noise_sd=1.0)
+    rows = {r["coefficient"]: r for r in red.rows()}
+    assert rows["b_x"]["eng_unit"] == "" and rows["s_x"]["eng_unit"] == ""

@@ -23,7 +23,9 @@ misalignment TC     Ko_Tk, Kp_Tk                           µrad/°C^k
 second-order TC     K2_Tk                                  µg/g²/°C^k
 ==================  =====================================  ====================
 
-A coefficient in an output unit (``V``, ``V/g``, ``V/g^2``, ...) is first
+A bias in an acceleration unit (m/s², mg, µg: a triad's) is converted to g
+with the conventional g_n. A coefficient in an output unit (``V``, ``V/g``,
+``V/g^2``, ...) is first
 divided by the same sensor's scale factor (``K_I`` or ``K1`` in output unit
 per g), so ``K_F / K_I`` is the bias in g [Dong2014 eq. (5)]; the
 uncertainty of that scale factor (relative order 1e-6 against the others'
@@ -42,7 +44,7 @@ References
 import math
 from dataclasses import dataclass
 
-from accelcal.units import ARCSEC, OUTPUT_UNITS
+from accelcal.units import ARCSEC, OUTPUT_UNITS, STANDARD_GRAVITY
 
 QUANTITIES = {
     "K0": "bias", "K_F": "bias", "K0_asym": "bias",
@@ -73,6 +75,10 @@ for _k in (1, 2, 3):
     _per = "degC" if _k == 1 else f"degC^{_k}"
     _SCALES |= {f"{q}/T{_k}": tuple((f"{u}/{_per}", f) for u, f in _SCALES[q])
                 for q in ("bias", "ratio", "misalignment", "second")}
+
+
+_ACCELERATION_IN_G = {"g": 1.0, "m/s^2": 1.0 / STANDARD_GRAVITY, "mg": 1e-3, "ug": 1e-6}
+"""Size in g of the acceleration units a bias may be given in (g_n: a unit conversion)."""
 
 
 @dataclass(frozen=True)
@@ -125,7 +131,9 @@ def engineering(name: str, estimate: float, std: float, unit: str, *, scale_fact
             return ()
         return (Engineering((estimate - nominal) / nominal * 1e6, std / abs(nominal) * 1e6,
                             "ppm"),)
-    if is_output_unit(unit):
+    if kind == "bias" and unit in _ACCELERATION_IN_G:  # a triad's bias in m/s^2, mg, ...
+        estimate, std = estimate * _ACCELERATION_IN_G[unit], std * _ACCELERATION_IN_G[unit]
+    elif is_output_unit(unit):
         if scale_factor is None or scale_factor == 0 or not math.isfinite(scale_factor):
             return ()
         estimate, std = estimate / scale_factor, std / abs(scale_factor)

@@ -87,7 +87,7 @@ def adev(
 def _in_memory(file, opts, kind, taus, confidence):
     from accelcal.io.formats.noise import check_values
     from accelcal.io.recordings import read_recording
-    from accelcal.methods.noise.deviations import deviation
+    from accelcal.signal.allan.deviations import deviation
 
     rec = read_recording(file, opts, channels=1, what="still recording")
     check_values(rec.values, 0, file.name)

@@ -2,7 +2,7 @@
 
 The package:
 
-:mod:`~accelcal.methods.noise.deviations` (with ``dev_kernels``, ``taus``, ``edf``, ``identify``)
+:mod:`~accelcal.signal.allan.deviations` (with ``dev_kernels``, ``taus``, ``edf``, ``identify``)
     ADEV, overlapping ADEV, MDEV, HDEV, overlapping HDEV, TOTDEV with noise
     identification, EDF and confidence intervals (NIST SP 1065).
 :mod:`~accelcal.methods.noise.fit`

@@ -108,7 +108,7 @@ def _psd_figure(reduction, values, unit):
 
 
 def deviation_figure(dev):
-    """A :class:`~accelcal.methods.noise.deviations.Deviation` on log-log axes with its bars."""
+    """A :class:`~accelcal.signal.allan.deviations.Deviation` on log-log axes with its bars."""
     fig = new_figure(figsize=(6.0, 4.2))
     ax = fig.add_subplot()
     d = np.asarray(dev.dev)

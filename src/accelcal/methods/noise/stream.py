@@ -8,12 +8,12 @@ each block extends the phase ``x = cumsum(y - c)`` in a temporary file
 sum runs over fixed chunks of :data:`CHUNK` samples at absolute positions,
 so the phase, and every result, is bit-for-bit the same whatever the block
 size (and the same as :func:`deviation_of_samples` in memory). Then the
-kernels of :mod:`~accelcal.methods.noise.dev_kernels` read the memmap in
+kernels of :mod:`~accelcal.signal.allan.kernels` read the memmap in
 chunks, and the PSD is accumulated from the phase's differences
 (:class:`~accelcal.methods.noise.psd.WelchAccumulator`).
 
 Resident memory: O(block rows) for the block being read (``rows`` x 8
-bytes x a few), O(:data:`~accelcal.methods.noise.dev_kernels.CHUNK`) for
+bytes x a few), O(:data:`~accelcal.signal.allan.kernels.CHUNK`) for
 the kernels, ``64 x MAX_SEGMENT`` samples for the PSD and at most
 :data:`ID_POINTS` phase points for the noise identification at short taus
 (the lag-1 autocorrelation of 2^20 averages pins alpha far beyond need):
@@ -23,7 +23,7 @@ Disk: 8 bytes per sample in the temporary file.
 
 Kinds streamed: ``oadev`` and ``ohdev`` (lagged differences of the phase);
 ``adev``, ``hdev``, ``mdev`` and ``totdev`` need the record in memory
-(:func:`accelcal.methods.noise.deviations.deviation`).
+(:func:`accelcal.signal.allan.deviations.deviation`).
 
 A time column is checked for gaps (an interval longer than 1.5 sample
 intervals): a gap is refused, never averaged over; so is a sample beyond
@@ -100,11 +100,11 @@ def phase_of(y) -> np.ndarray:
 
 
 def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None):  # noqa: PLR0917
-    from accelcal.methods.noise.dev_kernels import lag_sumsq
-    from accelcal.methods.noise.deviations import DIVISOR, Deviation
-    from accelcal.methods.noise.edf import check_confidence, confidence_interval, edf
-    from accelcal.methods.noise.identify import noise_alphas
-    from accelcal.methods.noise.taus import tau_grid, taus_to_m
+    from accelcal.signal.allan.kernels import lag_sumsq
+    from accelcal.signal.allan.deviations import DIVISOR, Deviation
+    from accelcal.signal.allan.edf import check_confidence, confidence_interval, edf
+    from accelcal.signal.allan.identify import noise_alphas
+    from accelcal.signal.allan.taus import tau_grid, taus_to_m
 
     if kind not in STREAM_KINDS:
         raise AccelcalError(f"{kind} needs the record in memory; stream {' or '.join(STREAM_KINDS)}"
@@ -166,7 +166,7 @@ def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confide
         How to read it (one column).
     kind : {"oadev", "ohdev"}
     taus, confidence
-        As :func:`accelcal.methods.noise.deviations.deviation`.
+        As :func:`accelcal.signal.allan.deviations.deviation`.
     rows : int, optional
         Rows per block read.
     tmpdir : path-like, optional
@@ -178,7 +178,7 @@ def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confide
 
     Returns
     -------
-    deviation : accelcal.methods.noise.deviations.Deviation
+    deviation : accelcal.signal.allan.deviations.Deviation
     spectrum : (numpy.ndarray, numpy.ndarray) or None
     provenance : dict
         The file (name, SHA-256, columns, unit, rate, samples).

@@ -4,9 +4,9 @@ A triad with 16-bit-like raw outputs (counts: offsets of a few hundred
 counts, about 1670 counts per m/s^2, non-orthogonality of a few mrad) is
 turned through 18 positions (the six axis directions, then 12 random
 ones), 5 s each at 100 Hz after a 30 s still period, and calibrated by both
-routes from the means of the positions' static intervals: the gravity norm
-(orientations unknown) and known orientations (all 18 directions known, as
-on an indexing head).
+routes: the gravity norm from the static intervals detected in the signal
+(orientations unknown), and known orientations from the record's positions
+(all 18 directions known, as on an indexing head).
 
 References
 ----------
@@ -25,6 +25,9 @@ TRUE = {"bias": (310.0, -245.0, 120.0), "scale": (5.98e-4, 6.02e-4, 5.95e-4),
 
 NOISE_COUNTS = 4.0
 """White noise per sample and axis, counts."""
+
+STILL_S = 30.0
+"""The still period at the start of the recording, s (the rig's default)."""
 
 
 def stage(serial: str, lab):
@@ -55,14 +58,19 @@ def _reduce(path: Path) -> list:
     from accelcal.io.formats import triad as triad_format
     from accelcal.methods.triad import calibrate_known, calibrate_unknown
     from accelcal.pipeline import Outcome
+    from accelcal.signal.static import detect_static
 
     rec = triad_format.read(path)
-    means, counts = rec.interval_means()
     g = rec.metadata["gravity"]
-    common = {"input_unit": rec.input_unit, "labels": rec.labels, "counts": counts}
     info = lab_info([path])
-    out = []
-    for red, tag in ((calibrate_unknown(means, g, **common), "triad-norm"),
-                     (calibrate_known(means, rec.up, g, **common), "triad-known")):
-        out.append(Outcome(red, red.to_records(info, input_files=[path]), tag))
-    return out
+    # the gravity norm from the static intervals detected in the signal (as a lab's
+    # recording without positions is reduced); known orientations from the record's positions
+    found = detect_static(rec.acc, rec.metadata["rate"], init_static=STILL_S)
+    norm = calibrate_unknown(found.means, g, input_unit=rec.input_unit, counts=found.counts,
+                             labels=[f"I{k + 1}" for k in range(len(found))])
+    means, counts = rec.interval_means()
+    known = calibrate_known(means, rec.up, g, input_unit=rec.input_unit, labels=rec.labels,
+                            counts=counts)
+    return [Outcome(norm, norm.to_records(info, input_files=[path]), "triad-norm",
+                    {"intervals": found, "values": rec.acc, "time": rec.t}),
+            Outcome(known, known.to_records(info, input_files=[path]), "triad-known")]

@@ -18,15 +18,27 @@ def figures(reduction, **context) -> list:
         A triad calibration (observations ``means``, ``norm_before``,
         ``norm_after`` and, for known orientations, ``up``).
     **context
-        Not used.
+        ``intervals`` (:class:`accelcal.signal.static.StaticIntervals`), with
+        ``values`` (the recording's samples, (n, 3)) and optionally ``time``
+        (s): the recording with its static intervals shaded, first.
 
     Returns
     -------
     list of tuple
-        ``triad-norm-residuals`` (|a| - g per position, before and after)
-        and ``triad-positions`` (the positions' gravity directions).
+        ``triad-intervals`` (with ``intervals``), ``triad-norm-residuals``
+        (|a| - g per position, before and after) and ``triad-positions``
+        (the positions' gravity directions).
     """
-    return [_residuals_figure(reduction), _positions_figure(reduction)]
+    out = []
+    if context.get("intervals") is not None:
+        from accelcal.signal.static import figure
+
+        found = context["intervals"]
+        out.append(("triad-intervals", "Static intervals",
+                    figure(found, context["values"], time=context.get("time")),
+                    (f"The recording's norm with the {len(found)} static intervals detected "
+                    "(shaded) and the moving-variance statistic against its threshold.")))
+    return [*out, _residuals_figure(reduction), _positions_figure(reduction)]
 
 
 def _labels(reduction, n: int) -> list[str]:

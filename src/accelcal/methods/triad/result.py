@@ -26,6 +26,7 @@ References
 
 import numpy as np
 
+from accelcal.io.recordings.options import ACCELERATION_UNITS
 from accelcal.methods.triad.common import FAMILY, norm_residuals, spread_text
 from accelcal.methods.triad.model import PARAMS, QUADRATIC, TriadCalibration, units_of
 from accelcal.results import Estimate, Reduction
@@ -74,5 +75,27 @@ def build_reduction(*, method, values, covariance, quadratic, gauge, unit, resid
         family=FAMILY, method=method, sensors=(est,), shared=shared,
         covariance=covariance if gauge else None, dof=0 if given else int(dof),
         identifiability=ident, assumptions=tuple(assumptions), observations=observations,
-        quantities=dict.fromkeys(PARAMS[6:], "misalignment"), provenance=provenance,
+        quantities=quantities_of(unit), nominal=nominal_of(unit), provenance=provenance,
         notes=tuple(notes))
+
+
+def quantities_of(unit: str) -> dict:
+    """Engineering quantities of the parameters.
+
+    The angles are misalignments; in an acceleration unit the biases are
+    biases (µg) and the scale factors scales (ppm).
+    """
+    out = dict.fromkeys(PARAMS[6:], "misalignment")
+    if unit in ACCELERATION_UNITS:
+        out |= dict.fromkeys(PARAMS[:3], "bias") | dict.fromkeys(PARAMS[3:6], "scale")
+    return out
+
+
+def nominal_of(unit: str) -> dict:
+    """Nominal scale factors (m/s^2 per input unit) where the input unit is an acceleration.
+
+    The scale factors' engineering value is their ppm deviation from it.
+    """
+    if unit not in ACCELERATION_UNITS:
+        return {}
+    return dict.fromkeys(PARAMS[3:6], ACCELERATION_UNITS[unit])

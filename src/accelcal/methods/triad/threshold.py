@@ -92,9 +92,11 @@ def choose_factor(values, rate: float, gravity: float, *, factors=DEFAULT_FACTOR
                                   factor=k, min_length=min_length, time=time)
             row["intervals"] = len(found)
             most = max(most, len(found))
+            # as without the sweep: weights by the samples averaged, the variance from
+            # the residuals (the intervals' own sample SDs would leave out every error
+            # that is not white noise)
             red = calibrate_unknown(found.means, gravity, input_unit=input_unit,
-                                    quadratic=quadratic, counts=found.counts,
-                                    noise_sd=found.noise_sd)
+                                    quadratic=quadratic, counts=found.counts)
         except AccelcalError as exc:
             if "no still period" in str(exc):
                 raise

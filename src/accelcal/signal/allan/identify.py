@@ -44,8 +44,8 @@ import math
 
 import numpy as np
 
-from accelcal.methods.noise.dev_kernels import lag_sumsq, mdev_sumsq_bounded
-from accelcal.methods.noise.taus import check_kind
+from accelcal.signal.allan.kernels import lag_sumsq, mdev_sumsq_bounded
+from accelcal.signal.allan.taus import check_kind
 
 ACF_MIN_POINTS = 30
 """Fewest block averages for the lag-1 autocorrelation method [RG2004]_."""
@@ -153,7 +153,7 @@ def noise_alphas(x: np.ndarray, m_values, kind: str) -> np.ndarray:
     Parameters
     ----------
     x : numpy.ndarray
-        Phase of the rate samples (:func:`~accelcal.methods.noise.dev_kernels.phase`).
+        Phase of the rate samples (:func:`~accelcal.signal.allan.kernels.phase`).
     m_values : array_like of int
         Averaging factors, ascending.
     kind : str

@@ -205,7 +205,7 @@ def variance_sums(x: np.ndarray, m_values: np.ndarray, kind: str) -> tuple[np.nd
         Phase from :func:`phase` (``N + 1`` points).
     m_values : numpy.ndarray
         Averaging factors, each allowed for ``kind``
-        (:func:`~accelcal.methods.noise.taus.tau_grid`).
+        (:func:`~accelcal.signal.allan.taus.tau_grid`).
     kind : str
         ``adev``, ``oadev``, ``mdev``, ``hdev``, ``ohdev`` or ``totdev``.
 

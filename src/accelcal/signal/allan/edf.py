@@ -48,7 +48,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.limits import shown
-from accelcal.methods.noise.taus import check_kind
+from accelcal.signal.allan.taus import check_kind
 
 J_MAX = 100
 """Terms summed exactly before the asymptotic tables take over [GR2003]_."""

@@ -5,7 +5,7 @@ any unit) at ``tau = m tau0``: ADEV (Eq. (7)), overlapping ADEV (Eq. (11)),
 modified ADEV (Eq. (14)), Hadamard (Eq. (18)), overlapping Hadamard
 (Eq. (20)) and total deviation (Eq. (25), reflection at both ends) of NIST
 SP 1065 [SP1065]_, all from the phase ``x = tau0 cumsum(y - mean(y))``
-(:mod:`~accelcal.methods.noise.dev_kernels`, which says why the mean goes
+(:mod:`~accelcal.signal.allan.kernels`, which says why the mean goes
 first). Each tau costs O(N) vectorised work in float64 (O(N/m) for the
 non-overlapping kinds) and O(N) memory; the tau set ``"all"`` (every m, up
 to N/2 for OADEV) therefore costs O(N x number of taus) = O(N^2) work in
@@ -15,9 +15,9 @@ per tau for the EDF). Use ``"octave"`` or ``"decade"`` for long records: 1e7
 samples take under a second for the 23 octave taus of OADEV.
 
 :func:`deviation` adds, per tau, the identified noise exponent alpha
-(:mod:`~accelcal.methods.noise.identify`, or one alpha given for all
+(:mod:`~accelcal.signal.allan.identify`, or one alpha given for all
 taus), the equivalent degrees of freedom of Greenhall and Riley
-(:mod:`~accelcal.methods.noise.edf`) and the chi-square interval at the
+(:mod:`~accelcal.signal.allan.edf`) and the chi-square interval at the
 requested confidence (default 0.683, Stable32's one-sigma bars), in a
 :class:`Deviation`.
 
@@ -47,10 +47,10 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.limits import shown
 from accelcal.io.recordings.options import check_rate
-from accelcal.methods.noise.dev_kernels import phase, variance_sums
-from accelcal.methods.noise.edf import check_confidence, confidence_interval, edf
-from accelcal.methods.noise.identify import alpha_range, noise_alphas
-from accelcal.methods.noise.taus import (
+from accelcal.signal.allan.kernels import phase, variance_sums
+from accelcal.signal.allan.edf import check_confidence, confidence_interval, edf
+from accelcal.signal.allan.identify import alpha_range, noise_alphas
+from accelcal.signal.allan.taus import (
     KINDS,
     check_kind,
     min_samples,
@@ -133,7 +133,7 @@ def compute(y, rate: float, kind: str = "oadev", m=None):
     m : array_like of int or str, optional
         Averaging factors, or a tau set name (``"octave"``, ``"decade"``,
         ``"all"``); ``None`` is ``"octave"``
-        (:func:`~accelcal.methods.noise.taus.tau_grid`).
+        (:func:`~accelcal.signal.allan.taus.tau_grid`).
 
     Returns
     -------
