@@ -196,3 +196,85 @@ def test_choose_factor_refuses_when_no_factor_calibrates():
     u, _ = recording(UPS[:4])  # four orientations: too few for nine parameters
     with pytest.raises(AccelcalError, match=r"no threshold factor .*most intervals found: 4\)"):
         choose_factor(u, 100.0, G, init_static=8.0)
+
+
+# ------------------------------------------------------------------ streamed detection
+def _blocks(u, rows, time=None):
+    from accelcal.io.recordings import Block
+
+    for a in range(0, len(u), rows):
+        yield Block(u[a:a + rows], a, None if time is None else time[a:a + rows])
+
+
+@pytest.mark.parametrize("rows", [97, 1000, 4096, 10**7])
+def test_streamed_detection_equals_the_whole_record(rows):
+    # the same intervals (bounds exactly: a threshold tie at rounding level has probability
+    # ~0), means to 1e-9 of the noise (the running sums are shifted by the run's first
+    # sample, as the whole-record detector shifts its windows), for any block length,
+    # including blocks shorter than the window (100 samples) and one block for all
+    from accelcal.signal.static_stream import detect_static_stream
+
+    u, _ = recording(UPS, offset=1.0e5, noise=3.0)
+    t = 5.0 + np.arange(len(u)) / 100.0  # a time column that does not start at 0
+    whole = detect_static(u, 100.0, init_static=8.0, factor=3.0, time=t)
+    (streamed,) = detect_static_stream(_blocks(u, rows, t), 100.0, init_static=8.0,
+                                       factors=(3.0,))
+    np.testing.assert_array_equal(streamed.start, whole.start)
+    np.testing.assert_array_equal(streamed.stop, whole.stop)
+    np.testing.assert_array_equal(streamed.times, whole.times)
+    np.testing.assert_allclose(streamed.means, whole.means, rtol=0, atol=3.0 * 1e-9)
+    np.testing.assert_allclose(streamed.noise_sd, whole.noise_sd, rtol=1e-9)
+    assert streamed.threshold == pytest.approx(whole.threshold, rel=1e-12)
+
+
+def test_several_factors_in_one_pass_equal_one_pass_each():
+    from accelcal.signal.static_stream import detect_static_stream
+
+    u, _ = recording(UPS)
+    found = detect_static_stream(_blocks(u, 500), 100.0, init_static=8.0, factors=(2, 5, 9))
+    for k, one in zip((2, 5, 9), found, strict=True):
+        whole = detect_static(u, 100.0, init_static=8.0, factor=k)
+        np.testing.assert_array_equal(one.start, whole.start)
+        np.testing.assert_array_equal(one.stop, whole.stop)
+
+
+def test_streamed_detection_memory_does_not_grow_with_the_record():
+    # a recording 8x longer takes the same peak (blocks of 2,000 rows; the trace keeps at most
+    # 2 x 2,000 points): a whole-record detector would take 8x
+    import tracemalloc
+
+    from accelcal.signal.static_stream import detect_static_stream
+
+    def peak(repeats):
+        u, _ = recording(UPS[:4], init=10.0)
+        still = u[:1000]
+        def gen():
+            from accelcal.io.recordings import Block
+
+            start = 0
+            for block in (u, *([still] * repeats)):
+                for a in range(0, len(block), 2000):
+                    yield Block(block[a:a + 2000], start, None)
+                    start += len(block[a:a + 2000])
+        tracemalloc.start()
+        detect_static_stream(gen(), 100.0, init_static=8.0, trace_points=2000)
+        out = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        return out
+
+    small, large = peak(40), peak(320)  # 40,000 and 320,000 more still samples
+    assert large < 1.3 * small, (small, large)
+
+
+def test_streamed_detection_refuses_as_the_whole_record_does():
+    from accelcal.signal.static_stream import detect_static_stream
+
+    u, _ = recording(UPS)
+    with pytest.raises(AccelcalError, match="longer than the record") as exc:
+        detect_static_stream(_blocks(u[:500], 100), 100.0, init_static=8.0)
+    assert exc.value.parameter == "init_static"
+    with pytest.raises(AccelcalError, match="no static intervals found"):
+        detect_static_stream(_blocks(u, 1000), 100.0, init_static=8.0, min_length=60.0)
+    moving = u[900:]  # starts in motion
+    with pytest.raises(AccelcalError, match="no still period at the start"):
+        detect_static_stream(_blocks(moving, 1000), 100.0, init_static=8.0)

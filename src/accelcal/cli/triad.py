@@ -72,18 +72,38 @@ def detect(
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
     plot: Path | None = PLOT,
 ) -> None:
-    """List the static intervals of a recording: times, lengths, means and noise per axis."""
+    """List the static intervals of a recording: times, lengths, means and noise per axis.
+
+    The recording streams in blocks (memory bounded by a block, the initial
+    still period and a window: a day at 1 kHz is fine), with progress.
+    """
+    from accelcal.cli.progress import DelayedProgress
+    from accelcal.io.recordings import describe, iter_blocks
+    from accelcal.signal.static import check_settings
+    from accelcal.signal.static_stream import detect_static_stream
+
     check_format(fmt)
+    check_settings(init_static=init_static, window=window, factor=factor,
+                   min_length=min_length)
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
                          regions=regions)
-    rec = _read(file, opts)
-    found = _detect(rec, init_static, window, factor, min_length)
+    prov, sample_rate = describe(file, opts, channels=3, what="triad recording")
+    blocks = iter_blocks(file, opts, channels=3, what="triad recording")
+    with DelayedProgress(f"static intervals of {file.name}") as progress:
+        (found,) = detect_static_stream(
+            blocks, sample_rate, init_static=init_static, window=window, factors=(factor,),
+            min_length=min_length, unit=prov["unit"],
+            progress=lambda done: progress(done, max(done, prov.get("samples") or done)))
     if plot is not None:
-        _save_intervals_figure(found, rec, plot)
+        from accelcal.plotting import save_figure
+        from accelcal.signal.static import figure
+
+        for p in save_figure(figure(found), plot, "triad-intervals"):
+            typer.echo(f"wrote {p}", err=True)
     emit(found.rows(), fmt,
          title=f"{file}: {len(found)} static intervals (threshold {found.threshold:.4g} "
-               f"{rec.unit}^2 = {factor:g} x the first {init_static:g} s)")
+               f"{prov['unit']}^2 = {factor:g} x the first {init_static:g} s)")
 
 
 def _gravity(gravity: float | None, latitude: float | None, height: float | None, rec) -> float:

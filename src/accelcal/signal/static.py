@@ -65,6 +65,9 @@ class StaticIntervals:
         ``init_static, window, factor, min_length`` (s, s, 1, s) and ``rate`` (Hz).
     statistic : numpy.ndarray
         ς of every sample (for the figure); ``unit``: the values' unit.
+    trace : tuple, optional
+        ``(time, |u|)`` of the samples ``statistic`` holds, where those are a
+        thinned subset (a streamed recording: :mod:`accelcal.signal.static_stream`).
     """
 
     start: np.ndarray
@@ -78,6 +81,7 @@ class StaticIntervals:
     settings: dict
     statistic: np.ndarray = field(repr=False)
     unit: str = ""
+    trace: tuple | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
         return len(self.start)
@@ -215,19 +219,7 @@ def detect_static(values, rate: float, *, init_static: float = 30.0, window: flo
             f"no still period at the start: {init_static:g} s is shorter than the window "
             f"({window:g} s); give a longer one or a shorter --window", parameter="init_static")
     stat = np.linalg.norm(moving_variance(u, w), axis=1)  # Eq. (9) [Tedaldi2014]
-    init = float(np.linalg.norm(np.var(u[:n_init], axis=0, ddof=1)))
-    quiet = float(np.median(stat[w // 2:n_init - w // 2] if n_init > w else stat[:n_init]))
-    if not np.ptp(u[:n_init], axis=0).any():
-        raise AccelcalError(
-            "no still period at the start: the first samples are all equal (no noise), so a "
-            "threshold relative to their variance is 0; is the signal quantised or synthetic?",
-            parameter="init_static")
-    if init > STILL_RATIO * quiet:
-        raise AccelcalError(
-            f"no still period at the start: the first {init_static:g} s vary "
-            f"{init / max(quiet, 1e-300):.3g} times more than their quietest {window:g} s "
-            f"windows (a still period: under {STILL_RATIO:g}); give a shorter one that "
-            "ends before the first motion", parameter="init_static")
+    init = initial_variance(u[:n_init], stat[:n_init], w, init_static, window)
     threshold = factor * init
     starts, stops = _runs(stat < threshold)
     longest = float((stops - starts).max()) / rate if len(starts) else 0.0
@@ -250,6 +242,38 @@ def detect_static(values, rate: float, *, init_static: float = 30.0, window: flo
         init_variance=init, settings=settings, statistic=stat, unit=unit)
 
 
+def initial_variance(u_init: np.ndarray, stat_init: np.ndarray, w: int, init_static: float,
+                     window: float) -> float:
+    """ς of the initial still period, refused when the period is not still.
+
+    Parameters
+    ----------
+    u_init : numpy.ndarray
+        The period's samples, ``(n_init, 3)``.
+    stat_init : numpy.ndarray
+        ς of the same samples (final: their windows complete where the record allows).
+    w : int
+        Window, samples.
+    init_static, window : float
+        The settings, seconds (for the messages).
+    """
+    n_init = len(u_init)
+    init = float(np.linalg.norm(np.var(u_init, axis=0, ddof=1)))
+    quiet = float(np.median(stat_init[w // 2:n_init - w // 2] if n_init > w else stat_init))
+    if not np.ptp(u_init, axis=0).any():
+        raise AccelcalError(
+            "no still period at the start: the first samples are all equal (no noise), so a "
+            "threshold relative to their variance is 0; is the signal quantised or synthetic?",
+            parameter="init_static")
+    if init > STILL_RATIO * quiet:
+        raise AccelcalError(
+            f"no still period at the start: the first {init_static:g} s vary "
+            f"{init / max(quiet, 1e-300):.3g} times more than their quietest {window:g} s "
+            f"windows (a still period: under {STILL_RATIO:g}); give a shorter one that "
+            "ends before the first motion", parameter="init_static")
+    return init
+
+
 def check_settings(**settings) -> None:
     """Refuse a detection setting that is not a finite number > 0 (``min_length`` >= 0)."""
     for name, value in settings.items():
@@ -264,15 +288,15 @@ def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
 
 
-def figure(intervals: StaticIntervals, values, *, time=None, max_points: int = 20_000):
+def figure(intervals: StaticIntervals, values=None, *, time=None, max_points: int = 20_000):
     """The signal norm with the static intervals shaded, and ς with its threshold.
 
     Parameters
     ----------
     intervals : StaticIntervals
-        From :func:`detect_static` on ``values``.
-    values : array_like
-        The samples, ``(n, 3)``.
+        From :func:`detect_static` on ``values``, or streamed (its ``trace``).
+    values : array_like, optional
+        The samples, ``(n, 3)``; None for intervals that carry their trace.
     time : array_like, optional
         Time of each sample, seconds (default: index / rate).
     max_points : int
@@ -284,15 +308,19 @@ def figure(intervals: StaticIntervals, values, *, time=None, max_points: int = 2
     """
     from accelcal.plotting import new_figure
 
-    u = np.asarray(values, dtype=float)
-    n = len(u)
-    t = np.arange(n) / intervals.settings["rate"] if time is None else np.asarray(time)
-    step = max(1, -(-n // max_points))
+    if values is None:
+        t, norm = intervals.trace
+        stat = intervals.statistic
+    else:
+        u = np.asarray(values, dtype=float)
+        t = np.arange(len(u)) / intervals.settings["rate"] if time is None else np.asarray(time)
+        norm, stat = np.linalg.norm(u, axis=1), intervals.statistic
+    step = max(1, -(-len(t) // max_points))
     fig = new_figure(figsize=(8.0, 5.0))
     top, bottom = fig.subplots(2, 1, sharex=True)
-    top.plot(t[::step], np.linalg.norm(u[::step], axis=1), lw=0.6, color="k")
+    top.plot(t[::step], norm[::step], lw=0.6, color="k")
     top.set_ylabel(f"|u| ({intervals.unit})" if intervals.unit else "|u|")
-    bottom.semilogy(t[::step], np.maximum(intervals.statistic[::step], 1e-300), lw=0.6)
+    bottom.semilogy(t[::step], np.maximum(stat[::step], 1e-300), lw=0.6)
     bottom.axhline(intervals.threshold, color="r", lw=0.8,
                    label=f"threshold ({intervals.settings['factor']:g} x initial)")
     bottom.set(ylabel="ς (variance magnitude)", xlabel="time (s)")

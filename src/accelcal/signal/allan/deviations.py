@@ -47,9 +47,10 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.limits import shown
 from accelcal.io.recordings.options import check_rate
-from accelcal.signal.allan.kernels import phase, variance_sums
+from accelcal.resources import check_memory
 from accelcal.signal.allan.edf import check_confidence, confidence_interval, edf
 from accelcal.signal.allan.identify import alpha_range, noise_alphas
+from accelcal.signal.allan.kernels import phase, variance_sums
 from accelcal.signal.allan.taus import (
     KINDS,
     check_kind,
@@ -57,7 +58,6 @@ from accelcal.signal.allan.taus import (
     tau_grid,
     taus_to_m,
 )
-from accelcal.resources import check_memory
 
 __all__ = ["KINDS", "Deviation", "compute", "deviation"]
 

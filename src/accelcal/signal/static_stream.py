@@ -1,0 +1,235 @@
+"""Static intervals of a recording of any length, in one pass and bounded memory.
+
+:func:`detect_static_stream` is :func:`accelcal.signal.static.detect_static`
+on a recording read in blocks (:func:`accelcal.io.recordings.iter_blocks`):
+the same centred moving variance, the same threshold from the initial
+still period, the same runs; several threshold factors at once (the sweep
+of :func:`accelcal.methods.triad.threshold.choose_factor` in one pass).
+
+Memory is bounded by one block plus the initial still period plus one
+window of samples, whatever the recording's length: the statistic of a
+sample is final once the samples half a window after it have arrived, so
+each block is classified as it comes, and an interval keeps only running
+sums (shifted by its first sample, so raw counts with a large offset keep
+their small variance). The figure keeps a thinned trace of at most
+``2 trace_points`` samples (every k-th, k doubling as the record grows).
+
+References
+----------
+.. [1] D. Tedaldi, A. Pretto, E. Menegatti, "A robust and easy to implement
+   method for IMU calibration without external equipments", IEEE ICRA 2014,
+   sec. III.
+"""
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+from accelcal.signal.static import (
+    StaticIntervals,
+    _runs,
+    check_settings,
+    initial_variance,
+    moving_variance,
+)
+
+
+class _Runs:
+    """Open and closed static runs of one threshold, with running sums."""
+
+    def __init__(self, threshold: float, min_samples: float):
+        self.threshold, self.min_samples = threshold, min_samples
+        self.open = None  # [start, ref, s1, s2, count, t_start, t_last]
+        self.found = []  # (start, stop, t_start, t_last, mean, sd)
+        self.longest = 0
+
+    def add(self, done: int, u: np.ndarray, t: np.ndarray, stat: np.ndarray) -> None:
+        """Classify the samples ``done .. done + len(u)`` (their ς final, times ``t``)."""
+        starts, stops = _runs(stat < self.threshold)
+        if self.open is not None and (not len(starts) or starts[0] > 0):
+            self._close()
+        n = len(u)
+        lengths = stops - starts
+        continued = (starts == 0) & (self.open is not None)
+        keep = (lengths >= self.min_samples) | continued | (stops == n)
+        if len(lengths):
+            self.longest = max(self.longest, int(lengths.max()))
+        for a, b in zip(starts[keep], stops[keep], strict=True):
+            if not (a == 0 and self.open is not None):
+                self.open = [done + int(a), u[a].copy(), np.zeros(3), np.zeros(3), 0,
+                             float(t[a]), float(t[a])]
+            seg = u[a:b] - self.open[1]
+            self.open[2] += seg.sum(axis=0)
+            self.open[3] += (seg * seg).sum(axis=0)
+            self.open[4] += int(b - a)
+            self.open[6] = float(t[b - 1])
+            self.longest = max(self.longest, self.open[4])
+            if b < n:
+                self._close()
+
+    def _close(self) -> None:
+        start, ref, s1, s2, count, t0, t1 = self.open
+        self.open = None
+        if count >= self.min_samples:
+            mean = ref + s1 / count
+            var = np.maximum((s2 - s1 * s1 / count) / max(count - 1, 1), 0.0)
+            self.found.append((start, start + count, t0, t1, mean, np.sqrt(var)))
+
+    def finish(self) -> None:
+        """Close the run open at the end of the record."""
+        if self.open is not None:
+            self._close()
+
+
+class _Trace:
+    """Every k-th sample's time, |u| and ς, k doubling to keep at most 2 ``points``."""
+
+    def __init__(self, points: int):
+        self.points, self.step, self.parts = points, 1, []
+
+    def add(self, first: int, t: np.ndarray, u: np.ndarray, stat: np.ndarray) -> None:
+        keep = np.flatnonzero((first + np.arange(len(t))) % self.step == 0)
+        self.parts.append((first + keep, t[keep], np.linalg.norm(u[keep], axis=1), stat[keep]))
+        if sum(len(p[0]) for p in self.parts) > 2 * self.points:
+            self.step *= 2
+            idx, *rest = (np.concatenate(c) for c in zip(*self.parts, strict=True))
+            sel = idx % self.step == 0
+            self.parts = [(idx[sel], *(r[sel] for r in rest))]
+
+    def arrays(self):
+        if not self.parts:
+            return (np.empty(0),) * 3
+        return tuple(np.concatenate(c) for c in list(zip(*self.parts, strict=True))[1:])
+
+
+def detect_static_stream(blocks: Iterable, rate: float, *, init_static: float = 30.0,
+                         window: float = 1.0, factors=(2.0,), min_length: float = 2.0,
+                         unit: str = "", trace_points: int = 20_000,
+                         progress=None) -> list[StaticIntervals]:
+    """Static intervals of a recording streamed in blocks, for each threshold factor.
+
+    Parameters
+    ----------
+    blocks : iterable
+        Consecutive blocks with ``values`` (rows, 3) and ``time`` (seconds from
+        the first sample, or None for index / rate), as
+        :func:`accelcal.io.recordings.iter_blocks` yields them.
+    rate : float
+        Sample rate, Hz.
+    init_static, window, min_length : float
+        As for :func:`accelcal.signal.static.detect_static`, seconds.
+    factors : sequence of float
+        Threshold factors; one result per factor.
+    unit : str
+        Unit of the values (for the tables).
+    trace_points : int
+        Points of the thinned trace kept for the figure (at most twice this).
+    progress : callable, optional
+        ``progress(samples_done)`` after each block.
+
+    Returns
+    -------
+    list of StaticIntervals
+        In the order of ``factors``; ``statistic`` and ``trace`` thinned.
+
+    Raises
+    ------
+    AccelcalError
+        As :func:`~accelcal.signal.static.detect_static` (the same messages);
+        "no static intervals found" only when no factor finds one.
+    """
+    factors = [float(k) for k in factors]
+    if not factors:
+        raise AccelcalError("give at least one factor", parameter="factors")
+    for k in factors:
+        check_settings(rate=rate, window=window, factor=k, init_static=init_static,
+                       min_length=min_length)
+    w, n_init = round(window * rate), round(init_static * rate)
+    half = w // 2
+    if w < 3:
+        raise AccelcalError(f"{window:g} s is {w} samples at {rate:g} Hz; the window needs "
+                            "at least 3 samples", parameter="window")
+    if n_init < w:
+        raise AccelcalError(
+            f"no still period at the start: {init_static:g} s is shorter than the window "
+            f"({window:g} s); give a longer one or a shorter --window", parameter="init_static")
+    buf, tbuf, buf_start, done = np.empty((0, 3)), np.empty(0), 0, 0
+    runs, trace = None, _Trace(trace_points)
+    for block in blocks:
+        t = (block.start + np.arange(len(block.values))) / rate if block.time is None \
+            else block.time
+        buf, tbuf = np.concatenate([buf, block.values]), np.concatenate([tbuf, t])
+        end = buf_start + len(buf)
+        if runs is None:
+            if end < n_init + w:
+                continue  # the initial period and one window after it, before classifying
+            runs = _start(buf, n_init=n_init, w=w, init_static=init_static, window=window,
+                          factors=factors, min_samples=min_length * rate)
+        hi = end - (w - half) + 1  # samples whose windows are complete
+        if hi > done:
+            done = _classify(buf, tbuf, buf_start=buf_start, done=done, hi=hi, w=w, runs=runs,
+                             trace=trace)
+            keep = max(done - half, buf_start) - buf_start
+            buf, tbuf, buf_start = buf[keep:], tbuf[keep:], buf_start + keep
+        if progress is not None:
+            progress(end)
+    end = buf_start + len(buf)
+    if runs is None:
+        if end < n_init:
+            raise AccelcalError(
+                f"no still period at the start: {init_static:g} s is longer than the record "
+                f"({end / rate:.4g} s); give a shorter one", parameter="init_static")
+        if w > end:
+            raise AccelcalError(f"{window:g} s is {w} samples at {rate:g} Hz; the window needs "
+                                f"3 samples to {end} (the record)", parameter="window")
+        runs = _start(buf, n_init=n_init, w=w, init_static=init_static, window=window,
+                      factors=factors, min_samples=min_length * rate)
+    if end > done:
+        _classify(buf, tbuf, buf_start=buf_start, done=done, hi=end, w=w, runs=runs,
+                  trace=trace)
+    return _results(runs, factors, rate=rate, init_static=init_static, window=window,
+                    min_length=min_length, unit=unit, trace=trace)
+
+
+def _start(buf, *, n_init, w, init_static, window, factors, min_samples):
+    stat = np.linalg.norm(moving_variance(buf[:n_init + w], w), axis=1)
+    init = initial_variance(buf[:n_init], stat[:n_init], w, init_static, window)
+    return [(init, _Runs(k * init, max(min_samples, 2))) for k in factors]
+
+
+def _classify(buf, tbuf, *, buf_start, done, hi, w, runs, trace) -> int:
+    """Classify samples ``done .. hi`` (global) of the buffer; return ``hi``."""
+    stat = np.linalg.norm(moving_variance(buf, w), axis=1)  # Eq. (9) [Tedaldi2014]
+    a, b = done - buf_start, hi - buf_start
+    for _, r in runs:
+        r.add(done, buf[a:b], tbuf[a:b], stat[a:b])
+    trace.add(done, tbuf[a:b], buf[a:b], stat[a:b])
+    return hi
+
+
+def _results(runs, factors, *, rate, init_static, window, min_length, unit, trace):
+    t, norm, stat = trace.arrays()
+    out, longest = [], 0
+    for k, (init, r) in zip(factors, runs, strict=True):
+        r.finish()
+        longest = max(longest, r.longest)
+        if not r.found:
+            out.append(None)
+            continue
+        start, stop, t0, t1, means, sd = (np.array(c) for c in zip(*r.found, strict=True))
+        settings = {"init_static": float(init_static), "window": float(window),
+                    "factor": k, "min_length": float(min_length), "rate": float(rate)}
+        out.append(StaticIntervals(
+            start=start, stop=stop, times=np.column_stack([t0, t1]),
+            means=means, noise_sd=sd, counts=stop - start, threshold=r.threshold,
+            init_variance=init, settings=settings, statistic=stat, unit=unit,
+            trace=(t, norm)))
+    if all(o is None for o in out):
+        init = runs[0][0]
+        raise AccelcalError(
+            f"no static intervals found: the longest still run is {longest / rate:.3g} s, "
+            f"below --min-length {min_length:g} s (threshold {factors[0] * init:.3g} = "
+            f"{factors[0]:g} x {init:.3g} of the initial period, window {window:g} s); lower "
+            "--min-length, raise --factor or hold the positions longer")
+    return out
