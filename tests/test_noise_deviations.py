@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from accelcal import AccelcalError
-from accelcal.signal.allan.kernels import phase
 from accelcal.signal.allan.deviations import KINDS, Deviation, compute, deviation
 from accelcal.signal.allan.identify import ACF_MIN_POINTS, alpha_range, noise_alphas
+from accelcal.signal.allan.kernels import phase
 from accelcal.signal.allan.taus import max_m, min_samples, n_terms, tau_grid, taus_to_m
 
 

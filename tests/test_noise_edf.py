@@ -15,7 +15,6 @@ import pytest
 from scipy.stats import chi2
 
 from accelcal import AccelcalError
-from accelcal.signal.allan.kernels import phase, variance_sums
 from accelcal.signal.allan.edf import (
     TABLE1,
     TABLE2,
@@ -27,6 +26,7 @@ from accelcal.signal.allan.edf import (
     edf_greenhall,
     edf_totdev,
 )
+from accelcal.signal.allan.kernels import phase, variance_sums
 
 GRID = [
     (alpha, d, m, n, overlapping, modified)

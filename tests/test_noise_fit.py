@@ -15,8 +15,6 @@ import pytest
 from accelcal.errors import AccelcalError
 from accelcal.methods.noise import covariance as cov_mod
 from accelcal.methods.noise.covariance import avar_covariance
-from accelcal.signal.allan.kernels import phase, variance_sums
-from accelcal.signal.allan.deviations import deviation
 from accelcal.methods.noise.fit import (
     FACTORS,
     coefficients,
@@ -26,8 +24,10 @@ from accelcal.methods.noise.fit import (
     navigation_units,
 )
 from accelcal.methods.noise.psd import WelchAccumulator, levels, welch_psd
-from accelcal.signal.allan.taus import tau_grid
 from accelcal.rigs.noise import simulate_blocks
+from accelcal.signal.allan.deviations import deviation
+from accelcal.signal.allan.kernels import phase, variance_sums
+from accelcal.signal.allan.taus import tau_grid
 
 RATE = 100.0
 

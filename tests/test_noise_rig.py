@@ -14,7 +14,6 @@ import pytest
 
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import noise as noise_format
-from accelcal.signal.allan.deviations import deviation
 from accelcal.methods.noise.fit import FACTORS, model_avar
 from accelcal.rigs.noise import (
     B_RANGE_RIPPLE,
@@ -23,6 +22,7 @@ from accelcal.rigs.noise import (
     simulate,
     simulate_blocks,
 )
+from accelcal.signal.allan.deviations import deviation
 
 RATE = 100.0
 

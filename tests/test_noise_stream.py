@@ -17,7 +17,6 @@ import pytest
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import noise as noise_format
 from accelcal.io.recordings import InputOptions
-from accelcal.signal.allan.deviations import deviation
 from accelcal.methods.noise.fit import fit
 from accelcal.methods.noise.stream import (
     CHUNK,
@@ -27,6 +26,7 @@ from accelcal.methods.noise.stream import (
     stream_fit,
 )
 from accelcal.rigs.noise import simulate
+from accelcal.signal.allan.deviations import deviation
 
 RATE = 50.0
 

@@ -385,4 +385,5 @@ def test_engineering_units_of_a_triad_in_m_s2():
     counts = TriadCalibration([300, 0, 0], [6e-4, 6e-4, 6e-4], [0, 0, 0], input_unit="counts")
     red = calibrate_known(counts.readings(G * up), up, G, input_unit="counts", noise_sd=1.0)
     rows = {r["coefficient"]: r for r in red.rows()}
-    assert rows["b_x"]["eng_unit"] == "" and rows["s_x"]["eng_unit"] == ""
+    assert rows["b_x"]["eng_unit"] == ""
+    assert rows["s_x"]["eng_unit"] == ""

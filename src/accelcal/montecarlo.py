@@ -13,6 +13,10 @@ The engine
   ``covariance=False``) and merges them **in block order** (Chan et al.) as
   they arrive, so the result is bit-identical whatever the number of blocks
   per task, the number of workers or the order in which they finish;
+- streams a block when the study also has ``pieces(rng, n)`` yielding
+  arrays ``(t, p)`` of consecutive trials (the same trials, in order): each
+  piece's moments are taken while it is in cache and merged in trial order,
+  so a block's outputs are never held whole;
 - keeps, when asked, a deterministic thinning of the trials (every
   ``stride``-th trial by global index, at most ``max_kept``) for quantiles
   and coverage intervals;
@@ -96,7 +100,7 @@ class _Moments:
     def of(cls, values: np.ndarray, first_index: int, stride: int, full: bool) -> "_Moments":
         if not full and values.flags.f_contiguous and values.size:
             # Trials contiguous for each output (a study filling ``(p, n)`` and returning
-            # its transpose): two passes per few outputs while they are in cache.
+            # its transpose): sums and sums of squares along each output.
             mean, m2 = _output_moments(values.T)
         else:
             mean = values.mean(axis=0)
@@ -119,26 +123,29 @@ class _Moments:
         return _Moments(n, mean, m2, kept)
 
 
-_ROWS_PER_PASS = 8
-"""Outputs centred and squared together by :func:`_output_moments` (while in cache)."""
+_LOSSY = 1024.0
+"""Cancellation allowed in ``sum x^2 - n mean^2`` (10 bits); rows that would lose more are
+centred first (:func:`_output_moments`)."""
 
 
 def _output_moments(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Mean and centred sum of squares of each row of ``rows`` ``(p, n)`` (C-contiguous).
 
-    Two-pass (centred) sums, a few rows at a time so that each row is read
-    from memory once; deterministic for given values.
+    One read for the sums and one for the sums of squares, ``m2 = sum x^2 -
+    sum x * mean``; a row where that difference would lose more than 10 bits
+    (``m2 < sum x^2 / 1024``: a mean large against the scatter) is centred
+    and summed again (two-pass), so every ``m2`` keeps at least 42 bits.
+    Deterministic for given values.
     """
-    p, n = rows.shape
-    mean, m2 = np.empty(p), np.empty(p)
-    centred = np.empty((min(p, _ROWS_PER_PASS), n))
-    for start in range(0, p, _ROWS_PER_PASS):
-        block = rows[start:start + _ROWS_PER_PASS]
-        c = centred[:len(block)]
-        mu = mean[start:start + len(block)]
-        np.mean(block, axis=1, out=mu)
-        np.subtract(block, mu[:, None], out=c)
-        m2[start:start + len(block)] = (c[:, None, :] @ c[:, :, None])[:, 0, 0]
+    n = rows.shape[1]
+    total = np.add.reduce(rows, axis=1)
+    mean = total / n
+    squares = np.einsum("ij,ij->i", rows, rows)
+    m2 = squares - total * mean
+    lossy = np.flatnonzero(~(m2 * _LOSSY >= squares))
+    if lossy.size:
+        centred = rows[lossy] - mean[lossy, None]
+        m2[lossy] = np.einsum("ij,ij->i", centred, centred)
     return mean, m2
 
 
@@ -230,6 +237,9 @@ def run(
         ``simulate(rng, n)`` returns an array ``(n, p)``: ``p`` outputs for
         each of ``n`` trials drawn from ``rng``. Must be picklable for Dask
         (a module-level function or an instance of a module-level class).
+        When it has a method ``pieces(rng, n)`` the engine calls that instead:
+        it yields arrays ``(t, p)`` of consecutive trials, ``n`` in all, each
+        consumed before the next is asked for (it may reuse one buffer).
     trials : int
         Number of trials (1 ... :data:`MAX_TRIALS`).
     names : sequence of str
@@ -348,14 +358,35 @@ class _BlockSpec:
         for b in blocks:
             first = b * self.block_size
             n = min(self.block_size, self.trials - first)
-            values = np.asarray(self.simulate(block_generator(self.seed, b), n), dtype=float)
-            if values.shape != (n, self.p):
-                raise AccelcalError(
-                    f"the study returned shape {values.shape} for {n} trials; "
-                    f"expected ({n}, {self.p})"
-                )
-            out.append(_Moments.of(values, first, self.stride, self.full_covariance))
+            rng = block_generator(self.seed, b)
+            pieces = getattr(self.simulate, "pieces", None)
+            if pieces is None:
+                out.append(self._moments(self.simulate(rng, n), n, first))
+                continue
+            # A streaming study: the moments of each piece while it is in cache, merged
+            # in trial order (the same order on every worker: bit-identical results).
+            total, done = None, 0
+            for piece in pieces(rng, n):
+                t = len(piece)
+                if not 0 < t <= n - done:
+                    raise AccelcalError(f"the study returned a piece of {t} trials after "
+                                        f"{done}; expected {n} trials in all")
+                m = self._moments(piece, t, first + done)
+                total = m if total is None else total.merged(m)
+                done += t
+            if done != n:
+                raise AccelcalError(f"the study returned {done} trials; expected {n}")
+            out.append(total)
         return out
+
+    def _moments(self, values, n: int, first: int) -> _Moments:
+        values = np.asarray(values, dtype=float)
+        if values.shape != (n, self.p):
+            raise AccelcalError(
+                f"the study returned shape {values.shape} for {n} trials; "
+                f"expected ({n}, {self.p})"
+            )
+        return _Moments.of(values, first, self.stride, self.full_covariance)
 
 
 @functools.cache

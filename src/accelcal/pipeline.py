@@ -245,7 +245,7 @@ def _write_records(directory: Path, outcomes):
 def _store(store, records):
     import sqlalchemy as sa
 
-    ids = [store.add(r) for r in records]
+    ids = store.add_many(records)
     return sa.make_url(store.url).render_as_string(hide_password=True), ids
 
 

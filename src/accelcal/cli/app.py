@@ -1,24 +1,106 @@
-"""The top-level typer application and its command groups."""
+"""The top-level typer application and its command groups.
+
+Command groups are imported when a command of theirs runs (or a tree of
+every command is asked for), not to list them: ``accelcal --help`` shows
+each group from its entry in :data:`GROUPS`, so the start-up costs the
+commands' modules nothing. A new group adds one line there (its module,
+whose ``app`` is the group, and its help, which a test keeps equal to the
+group's own).
+"""
+
+import importlib
 
 import typer
+from typer.core import TyperGroup
 
 from accelcal import __version__
-from accelcal.cli import centrifuge as centrifuge_cmd
 from accelcal.cli import demo as demo_cmd
-from accelcal.cli import dividing_head as dividing_head_cmd
 from accelcal.cli import importer as importer_cmd
-from accelcal.cli import model as model_cmd
-from accelcal.cli import noise as noise_cmd
-from accelcal.cli import records as records_cmd
 from accelcal.cli import report as report_cmd
-from accelcal.cli import thermal as thermal_cmd
-from accelcal.cli import transverse as transverse_cmd
-from accelcal.cli import triad as triad_cmd
-from accelcal.cli import tumble as tumble_cmd
-from accelcal.cli import vre as vre_cmd
+
+GROUPS: dict[str, tuple[str, str]] = {
+    "model": ("accelcal.cli.model", (
+        "Show, create and evaluate accelerometer error models (model files are JSON).")),
+    "vre": ("accelcal.cli.vre", (
+        "Vibration rectification error (VRE) with asymmetry under overload + vibration "
+        "(vibrafuge): predict, simulate records, reduce them, identify coefficients.")),
+    "transverse": ("accelcal.cli.transverse", (
+        "Transverse sensitivity of an accelerometer vibrated in its transverse plane on a "
+        "shaker (GuanTang, after ISO 16063-31): sweep, simulate records, analyze, fit.")),
+    "dividing-head": ("accelcal.cli.dividing_head", (
+        "Accelerometers on an indexing (dividing) head: simulate records, reduce them "
+        "(single-sensor, four-sensor separation, joint least squares, IEEE tumble), and "
+        "compare the methods by Monte Carlo (Dong2014, corrected).")),
+    "tumble": ("accelcal.cli.tumble", (
+        "Multipoint tumble (IEEE 1293 style): what a position set identifies, simulated "
+        "records, and the Fourier / least-squares reduction.")),
+    "triad": ("accelcal.cli.triad", (
+        "Accelerometer triads on static positions (Tedaldi 2014, Ferraris 1995): static "
+        "intervals, calibration with uncertainty (known or unknown orientations), "
+        "applying a calibration to a recording, simulated triads.")),
+    "noise": ("accelcal.cli.noise", (
+        "Noise and stability of still recordings: Allan deviations with confidence "
+        "intervals, IEEE 952 coefficients (Q, N, B, K, R), PSD, simulated records.")),
+    "thermal": ("accelcal.cli.thermal", (
+        "Thermal-chamber tests (IEEE 1293 style): a multipoint tumble at each temperature "
+        "plateau, temperature coefficients with uncertainty, hysteresis, warm-up, and "
+        "temperature compensation of recordings.")),
+    "centrifuge": ("accelcal.cli.centrifuge", (
+        "Precision centrifuge tests (IEEE 836): simulated records with the rig's errors, "
+        "reduction of K2, K3, K4 and the cross-coupling (alone or jointly with a 1 g "
+        "record), and test planning without data.")),
+    "records": ("accelcal.cli.records", (
+        "Store calibration records and follow each serial number: history, repeatability "
+        "and drift. Default store: an SQLite file in the user data directory "
+        "($ACCELCAL_DB overrides it).")),
+}
+"""Command group name -> (module whose ``app`` is the group, the group's help)."""
+
+
+class LazyGroup(TyperGroup):
+    """The root command: the groups of :data:`GROUPS` are imported on first use.
+
+    Listing the commands (help) shows a stand-in carrying the group's help;
+    running one, or reading :attr:`commands` (the whole tree), imports it.
+    """
+
+    @property
+    def commands(self) -> dict:
+        """Every command and group, the groups imported."""
+        for name in GROUPS:
+            self._load(name)
+        return self._commands
+
+    @commands.setter
+    def commands(self, value) -> None:
+        self._commands = dict(value)
+
+    def add_command(self, cmd, name: str | None = None) -> None:  # noqa: D102
+        self._commands[name or cmd.name] = cmd
+
+    def list_commands(self, ctx) -> list[str]:  # noqa: D102
+        return [*self._commands, *(n for n in GROUPS if n not in self._commands)]
+
+    def get_command(self, ctx, cmd_name: str):  # noqa: D102
+        if cmd_name in self._commands or cmd_name not in GROUPS:
+            return self._commands.get(cmd_name)
+        return TyperGroup(name=cmd_name, help=GROUPS[cmd_name][1])
+
+    def resolve_command(self, ctx, args):  # noqa: D102
+        if args and args[0] in GROUPS:
+            self._load(args[0])
+        return super().resolve_command(ctx, args)
+
+    def _load(self, name: str) -> None:
+        if name not in self._commands:
+            group = typer.main.get_group(importlib.import_module(GROUPS[name][0]).app)
+            group.name = name
+            self._commands[name] = group
+
 
 app = typer.Typer(
     name="accelcal",
+    cls=LazyGroup,
     help=(
         "Test and calibrate inertial (pendulous) accelerometers: error model, "
         "rig simulators, reductions with uncertainty."
@@ -28,19 +110,9 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     context_settings={"help_option_names": ["-h", "--help"]},
 )
-app.add_typer(model_cmd.app, name="model")
-app.add_typer(vre_cmd.app, name="vre")
-app.add_typer(transverse_cmd.app, name="transverse")
-app.add_typer(dividing_head_cmd.app, name="dividing-head")
-app.add_typer(tumble_cmd.app, name="tumble")
-app.add_typer(triad_cmd.app, name="triad")
-app.add_typer(noise_cmd.app, name="noise")
-app.add_typer(thermal_cmd.app, name="thermal")
-app.add_typer(centrifuge_cmd.app, name="centrifuge")
 app.command("demo")(demo_cmd.demo)
 app.command("import")(importer_cmd.import_)
 app.command("inspect")(importer_cmd.inspect)
-app.add_typer(records_cmd.app, name="records")
 app.command("report")(report_cmd.report)
 
 

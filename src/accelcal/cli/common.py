@@ -166,6 +166,11 @@ def _plain(value):
 
 
 def _csv_cell(value) -> str:
+    kind = type(value)
+    if kind is float:  # the common cases first: no per-cell attribute look-ups
+        return "nan" if math.isnan(value) else repr(value)
+    if kind is str:
+        return value
     value = _plain(value)
     if value is None:
         return "nan"

@@ -335,10 +335,14 @@ def _true_angle_error(record):
 @app.command("study")
 def study_cmd(
     *,
-    trials: int = typer.Option(
-        ..., "--trials", help="Number of Monte Carlo trials (>= 2). Trials stream in blocks: "
-        "memory stays bounded for any count, and a huge count is a long run with a progress "
-        "bar."),
+    trials: int | None = typer.Option(
+        None, "--trials", help="Number of Monte Carlo trials (>= 2; required unless --exact). "
+        "Trials stream in blocks: memory stays bounded for any count, and a huge count is a "
+        "long run with a progress bar."),
+    exact: bool = typer.Option(
+        False, "--exact", help="No sampling: the RMS errors and mean formal SDs a Monte Carlo "
+        "study converges to, in closed form (linearised methods; formal SDs for Gaussian "
+        "inputs, uniform head errors by their variance). Instant."),
     positions: int = _POSITIONS,
     mounts: str = _MOUNTS,
     angle_error: str = _ANGLE_ERROR,
@@ -383,14 +387,28 @@ def study_cmd(
     from accelcal.methods.dividing_head import run_study
 
     check_format(fmt)
+    if exact and (trials is not None or workers is not None or scheduler is not None
+                  or chunk is not None):
+        raise AccelcalError("--exact draws no trials; leave out --trials, --chunk, --workers "
+                            "and --scheduler", parameter="exact")
+    if not exact and trials is None:
+        raise AccelcalError("give the number of Monte Carlo trials, or --exact",
+                            parameter="trials")
     rig = _rig(positions=positions, mounts=mounts, angle_error=angle_error,
                first_harmonic=first_harmonic, noise=noise, eta=eta, models=model,
                repeats=repeats)
-    with DelayedProgress("Monte Carlo trials") as progress:
-        result = run_study(rig, trials, seed, h1_sd=h1_sd, chunk=chunk, workers=workers,
-                           scheduler=scheduler, timeout=timeout, progress=progress)
+    if exact:
+        from accelcal.methods.dividing_head.exact import exact_study
+
+        result = exact_study(rig, h1_sd=h1_sd)
+        what = "exact (no sampling)"
+    else:
+        with DelayedProgress("Monte Carlo trials") as progress:
+            result = run_study(rig, trials, seed, h1_sd=h1_sd, chunk=chunk, workers=workers,
+                               scheduler=scheduler, timeout=timeout, progress=progress)
+        what = f"{trials} trials"
     for note in result.notes:
         typer.echo(f"accelcal: note: {note}", err=True)
     emit(result.rows(per_sensor=per_sensor), fmt,
-         title=f"{trials} trials: RMS actual error and mean formal SD "
+         title=f"{what}: RMS actual error and mean formal SD "
                "(averaged over sensors; K_O compared with K_O* = K_O + K_I (eta + d0))")

@@ -100,9 +100,18 @@ def import_(
         raise AccelcalError(exc.message, parameter=_OPTIONS.get(exc.parameter, exc.parameter)
                             ) from None
     prov = done["provenance"]
-    emit([{"record": done["record"], "kind": kind, "samples": done["samples"],
+    stats = {c: v for c, v in done["statistics"].items() if c != "t"}
+    row = {"record": done["record"], "kind": kind, "samples": done["samples"],
            "columns": ",".join(done["columns"]), "rate_hz": prov.get("rate_hz"),
-           "source": prov["file"], "sha256": prov["sha256"]}], fmt)
+           "source": prov["file"], "sha256": prov["sha256"]}
+    if fmt == "table":
+        emit([row], fmt)
+        emit([{"column": c, "mean": v["mean"], "sd": v["sd"]} for c, v in stats.items()], fmt,
+             title="whole-period mean and SD of one sample (record units)")
+        return
+    for c, v in stats.items():  # one row: the whole-period statistics as columns
+        row |= {f"mean_{c}": v["mean"], f"sd_{c}": v["sd"]}
+    emit([row], fmt)
 
 
 def _pairs(text: str, option: str) -> dict:

@@ -31,20 +31,23 @@ def _store(db: str | None, *, readonly: bool = False):
 
 @app.command("add")
 def add(
-    records: list[Path] = typer.Argument(..., help="Calibration record files (JSON)."),
+    # Plain strings: typer's per-item conversion to Path costs more than adding the record.
+    records: list[str] = typer.Argument(..., help="Calibration record files (JSON)."),
     db: str | None = typer.Option(None, "--db", help=_DB_HELP),
 ) -> None:
-    """Add calibration records to the store (each in its own transaction).
+    """Add calibration records to the store, all in one transaction.
 
-    Every file is read and validated before anything is written.
+    Every file is read and validated before anything is written. If one
+    record cannot be added (it is in the store already, or given twice) or
+    the store cannot be written, none is, and the message names the file.
     """
     from accelcal.io.calibration_record import CalibrationRecord
 
-    loaded = [CalibrationRecord.load(path) for path in records]
+    loaded = [CalibrationRecord.load(Path(path)) for path in records]
     with _store(db) as store:
-        for path, record in zip(records, loaded, strict=True):
-            row_id = store.add(record)
-            typer.echo(f"added {path} as record {row_id} (serial {record.serial})")
+        ids = store.add_many(loaded, sources=records)
+    typer.echo("\n".join(f"added {path} as record {row_id} (serial {record.serial})"
+                         for path, record, row_id in zip(records, loaded, ids, strict=True)))
 
 
 @app.command("list")

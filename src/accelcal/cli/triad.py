@@ -63,7 +63,7 @@ def detect(
     *,
     input_format: str = INPUT_FORMAT, columns: str | None = COLUMNS, time: str | None = TIME,
     time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
-    delimiter: str | None = DELIMITER, regions: Path | None = REGIONS,
+    delimiter: str | None = DELIMITER,
     init_static: float = INIT_STATIC, window: float = WINDOW,
     factor: float = typer.Option(
         2.0, "--factor", help="Threshold: this many times the initial period's variance "
@@ -86,8 +86,7 @@ def detect(
     check_settings(init_static=init_static, window=window, factor=factor,
                    min_length=min_length)
     opts = input_options(input_format=input_format, columns=columns, time=time,
-                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
-                         regions=regions)
+                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter)
     prov, sample_rate = describe(file, opts, channels=3, what="triad recording")
     blocks = iter_blocks(file, opts, channels=3, what="triad recording")
     with DelayedProgress(f"static intervals of {file.name}") as progress:

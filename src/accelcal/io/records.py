@@ -83,7 +83,8 @@ def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray]
     metadata : dict
         JSON-serialisable metadata; must include ``units`` for every column.
     columns : dict of str to array_like
-        Equal-length 1-D columns, written in this order with full precision.
+        Equal-length 1-D columns, written in this order with full precision
+        (every float reads back bit for bit).
 
     Raises
     ------
@@ -105,12 +106,28 @@ def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray]
     if _is_parquet(path):
         _write_parquet(path, header, dict(zip(names, arrays, strict=True)))
         return
-    table = np.column_stack(arrays) if arrays else np.empty((0, 0))
-    with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(MARKER + "\n")
-        fh.write("# " + json.dumps(header, allow_nan=False) + "\n")
-        fh.write(",".join(names) + "\n")
-        np.savetxt(fh, table, delimiter=",", fmt="%.17g")
+    preamble = f"{MARKER}\n# {json.dumps(header, allow_nan=False)}\n{','.join(names)}\n"
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        fh.write(preamble.encode("utf-8"))
+        if names:
+            write_rows(fh, names, arrays)
+
+
+def write_rows(fh, names: list[str], arrays: list[np.ndarray]) -> None:
+    """Data rows of a CSV record, appended to ``fh`` (binary) by Arrow's CSV writer.
+
+    For writers that stream a record block by block after its three header
+    lines (:func:`write_record` writes them). Each float is written in its
+    shortest form that reads back to the same double (``0.1``, ``1e+22``,
+    ``-0.0008336632594549993``), so a record round-trips bit for bit;
+    non-finite values are written ``nan``/``inf`` (and refused by the
+    readers).
+    """
+    import pyarrow as pa
+    from pyarrow import csv
+
+    table = pa.table(dict(zip(names, arrays, strict=True)))
+    csv.write_csv(table, fh, csv.WriteOptions(include_header=False, quoting_style="none"))
 
 
 def read_record(
@@ -245,9 +262,12 @@ def _read_csv(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
         raise AccelcalError(f"{path}: line 3 should hold the column names, comma separated")
     names = [n.strip() for n in header_line.split(",")]
     _check_names(names, f"{path}: line 3 column names {shown(header_line)}")
-    if not body.strip():
+    if not body or body.isspace():  # (no stripped copy of the body)
         raise AccelcalError(f"{path}: the record has no data rows")
-    if body.count(b",") + body.count(b"\n") + 1 > MAX_RECORD_VALUES:
+    # Values are at most the separators plus one, so at most the bytes plus one: only a
+    # body of MAX_RECORD_VALUES bytes or more can hold too many (then they are counted).
+    if (len(body) >= MAX_RECORD_VALUES
+            and body.count(b",") + body.count(b"\n") + 1 > MAX_RECORD_VALUES):
         raise AccelcalError(f"{path}: more than {MAX_RECORD_VALUES} values; split the record")
     return meta, _parse_rows(body, names, path)
 

@@ -5,13 +5,13 @@ harmonics ``k = 1..H`` of a frequency ``f``::
 
     y(t) = c + sum_k [a_k cos(k w t) + b_k sin(k w t)],   w = 2 pi f.
 
-At a known frequency this is linear in ``(c, a_1, b_1, ..., a_H, b_H)``, so
-the least-squares solution is one fixed matrix, the pseudo-inverse of the
-design, applied to the samples: :class:`HarmonicFit` computes it once per
-record length and applies it to any number of records (leading axes) with a
-single matrix product. With ``H = 1`` this is the three-parameter fit of
-IEEE Std 1057; :func:`sine_fit4` adds the frequency as a fourth parameter
-(Gauss-Newton, as in IEEE Std 1057 sec. 4.1.3.3).
+At a known frequency this is linear in ``(c, a_1, b_1, ..., a_H, b_H)``:
+:class:`HarmonicFit` solves its normal equations from the design's sums
+(:mod:`accelcal.signal.blocksums`: O(sqrt(n)) set-up, never the n x p
+design), once per time base, for any number of records (leading axes) in
+a few passes over the samples. With ``H = 1`` this is the three-parameter
+fit of IEEE Std 1057; :func:`sine_fit4` adds the frequency as a fourth
+parameter (Gauss-Newton, as in IEEE Std 1057 sec. 4.1.3.3).
 
 Phasors use the convention ``a cos(k w t) + b sin(k w t) = Re(P exp(i k w t))``,
 ``P = a - i b``: a signal ``A sin(w t + phi)`` has ``P = A exp(i (phi - pi/2))``.
@@ -24,10 +24,13 @@ References
 """
 
 from dataclasses import dataclass
+from fractions import Fraction
+from functools import lru_cache
 
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.signal.blocksums import BlockSums
 from accelcal.signal.periods import check_sampling
 
 
@@ -104,11 +107,20 @@ class HarmonicResult:
 class HarmonicFit:
     """Least-squares fit of DC and harmonics 1..H at a known frequency.
 
-    The design matrix and its pseudo-inverse are computed once; fitting a
-    stack of records is then one matrix product over the samples, so the
-    cost is that of reading the data. Records need not span whole periods
-    (the pseudo-inverse accounts for the non-orthogonal columns), but must
-    span at least one period.
+    Everything that depends on the time base alone is computed once, in
+    O(sqrt(n)) time and memory (never the n x p design,
+    :class:`~accelcal.signal.blocksums.BlockSums`): fitting a stack of
+    records is then a few passes over the samples (the weighted sums
+    ``D'y`` and the sums of squares), and the normal equations
+    ``(D'D) x = D'y`` of p unknowns. Records need not span whole periods,
+    but must span at least one. Reuse one fit for records of one time base
+    (:func:`sine_fit3` keeps the last few).
+
+    When a whole number of periods spans ``q`` samples (coherent sampling,
+    which IEEE 1057 recommends: ``f q / fs`` an integer, to within 1e-12 rad
+    of phase accumulated over the record), the record is first folded: its
+    blocks of ``q`` samples are summed, one pass over the samples, and the
+    sums are taken over the ``q`` folded samples.
 
     Parameters
     ----------
@@ -153,17 +165,31 @@ class HarmonicFit:
         harmonics = int(harmonics)
         check_sampling(samples, fs, f, harmonics=harmonics, what=what)
         self.samples, self.fs, self.f, self.harmonics = samples, float(fs), float(f), harmonics
-        t = float(t0) + np.arange(samples) / self.fs
-        self.design = _design(t, self.f, harmonics)  # Sec. 4.1.3.1 [IEEE1057]
-        p = self.design.shape[1]
+        p = 1 + 2 * harmonics
         if samples <= p:
             raise AccelcalError(f"{what}: {samples} samples are too few for {p} parameters")
-        q, r = np.linalg.qr(self.design)
-        rinv = np.linalg.inv(r)
-        # x = R^-1 Q' y: the least-squares operator, precomputed once.
-        self.operator = rinv @ q.T
-        self.cov_unit = rinv @ rinv.T
-        self.gram = self.design.T @ self.design
+        ratio = Fraction(self.f) / Fraction(self.fs)  # cycles per sample, exact
+        start = float((Fraction(self.f) * Fraction(float(t0))) % 1)
+        self.fold = _fold_period(samples, ratio, harmonics)
+        self._sums = BlockSums(self.fold or samples, ratio, start, harmonics)
+        if self.fold:  # Sec. 4.1.3.1 [IEEE1057]: D'D of the whole folds and the rest
+            folds, rest = divmod(samples, self.fold)
+            self.gram = folds * self._sums.gram(self.fold) + self._sums.gram(rest)
+        else:
+            self.gram = self._sums.gram(samples)
+        cov = np.linalg.inv(self.gram)
+        self.cov_unit = 0.5 * (cov + cov.T)
+        for shared in (self.gram, self.cov_unit):  # shared by every result of this fit
+            shared.setflags(write=False)
+
+    @property
+    def design(self) -> np.ndarray:
+        """The ``n x p`` design matrix, built on request (the fit never forms it)."""
+        if not self.fold:
+            return self._sums.design(self.samples)
+        folds, rest = divmod(self.samples, self.fold)
+        one = self._sums.design(self.fold)
+        return np.concatenate([np.tile(one, (folds, 1)), one[:rest]])
 
     def __call__(self, y) -> HarmonicResult:
         """Fit records ``y`` of shape ``(..., n)``; see :class:`HarmonicResult`."""
@@ -173,8 +199,8 @@ class HarmonicFit:
                 f"record has {y.shape[-1] if y.ndim else 0} samples, the fit expects "
                 f"{self.samples}"
             )
-        x = y @ self.operator.T
-        dof = self.samples - self.design.shape[1]
+        x = self._sums.sums(self._folded(y)) @ self.cov_unit  # x = (D'D)^-1 D'y
+        dof = self.samples - self.cov_unit.shape[0]
         s = np.sqrt(self._residual_sum_of_squares(y, x) / dof)
         ab = x[..., 1:].reshape(*x.shape[:-1], self.harmonics, 2)
         return HarmonicResult(
@@ -182,6 +208,15 @@ class HarmonicFit:
             cov_unit=self.cov_unit, samples=self.samples, dof=dof, frequency=self.f,
         )
 
+    def _folded(self, y: np.ndarray) -> np.ndarray:
+        """The records summed over whole folds (the rest added to the first samples)."""
+        if not self.fold:
+            return y
+        folds, rest = divmod(self.samples, self.fold)
+        head = y[..., : folds * self.fold].reshape(*y.shape[:-1], folds, self.fold)
+        out = head.sum(axis=-2)
+        out[..., :rest] += y[..., folds * self.fold:]
+        return out
 
     def _residual_sum_of_squares(self, y: np.ndarray, x: np.ndarray) -> np.ndarray:
         """Residual sum of squares r'r of every record, in one more pass over the samples.
@@ -195,7 +230,7 @@ class HarmonicFit:
         noise-free records (noise below ~1e-5 of the signal) pay the extra
         passes.
         """
-        yy = np.einsum("...n,...n->...", y, y)
+        yy = (y[..., None, :] @ y[..., :, None])[..., 0, 0]
         rss = yy - np.einsum("...i,ij,...j->...", x, self.gram, x)
         close = rss <= 1e3 * np.sqrt(self.samples) * np.finfo(float).eps * yy
         if np.any(close):
@@ -205,18 +240,34 @@ class HarmonicFit:
         return np.maximum(rss, 0.0)
 
 
+FIT_CACHE = 8
+"""Fits (time bases) :func:`sine_fit3` keeps for records that share one, each O(sqrt(n))."""
+
+
+@lru_cache(maxsize=FIT_CACHE)
+def _cached_fit(samples: int, fs: float, f: float, harmonics: int, t0: float) -> HarmonicFit:
+    return HarmonicFit(samples, fs, f, harmonics=harmonics, t0=t0)
+
+
 def sine_fit3(y, fs: float, f: float, *, harmonics: int = 1, t0: float = 0.0) -> HarmonicResult:
     """Three-parameter sine fit at a known frequency (plus optional harmonics).
 
     Convenience wrapper of :class:`HarmonicFit` for records ``y`` of shape
-    ``(..., n)``.
+    ``(..., n)``. The last :data:`FIT_CACHE` time bases (samples, rate,
+    frequency, harmonics, start) are kept, so calls on records of one time
+    base share one fit.
 
     References
     ----------
     .. [1] IEEE Std 1057-2017, sec. 4.1.3.1.
     """
     y = np.asarray(y, dtype=float)
-    return HarmonicFit(y.shape[-1], fs, f, harmonics=harmonics, t0=t0)(y)
+    n = y.shape[-1] if y.ndim else 0
+    try:
+        fit = _cached_fit(int(n), float(fs), float(f), int(harmonics), float(t0))
+    except TypeError:  # an unhashable argument: fit without the cache (same errors)
+        fit = HarmonicFit(n, fs, f, harmonics=harmonics, t0=t0)
+    return fit(y)
 
 
 def sine_fit4(
@@ -305,12 +356,27 @@ def _four_parameter_step(y, t, f):
     return x, np.concatenate([d3, dfcol[..., None]], axis=-1), resid
 
 
-def _design(t, f, harmonics):
-    cols = [np.ones_like(t)]
-    for k in range(1, harmonics + 1):
-        wt = 2 * np.pi * k * f * t
-        cols += [np.cos(wt), np.sin(wt)]
-    return np.stack(cols, axis=-1)
+FOLD_PHASE_RTOL = 1e-12
+"""Largest phase (rad) a fold may miss over a record and still count as whole periods."""
+
+MAX_FOLD = 2**16
+"""Longest fold, samples."""
+
+
+def _fold_period(samples: int, ratio: Fraction, harmonics: int) -> int:
+    """Samples spanning whole periods (coherent sampling), or 0 when none fits twice.
+
+    ``q`` is the denominator of the best approximation of ``f / fs`` with
+    ``q`` at most :data:`MAX_FOLD` and half the record; it counts when the
+    phase it misses, accumulated over the record at the highest harmonic, is
+    below :data:`FOLD_PHASE_RTOL`. It is lengthened to a multiple of at
+    least 1024 samples where the record allows (long rows sum faster).
+    """
+    q = ratio.limit_denominator(max(1, min(MAX_FOLD, samples // 2))).denominator
+    missed = float(abs(ratio * q - round(ratio * q)))
+    if q > samples // 2 or missed * 2 * np.pi * harmonics * samples / q > FOLD_PHASE_RTOL:
+        return 0
+    return q * max(1, min(-(-1024 // q), samples // (2 * q), MAX_FOLD // q))
 
 
 def _dft_peak(y, fs):

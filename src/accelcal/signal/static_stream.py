@@ -34,6 +34,9 @@ from accelcal.signal.static import (
     moving_variance,
 )
 
+MAX_SETTING_SAMPLES = 1e9
+"""Most samples a window or the initial still period may span (they are held in memory)."""
+
 
 class _Runs:
     """Open and closed static runs of one threshold, with running sums."""
@@ -145,6 +148,11 @@ def detect_static_stream(blocks: Iterable, rate: float, *, init_static: float = 
     for k in factors:
         check_settings(rate=rate, window=window, factor=k, init_static=init_static,
                        min_length=min_length)
+    for name, seconds in (("window", window), ("init_static", init_static)):
+        if not seconds * rate <= MAX_SETTING_SAMPLES:  # checked before rounding: no overflow
+            raise AccelcalError(f"{seconds:g} s is {seconds * rate:.3g} samples at {rate:g} Hz, "
+                                f"more than {MAX_SETTING_SAMPLES:.0e}; give a shorter one",
+                                parameter=name)
     w, n_init = round(window * rate), round(init_static * rate)
     half = w // 2
     if w < 3:

@@ -40,7 +40,7 @@ from accelcal.errors import AccelcalError
 from accelcal.io.atomic import atomic_path
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
 from accelcal.io.limits import shown
-from accelcal.io.records import FORMAT_VERSION, MARKER, read_record, write_record
+from accelcal.io.records import FORMAT_VERSION, MARKER, read_record, write_record, write_rows
 
 KIND = "noise"
 """Record-file kind of still (noise) recordings."""
@@ -181,11 +181,11 @@ def write_blocks(path, blocks, *, rate: float, unit: str, channels=("acc",),
                     if progress:
                         progress(done, total or done)
         else:
-            with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-                fh.write(MARKER + "\n# " + text + "\n" + ",".join(channels) + "\n")
+            with open(tmp, "wb") as fh:
+                fh.write((MARKER + "\n# " + text + "\n" + ",".join(channels) + "\n").encode())
                 for block in blocks:
                     arr = np.asarray(block, dtype=float).reshape(len(block), -1)
-                    np.savetxt(fh, arr, delimiter=",", fmt="%.17g")
+                    write_rows(fh, list(channels), list(arr.T))
                     done += arr.shape[0]
                     if progress:
                         progress(done, total or done)

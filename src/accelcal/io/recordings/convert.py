@@ -75,7 +75,9 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
     Returns
     -------
     dict
-        ``record``, ``kind``, ``samples``, ``columns`` and the ``provenance`` written.
+        ``record``, ``kind``, ``samples``, ``columns``, the ``provenance`` written
+        and ``statistics``: each column's whole-period ``mean`` and ``sd`` (one
+        sample, ddof 1), accumulated in the same pass.
 
     Raises
     ------
@@ -109,15 +111,16 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
               "provenance": prov}
     with tempfile.TemporaryDirectory(dir=out.parent, prefix=".accelcal-import-") as stage:
         staged = Path(stage) / out.name
-        samples = _write(staged, header, plan, iter_blocks(path, opts, rows=rows, need_rate=timed),
-                         rate=rate,
-                         progress=progress, infos=prov.get("channels", {}))
+        samples, stats = _write(staged, header, plan,
+                                iter_blocks(path, opts, rows=rows, need_rate=timed),
+                                rate=rate, progress=progress, infos=prov.get("channels", {}))
         _validate(staged, out, plan, samples, rows)
         from accelcal.io.atomic import atomic_path
 
         with atomic_path(out) as tmp:
             os.replace(staged, tmp)
     return {"record": str(out), "kind": kind, "samples": samples, "columns": list(plan.columns),
+            "statistics": stats,
             "provenance": prov}
 
 
@@ -220,17 +223,48 @@ def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, 
                        metadata={"accelcal": json.dumps(header, allow_nan=False)})
     lengths = {i.get("length") for i in infos.values()}
     total = lengths.pop() if len(lengths) == 1 else None
-    done, state = 0, {}
+    done, state, sums = 0, {}, _Sums()
     with _writer(staged, schema, header) as write:
         for block in blocks:
             cols = _columns(plan, block, rate, state)
             write(pa.table(cols, schema=schema))
+            sums.add(cols)
             done += block.values.shape[0]
             if progress is not None:
                 progress(done, max(done, total or done))
     if not done:
         raise AccelcalError("the recording has no samples")
-    return done
+    return done, sums.result()
+
+
+class _Sums:
+    """Whole-period mean and SD (ddof 1) of each column, in one pass.
+
+    Sums of the values shifted by each column's first value, so a large
+    offset keeps a small SD exact.
+    """
+
+    def __init__(self):
+        self.ref, self.s1, self.s2, self.n = {}, {}, {}, 0
+
+    def add(self, cols: dict) -> None:
+        for name, col in cols.items():
+            x = np.asarray(col, dtype=float)
+            if name not in self.ref:
+                self.ref[name], self.s1[name], self.s2[name] = float(x[0]), 0.0, 0.0
+            with np.errstate(over="ignore", invalid="ignore"):  # the reader refuses such values
+                d = x - self.ref[name]
+                self.s1[name] += float(d.sum())
+                self.s2[name] += float(d @ d)
+        self.n += len(next(iter(cols.values())))
+
+    def result(self) -> dict:
+        out = {}
+        for name, ref in self.ref.items():
+            s1, s2, n = self.s1[name], self.s2[name], self.n
+            var = max(s2 - s1 * s1 / n, 0.0) / max(n - 1, 1)
+            out[name] = {"mean": ref + s1 / n, "sd": var**0.5}
+        return out
 
 
 MAX_BLOCK_ROWS = 1 << 26

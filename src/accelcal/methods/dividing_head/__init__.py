@@ -36,6 +36,7 @@ References
 """
 
 from accelcal.methods.dividing_head.data import HeadData
+from accelcal.methods.dividing_head.exact import exact_study
 from accelcal.methods.dividing_head.factors import FourFactors
 from accelcal.methods.dividing_head.figures import figures
 from accelcal.methods.dividing_head.four import (
@@ -99,6 +100,7 @@ __all__ = [
     "SensorBank",
     "StudyResult",
     "coefficient_units",
+    "exact_study",
     "figures",
     "first_harmonic_alias",
     "four",

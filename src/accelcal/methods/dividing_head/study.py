@@ -28,9 +28,12 @@ for any ``chunk``, in-process or on any number of Dask workers.
 
 Vectorised: the designs are fixed, so every reduction is a precomputed
 linear operator (after each sensor's normalisation by its own fitted scale
-factor) applied to :data:`~accelcal.methods.dividing_head.study_kernel.SUB_BLOCK` trials
-at once by matrix products,
-trials on the contiguous axis. The outputs enter only as their variation
+factor) applied to :data:`~accelcal.methods.dividing_head.study_kernel.CHUNK` trials
+at once by matrix products, trials on the contiguous axis (the random numbers
+are drawn :data:`~accelcal.methods.dividing_head.study_kernel.SUB_BLOCK` trials
+at a time), and each chunk's outputs stream to the engine while in cache.
+:func:`~accelcal.methods.dividing_head.exact.exact_study` gives what the study
+converges to, without sampling. The outputs enter only as their variation
 about the noise-free outputs at zero head error (a Taylor series in the
 head error, :meth:`SensorBank.variation`), so nothing is rounded at the
 outputs' magnitude; the constant part is fitted once in extended

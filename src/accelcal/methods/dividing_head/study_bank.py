@@ -17,7 +17,6 @@ import numpy as np
 
 TAYLOR_MAX_ORDER = 6
 """Highest power of the head error in the outputs' Taylor series (else exact evaluation)."""
-_TAYLOR_GROUP = 64
 
 
 def scratch(work: dict, name: str, shape: tuple) -> np.ndarray:
@@ -159,43 +158,46 @@ class SensorBank:
         """
         return self.variation(d, noise, work) + self.offset.astype(float)[..., None]
 
-    def variation(self, d: np.ndarray, noise: np.ndarray, work: dict | None = None) -> np.ndarray:
-        """Outputs minus :attr:`offset` ``(K, n, T)``, as :meth:`outputs`.
+    def variation(self, d: np.ndarray, noise: np.ndarray, work: dict | None = None,
+                  noise_scale: np.ndarray | None = None) -> np.ndarray:
+        """Outputs minus :attr:`offset` ``(K, n, T)`` (C-contiguous), as :meth:`outputs`.
 
-        For head errors ``d`` ``(T, n)`` plus ``noise`` ``(T, K, n)``. By the
+        For head errors ``d`` ``(T, n)`` plus ``noise`` ``(T, K, n)``, times
+        ``noise_scale`` ``(K,)`` (each sensor's noise SD) when given. By the
         Taylor series in ``d`` (:meth:`taylor_order`) when the head errors are
         small enough: the variation alone, never rounded at the outputs'
-        magnitude, evaluated trials-first and returned as a transposed view.
-        Otherwise the exact evaluation :meth:`__call__` minus the offset.
-        ``work`` holds reusable scratch arrays.
+        magnitude, evaluated with the trials on the contiguous axis (the
+        noise transposed and scaled in one pass). Otherwise the exact
+        evaluation :meth:`__call__` minus the offset. ``work`` holds reusable
+        scratch arrays.
         """
         work = {} if work is None else work
         order = self.taylor_order(max(float(d.max(initial=0.0)), -float(d.min(initial=0.0))))
         if order is None:
+            if noise_scale is not None:
+                noise = noise * noise_scale[:, None]
             u = self(d, noise, work)
             u -= self.offset.astype(float)[..., None]
             return u
-        t, shape = d.shape[0], (d.shape[0], *self.offset.shape)
-        u = scratch(work, "u_tf", shape)
-        if order:
-            d_rep = scratch(work, "d_rep", shape)
-            np.copyto(d_rep, d[:, None, :])
-            # Coefficients repeated over _TAYLOR_GROUP trials, broadcast over groups of
-            # trials: long contiguous inner loops, and small enough to stay in cache.
-            group = _TAYLOR_GROUP if t % _TAYLOR_GROUP == 0 else 1
-            coef = work.get(("taylor", order, group))
-            if coef is None:
-                coef = work[("taylor", order, group)] = np.repeat(
-                    self.taylor[:order, None], group, axis=1).reshape(order, 1, -1)
-            ug, dg = u.reshape(t // group, 1, -1), d_rep.reshape(t // group, 1, -1)
-            np.multiply(coef[order - 1], dg, out=ug)
-            for m in range(order - 1, 0, -1):  # Horner: d (c1 + d (c2 + ...))
-                ug += coef[m - 1]
-                ug *= dg
-            u += noise
+        shape = (*self.offset.shape, d.shape[0])
+        u = scratch(work, "u", shape)
+        if noise_scale is None:
+            np.copyto(u, noise.transpose(1, 2, 0))
         else:
-            np.copyto(u, noise)
-        return u.transpose(1, 2, 0)
+            np.multiply(noise.transpose(1, 2, 0), noise_scale[:, None, None], out=u)
+        if order:
+            d_t = scratch(work, "d_t", d.shape[::-1])
+            np.copyto(d_t, d.T)
+            coef = work.get(("taylor", order))
+            if coef is None:
+                coef = work[("taylor", order)] = self.taylor[:order, ..., None]
+            tay = scratch(work, "taylor_sum", shape)
+            np.multiply(coef[order - 1], d_t, out=tay)
+            for m in range(order - 1, 0, -1):  # Horner: d (c1 + d (c2 + ...))
+                tay += coef[m - 1]
+                tay *= d_t
+            u += tay
+        return u
 
     def __call__(self, d: np.ndarray, noise: np.ndarray, work: dict | None = None) -> np.ndarray:
         """Outputs ``(K, n, T)`` for head errors ``d`` ``(T, n)`` plus ``noise`` ``(T, K, n)``.

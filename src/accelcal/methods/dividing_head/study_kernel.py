@@ -2,8 +2,10 @@
 
 Vectorised: the designs are fixed, so every reduction is a precomputed
 linear operator (after each sensor's normalisation by its own fitted scale
-factor) applied to :data:`SUB_BLOCK` trials at once by matrix products,
-trials on the contiguous axis. The single fit gives each sensor's
+factor) applied to :data:`CHUNK` trials at once by matrix products,
+trials on the contiguous axis; the random numbers are drawn :data:`SUB_BLOCK`
+trials at a time, and each chunk's outputs are handed to the engine as one
+piece (:meth:`HeadStudy.pieces`) while in cache. The single fit gives each sensor's
 estimates and orthonormal residual coordinates; ``four`` and ``joint``
 differ from it only by removing a head-error estimate whose effect lies in
 one small subspace of those coordinates.
@@ -28,7 +30,12 @@ from accelcal.resources import check_memory
 from accelcal.rigs.dividing_head import DividingHeadRig
 
 SUB_BLOCK = 512
-"""Trials drawn and reduced at once inside a seed block (part of the identity)."""
+"""Trials drawn at once inside a seed block (part of the identity: the uniform head
+errors, the noise and the first-harmonic errors of a sub-block are drawn in turn)."""
+
+CHUNK = 2 * SUB_BLOCK
+"""Trials reduced at once (whole sub-blocks; not part of the identity): long enough
+that numpy's per-call overhead is small, short enough that the buffers stay in cache."""
 
 
 def residual_basis(design: np.ndarray) -> np.ndarray:
@@ -158,6 +165,10 @@ class HeadStudy:
         self.base0 = base0.astype(float)
         self.dof = {"single": m, "four": m, "joint": getattr(self, "dof_joint", 0)}
         self.any_known = any(name.endswith("_known_h1") for name in self.methods)
+        self.any_noise = bool((rig.noise > 0).any())
+        self.four_extra = bool(np.any(self.sd_extra.get("four", 0.0)))
+        c1, s1 = rig.first_harmonic
+        self.h1_wave = (c1 * np.cos(alpha), s1 * np.sin(alpha))
         # Per method: family, its slot in the residual stages, known h1, full SD, output rows.
         plan, width, sd_at = [], 5 * k, len(self.methods) * 5 * k
         for j, method in enumerate(self.methods):
@@ -217,43 +228,109 @@ class HeadStudy:
 
     # ---------------------------------------------------------------- simulate
     def __call__(self, rng: np.random.Generator, trials: int) -> np.ndarray:
-        """Errors and formal-SD factors of ``trials`` trials, shape ``(trials, p)``."""
-        out = np.empty((len(self.names), trials))  # trials contiguous, returned transposed
-        work: dict = {}  # buffers reused across sub-blocks: fresh pages cost more than flops
-        for start in range(0, trials, SUB_BLOCK):
-            t = min(SUB_BLOCK, trials - start)
-            # Filled in a small buffer that stays in cache, then copied out in one pass.
-            res_t = scratch(work, "res_t", (len(self.names), t))
-            self._sub_block(rng, res_t, work)
-            out[:, start:start + t] = res_t
-        return out.T
+        """Errors and formal-SD factors of ``trials`` trials, shape ``(trials, p)``.
+
+        The pieces of :meth:`pieces` gathered in one array (for tests and
+        small studies; the engine streams the pieces instead).
+        """
+        out = np.empty((trials, len(self.names)))
+        start = 0
+        for piece in self.pieces(rng, trials):
+            out[start:start + len(piece)] = piece
+            start += len(piece)
+        return out
+
+    def pieces(self, rng: np.random.Generator, trials: int):
+        """Yield the outputs of ``trials`` trials in order, :data:`CHUNK` trials at a time.
+
+        Each piece ``(t, p)`` is a view of a buffer reused for the next
+        piece: consume it (the engine takes its moments while it is in
+        cache) before asking for the next. The random numbers are drawn
+        sub-block by sub-block (:data:`SUB_BLOCK`) as :meth:`draw` would,
+        whatever :data:`CHUNK`.
+        """
+        work: dict = {}  # buffers reused across chunks: fresh pages cost more than flops
+        for start in range(0, trials, CHUNK):
+            t = min(CHUNK, trials - start)
+            d, noise, h1_noise = self._draw_chunk(rng, t, work)
+            res_t = scratch(work, "res_t", (len(self.names), t))  # trials contiguous
+            self._reduce(d, noise, h1_noise, res_t, work)
+            yield res_t.T
 
     def draw(self, rng: np.random.Generator, trials: int, work: dict | None = None):
         """Head errors ``(T, n)``, mean noise ``(T, K, n)`` and h1 errors ``(T, 2)``.
 
         The same numbers, in the same order, as ``rig.angle_errors``,
-        ``rig.outputs`` and ``rng.standard_normal((T, 2))`` would draw.
+        ``rig.outputs`` and ``rng.standard_normal((T, 2))`` would draw (one
+        sub-block).
         """
-        rig, work = self.rig, {} if work is None else work
-        d = rig.angle_errors(trials, rng)
-        if (rig.noise > 0).any():
-            shape = (trials, rig.repeats, self.k, self.n)
-            noise = rng.standard_normal(out=scratch(work, "noise", shape))
-            if rig.repeats > 1:
-                noise = noise.mean(axis=1, out=scratch(work, "noise_mean", shape[::2] + shape[3:]))
-            else:
-                noise = noise[:, 0]
-            noise *= rig.noise[:, None]
-        else:
-            noise = np.zeros((trials, self.k, self.n))
-        return d, noise, rng.standard_normal((trials, 2))
+        work = {} if work is None else work
+        d, noise, h1 = self._buffers(trials, work)
+        self._draw_into(rng, d, noise, h1)
+        return self._finish_draw(d), self._noise_mean(noise, work), h1
 
-    def _sub_block(self, rng, res_t, work):
+    def _buffers(self, trials: int, work: dict):
+        rig = self.rig
+        return (scratch(work, "d", (trials, self.n)),
+                scratch(work, "noise", (trials, rig.repeats, self.k, self.n)),
+                scratch(work, "h1_noise", (trials, 2)))
+
+    def _draw_chunk(self, rng, trials: int, work: dict):
+        """:meth:`draw` of ``trials`` trials, one sub-block of draws after another."""
+        d, noise, h1 = self._buffers(trials, work)
+        for start in range(0, trials, SUB_BLOCK):
+            stop = min(start + SUB_BLOCK, trials)
+            self._draw_into(rng, d[start:stop], noise[start:stop], h1[start:stop])
+        return self._finish_draw(d), self._noise_mean(noise, work, scale=False), h1
+
+    def _draw_into(self, rng, d, noise, h1) -> None:
+        """One sub-block's draws, in the rig's order, into the given (contiguous) arrays.
+
+        ``rng.random`` scaled in place is ``rng.uniform`` bit for bit
+        (``low + (high - low) * u``); the first harmonic and the noise level
+        are applied by :meth:`_finish_draw` and :meth:`_noise_mean`.
+        """
+        profile = self.rig.angle_error
+        if profile.kind == "uniform" and profile.half_width > 0:
+            h = profile.half_width
+            rng.random(out=d)
+            d *= h - (-h)
+            d += -h
+        else:
+            d[...] = profile.draw(self.rig.positions, len(d), rng)
+        if self.any_noise:
+            rng.standard_normal(out=noise)
+        rng.standard_normal(out=h1)
+
+    def _finish_draw(self, d):
+        """Add the first harmonic to the drawn profile, as ``rig.angle_errors`` does."""
+        d += self.h1_wave[0]  # (d + c cos) + s sin, the rig's order of operations
+        d += self.h1_wave[1]
+        return d
+
+    def _noise_mean(self, noise, work, scale: bool = True):
+        """Mean over the repeats of the standard normals, times each sensor's noise SD.
+
+        Unscaled with ``scale=False`` (the reduction scales the noise as it
+        transposes it).
+        """
+        if not self.any_noise:
+            return np.zeros((noise.shape[0], self.k, self.n))
+        if noise.shape[1] > 1:
+            shape = noise.shape[::2] + noise.shape[3:]
+            noise = noise.mean(axis=1, out=scratch(work, "noise_mean", shape))
+        else:
+            noise = noise[:, 0]
+        if scale:
+            noise *= self.rig.noise[:, None]
+        return noise
+
+    def _reduce(self, d, noise, h1_noise, res_t, work):
         """Fill ``res_t`` ``(p, t)`` with the outputs of ``t`` trials (one per column)."""
         k, n, t = self.k, self.n, res_t.shape[1]
         m, families, f = self.single_dof, self.families, len(self.families)
-        d, noise, h1_noise = self.draw(rng, t, work)
-        u = self.sensors.variation(d, noise, work)  # (K, n, T): outputs - offset
+        scale = self.rig.noise if self.any_noise else None
+        u = self.sensors.variation(d, noise, work, scale)  # (K, n, T): outputs - offset
         # Single-sensor stage, per sensor (also each scale factor, step 0 [DOMAIN]), on the
         # variation; the offset's share is added to the small results, not to the outputs.
         single = np.matmul(self.single_op, u, out=scratch(work, "single", (k, n, t)))
@@ -336,12 +413,18 @@ class HeadStudy:
             done["four_var"] = np.matmul(self.four_moments, s2,
                                          out=scratch(work, "four_var", (5 * k, t)))
         sd = out.reshape(5 * k, t)
-        if known:
+        extra = known and self.four_extra
+        if not extra and "four_sd" in done:  # the same SDs as the other four method's
+            np.copyto(sd, done["four_sd"])
+            return
+        if extra:
             np.add(done["four_var"], self.sd_extra["four"].reshape(5 * k, 1), out=sd)
             np.sqrt(sd, out=sd)
         else:
             np.sqrt(done["four_var"], out=sd)
         out *= abs_k_i[:, None]
+        if not extra:
+            done["four_sd"] = sd
 
     def _joint_rss(self, r: np.ndarray, y: np.ndarray, sq_r: np.ndarray) -> np.ndarray:
         """Pooled joint residual sum of squares ``|r - q y|^2``, shape ``(1, T)``.

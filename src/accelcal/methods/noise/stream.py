@@ -100,10 +100,10 @@ def phase_of(y) -> np.ndarray:
 
 
 def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None):  # noqa: PLR0917
-    from accelcal.signal.allan.kernels import lag_sumsq
     from accelcal.signal.allan.deviations import DIVISOR, Deviation
     from accelcal.signal.allan.edf import check_confidence, confidence_interval, edf
     from accelcal.signal.allan.identify import noise_alphas
+    from accelcal.signal.allan.kernels import lag_sumsq
     from accelcal.signal.allan.taus import tau_grid, taus_to_m
 
     if kind not in STREAM_KINDS:

@@ -240,9 +240,10 @@ def compensate_stream(blocks, out, comp: Compensation, *, names, offset: float =
     temperature in degC, ``a_i_g`` (Eq. (5)) and ``extrapolated`` (0 or 1).
     """
     from accelcal.io.atomic import atomic_path
+    from accelcal.io.records import write_rows
 
     rows = 0
-    with atomic_path(out) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+    with atomic_path(out) as tmp, open(tmp, "wb") as fh:
         header = None
         for block in blocks:
             temp = block.values[:, 1] + offset
@@ -261,9 +262,9 @@ def compensate_stream(blocks, out, comp: Compensation, *, names, offset: float =
             if header is None:
                 header = ([] if block.time is None else ["time_s"]) + [
                     names[0], f"{names[1]}_degC", "a_i_g", "extrapolated"]
-                fh.write(",".join(header) + "\n")
+                fh.write((",".join(header) + "\n").encode())
             if block.time is not None:
                 cols.insert(0, block.time)
-            np.savetxt(fh, np.column_stack(cols), delimiter=",", fmt="%.17g")
+            write_rows(fh, header, cols)
             rows += block.values.shape[0]
     return rows

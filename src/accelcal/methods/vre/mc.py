@@ -35,6 +35,9 @@ from accelcal.methods.vre.identify import row_space_basis
 from accelcal.results import Reduction
 from accelcal.uncertainty import McUncertainty, propagate
 
+CHUNK_VALUES = 2**18
+"""Most synthetic VRE values (trials times points) a sampler forms at once (2 MiB each array)."""
+
 
 @dataclass(frozen=True)
 class VreSampler:
@@ -78,19 +81,32 @@ class VreSampler:
     overload_sd: float = 0.0
 
     def __call__(self, rng: np.random.Generator, t: int) -> np.ndarray:
-        """Errors of ``t`` re-identified synthetic VRE sets, shape ``(t, p)``."""
+        """Errors of ``t`` re-identified synthetic VRE sets, shape ``(t, p)``.
+
+        The trials are formed in chunks of at most :data:`CHUNK_VALUES`
+        values (trials times points), drawing the same random numbers in the
+        same order as all at once: memory stays bounded for any number of
+        points, and the results do not depend on the chunking.
+        """
         n = self.amplitude.size
         scale_a = 1.0 + self.amplitude_sd * rng.standard_normal((t, 1))
         scale_b = 1.0 + self.overload_sd * rng.standard_normal((t, 1, 1))
-        cols = vre_columns(self.overload[None] * scale_b, self.amplitude[None] * scale_a,
-                           self.direction[None])  # Eqs. (9), (21) [Guan2021]
         coef = {**dict(zip(self.terms, self.values, strict=True)), **self.fixed}
-        y = sum((v * cols[k] for k, v in coef.items()), np.zeros((t, n)))
-        y = y + self.noise * rng.standard_normal((t, n))
+        held = 0.0
         if self.fixed:
             nominal = vre_columns(self.overload, self.amplitude, self.direction)
-            y = y - sum(v * nominal[k] for k, v in self.fixed.items())
-        return y @ self.operator.T - self.values
+            held = sum(v * nominal[k] for k, v in self.fixed.items())
+        out = np.empty((t, self.values.size))
+        step = max(1, CHUNK_VALUES // max(n, 1))
+        for start in range(0, t, step):
+            part = slice(start, min(t, start + step))
+            cols = vre_columns(self.overload[None] * scale_b[part],
+                               self.amplitude[None] * scale_a[part],
+                               self.direction[None])  # Eqs. (9), (21) [Guan2021]
+            y = sum((v * cols[k] for k, v in coef.items()), np.zeros((part.stop - start, n)))
+            y = y + self.noise * rng.standard_normal((part.stop - start, n))
+            out[part] = (y - held) @ self.operator.T - self.values
+        return out
 
 
 def _operator(design: np.ndarray, sigma: np.ndarray | None, names) -> np.ndarray:

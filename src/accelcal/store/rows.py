@@ -1,0 +1,54 @@
+"""Rows of the records store made from calibration records, and the words naming them."""
+
+import hashlib
+import math
+from collections.abc import Sequence
+
+from accelcal.errors import AccelcalError
+from accelcal.io.calibration_record import CalibrationRecord
+from accelcal.io.limits import shown_path
+
+
+def labels(records: list, sources: Sequence[str] | None) -> list[str]:
+    """What messages call each record: its source (a file name), else ``record i``."""
+    if sources is None:
+        return [f"record {i + 1}" for i in range(len(records))]
+    if len(sources) != len(records):
+        raise AccelcalError(f"{len(sources)} sources for {len(records)} records; give one "
+                            "name per record", parameter="sources")
+    return [shown_path(str(s)) for s in sources]
+
+
+def what(record: CalibrationRecord) -> str:
+    """``(serial ..., date)`` of a record, for messages."""
+    return f"(serial {record.serial}, {record.date})"
+
+
+def none_added(records: list) -> str:
+    """The end of a message refusing a batch of records."""
+    return f"none of the {len(records)} records was added"
+
+
+def calibration_row(record: CalibrationRecord) -> dict:
+    """The ``calibrations`` row of a record (its uid is the SHA-256 of its JSON)."""
+    text = record.to_json()
+    return {"uid": hashlib.sha256(text.encode()).hexdigest(), "serial": record.serial,
+            "method": record.method, "simulated": bool(record.simulated),
+            "date": utc(record.date), "software": record.software, "record_json": text}
+
+
+def coefficient_rows(row_id: int, record: CalibrationRecord) -> list[dict]:
+    """The ``coefficients`` rows of a record stored as calibration ``row_id``."""
+    return [{"calibration_id": row_id, "name": n, "unit": record.units.get(n, ""),
+             "estimate": float(v), "std": None if math.isnan(s) else float(s)}
+            for n, v, s in zip(record.names, record.estimates, record.std, strict=True)]
+
+
+def utc(date: str) -> str:
+    """ISO 8601 in UTC, so that string order is time order (naive dates are taken as UTC)."""
+    import datetime as dt
+
+    moment = dt.datetime.fromisoformat(date)
+    if moment.tzinfo is None:
+        moment = moment.replace(tzinfo=dt.UTC)
+    return moment.astimezone(dt.UTC).isoformat(timespec="microseconds")

@@ -1,0 +1,173 @@
+"""The records store's tables, indexes and migrations, and SQLite connection settings.
+
+Schema versions:
+
+1. ``schema_info``, ``calibrations``, ``coefficients``.
+2. ``calibrations.simulated``.
+3. Indexes for the queries of ``records list``, ``history`` and ``stats``:
+   ``calibrations (date)`` for the whole list in date order,
+   ``calibrations (serial, date)`` and ``calibrations (serial, method, date)``
+   for one serial number (with or without ``--method``) in date order, and
+   ``coefficients (calibration_id, id)`` for the coefficients of each
+   calibration in their order. The single-column ``calibrations (serial)``
+   index of schemas 1-2 is dropped: ``(serial, date)`` serves its look-ups.
+"""
+
+SCHEMA_VERSION = 3
+
+INDEXES = {
+    "calibrations": {
+        "ix_calibrations_date": ("date",),
+        "ix_calibrations_serial_date": ("serial", "date"),
+        "ix_calibrations_serial_method_date": ("serial", "method", "date"),
+    },
+    "coefficients": {
+        "ix_coefficients_calibration_id_id": ("calibration_id", "id"),
+    },
+}
+"""Table -> index name -> columns: the indexes of schema 3."""
+
+_OLD_INDEXES = ("ix_calibrations_serial", "ix_coefficients_calibration_id")
+"""Indexes of schemas 1-2 that the schema-3 indexes make redundant."""
+
+
+def tables(sa) -> dict:
+    """The SQLAlchemy tables of the current schema (``metadata`` holds them all)."""
+    meta = sa.MetaData()
+    out = {
+        "metadata": meta,
+        "schema_info": sa.Table(
+            "schema_info", meta, sa.Column("version", sa.Integer, nullable=False)
+        ),
+        "calibrations": sa.Table(
+            "calibrations", meta,
+            sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
+            sa.Column("uid", sa.String(64), nullable=False, unique=True),
+            sa.Column("serial", sa.String(200), nullable=False),
+            sa.Column("method", sa.String(200), nullable=False),
+            sa.Column("date", sa.String(40), nullable=False),
+            sa.Column("software", sa.String(100), nullable=False),
+            sa.Column("record_json", sa.Text, nullable=False),
+            sa.Column("simulated", sa.Boolean, nullable=False, server_default=sa.false()),
+        ),
+        "coefficients": sa.Table(
+            "coefficients", meta,
+            sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
+            sa.Column("calibration_id", sa.Integer, sa.ForeignKey("calibrations.id"),
+                      nullable=False),
+            sa.Column("name", sa.String(100), nullable=False),
+            sa.Column("unit", sa.String(40), nullable=False),
+            sa.Column("estimate", sa.Float, nullable=False),
+            sa.Column("std", sa.Float, nullable=True),
+        ),
+    }
+    for table, indexes in INDEXES.items():
+        for name, columns in indexes.items():
+            sa.Index(name, *(out[table].c[c] for c in columns))
+    return out
+
+
+def _migrate_to_1(conn, meta) -> None:
+    """Schema 1: schema_info, calibrations, coefficients.
+
+    A new store gets the later schemas' columns and indexes at once; their
+    migrations then find them.
+    """
+    meta.create_all(conn)
+
+
+def _migrate_to_2(conn, meta) -> None:
+    """Schema 2: ``calibrations.simulated`` (records made from simulated data).
+
+    A store of schema 1 gains the column, false for its records, which said
+    nothing of their data's origin (records written before it).
+    """
+    import sqlalchemy as sa
+
+    columns = {c["name"] for c in sa.inspect(conn).get_columns("calibrations")}
+    if "simulated" not in columns:
+        conn.execute(sa.text(
+            "ALTER TABLE calibrations ADD COLUMN simulated BOOLEAN NOT NULL DEFAULT FALSE"))
+
+
+def _migrate_to_3(conn, meta) -> None:
+    """Schema 3: the indexes of :data:`INDEXES`; the redundant older ones dropped.
+
+    Every record is kept; only indexes change.
+    """
+    import sqlalchemy as sa
+
+    for table in INDEXES:
+        for index in meta.tables[table].indexes:
+            index.create(conn, checkfirst=True)
+    for name in _OLD_INDEXES:
+        conn.execute(sa.text(f"DROP INDEX IF EXISTS {name}"))
+
+
+MIGRATIONS = {1: _migrate_to_1, 2: _migrate_to_2, 3: _migrate_to_3}
+"""Schema version -> function bringing the previous version to it."""
+
+
+def stored_version(conn, tables_: dict, where: str) -> int:
+    """The schema version of a store (0 for none); refuses a newer one.
+
+    Parameters
+    ----------
+    conn : sqlalchemy.engine.Connection
+    tables_ : dict
+        :func:`tables`.
+    where : str
+        The store, as messages name it.
+
+    Raises
+    ------
+    AccelcalError
+        If the store was written by a newer accelcal.
+    """
+    import sqlalchemy as sa
+
+    from accelcal.errors import AccelcalError
+
+    if not sa.inspect(conn).has_table("schema_info"):
+        return 0
+    info = tables_["schema_info"]
+    version = conn.execute(sa.select(info.c.version)).scalar_one_or_none() or 0
+    if version > SCHEMA_VERSION:
+        raise AccelcalError(
+            f"the records store {where} has schema version {version}, newer than this "
+            f"accelcal ({SCHEMA_VERSION}); upgrade accelcal"
+        )
+    return version
+
+
+def migrate(engine, tables_: dict, where: str) -> None:
+    """Bring a store to :data:`SCHEMA_VERSION` in one transaction (creating a new one)."""
+    import sqlalchemy as sa
+
+    meta, info = tables_["metadata"], tables_["schema_info"]
+    with engine.begin() as conn:
+        if conn.dialect.name == "postgresql":
+            # Serialise concurrent first opens of the same database.
+            conn.execute(sa.text("SELECT pg_advisory_xact_lock(1293836)"))
+        for target in range(stored_version(conn, tables_, where) + 1, SCHEMA_VERSION + 1):
+            MIGRATIONS[target](conn, meta)
+            conn.execute(sa.delete(info))
+            conn.execute(sa.insert(info).values(version=target))
+
+
+def sqlite_on_connect(dbapi_conn, _record) -> None:
+    """Settings of every SQLite connection a writable store makes."""
+    # Let SQLAlchemy emit BEGIN itself (pysqlite's implicit transactions are
+    # off), and use write-ahead logging so readers never block the writer.
+    dbapi_conn.isolation_level = None
+    dbapi_conn.execute("PRAGMA journal_mode=WAL")
+    dbapi_conn.execute("PRAGMA foreign_keys=ON")
+
+
+def sqlite_on_begin(conn) -> None:
+    """Take the write lock at the start of every transaction.
+
+    Concurrent writers then queue (busy timeout) instead of failing on lock
+    upgrade.
+    """
+    conn.exec_driver_sql("BEGIN IMMEDIATE")
