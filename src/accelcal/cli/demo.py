@@ -31,7 +31,7 @@ def demo(
     typer.echo(f"report:  {result.report}")
     typer.echo(f"figures: {out / 'figures'} ({len(result.figures)} SVG files)")
     typer.echo(f"records: {out / 'records'} ({len(result.records)} calibration records)")
-    typer.echo(f"data:    {out / 'data'} (indexing head, shaker, vibrafuge, triad record files)")
+    typer.echo(f"data:    {out / 'data'} (the record file of each test)")
     typer.echo(f"store:   {result.store} (record ids "
                f"{', '.join(map(str, result.record_ids))})")
     typer.echo(f"seed:    {result.seed} (repeat with --seed {result.seed})")
