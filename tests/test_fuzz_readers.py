@@ -231,7 +231,7 @@ def _imucal_seed(tmp: Path):
     """The real imucal session's first 1,500 rows, labelled in a ``part`` column."""
     import pandas as pd
 
-    real = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "imucal"
+    real = Path(__file__).resolve().parent / "fixtures" / "real" / "imucal"
     df = pd.read_csv(real / "example_ferraris_session.csv", nrows=1500)
     df["part"] = np.where(np.arange(len(df)) < 800, "x_p", "x_a")
     path = tmp / "session.csv"

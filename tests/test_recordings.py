@@ -1,7 +1,7 @@
 """A lab's recordings as input (accelcal.io.recordings): formats, options, checks, streaming.
 
 Files are written here by the libraries a lab's tools use (pandas, pyarrow)
-and read back; the real imucal session of ../shared/data/real/imucal is read
+and read back; the real imucal session of tests/fixtures/real/imucal is read
 as imucal writes it. Every refusal is one AccelcalError naming the file, the
 column or row and the parameter to fix.
 """
@@ -19,11 +19,10 @@ from accelcal.io.recordings import InputOptions, describe, iter_blocks, read_rec
 from accelcal.io.records import write_record
 from accelcal.units import STANDARD_GRAVITY
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "imucal"
+REAL = Path(__file__).resolve().parent / "fixtures" / "real" / "imucal"
 SESSION = REAL / "example_ferraris_session.csv"
 REGIONS = REAL / "example_ferraris_session_list.json"
 
-needs_real = pytest.mark.skipif(not SESSION.exists(), reason="real imucal data not present")
 
 
 def table(n=500, seed=0):
@@ -33,7 +32,6 @@ def table(n=500, seed=0):
                          "Z": rng.normal(9.8, 1, n), "temp": rng.normal(25, 1, n)})
 
 
-@needs_real
 def test_real_imucal_session_with_regions():
     rec = read_recording(SESSION, InputOptions(rate=102.4, regions=REGIONS), channels=3)
     raw = pd.read_csv(SESSION)
@@ -49,7 +47,6 @@ def test_real_imucal_session_with_regions():
     assert rec.values[s:e, 0].mean() == pytest.approx(9.81, abs=0.6)
 
 
-@needs_real
 def test_imucal_part_column_labels(tmp_path):
     raw = pd.read_csv(SESSION)
     spans = json.loads(REGIONS.read_text())
@@ -196,7 +193,6 @@ def test_channel_count_and_binary_files(tmp_path):
                                             rate=1.0))
 
 
-@needs_real
 @pytest.mark.parametrize(("regions", "match"), [
     ({"x_p": {"start": 5, "end": 2}}, "0 <= i < j"),
     ({"x_p": {"start": 0, "end": 10**9}}, "0 <= i < j"),

@@ -10,7 +10,7 @@ from accelcal.io.formats import triad as triad_format
 from accelcal.methods.triad.model import TriadCalibration
 from cli_helpers import run_cli
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "imucal"
+DATA = Path(__file__).resolve().parent / "fixtures" / "real" / "imucal"
 SESSION = DATA / "example_ferraris_session.csv"
 REGIONS = DATA / "example_ferraris_session_list.json"
 TRUTH = TriadCalibration([0.05, -0.08, 0.12], [1.01, 0.995, 1.02], [1e-3, -2e-3, 1.5e-3])
@@ -121,7 +121,6 @@ def test_calibrate_table_and_record(six, tmp_path, capsys):
     assert json.loads((tmp_path / "rec.json").read_text())["serial"] == "TRIAD-1"
 
 
-@pytest.mark.skipif(not SESSION.exists(), reason="imucal example data not present")
 def test_the_imucal_session_calibrates_and_applies_both_ways(tmp_path, capsys):
     import pandas as pd
 

@@ -1,8 +1,9 @@
 """Real data (issue 12 item 6): imucal's own six-position session, calibrated by accelcal and by
 imucal (a test dependency), compared; imucal's labels and JSON files both ways.
 
-The session (``../shared/data/real/imucal``, MIT licence) is a hand-held six-position Ferraris
-recording of a real IMU in nominal m/s^2 at 102.4 Hz, with imucal's regions file.
+The session (``tests/fixtures/real/imucal``, imucal's example data, MIT licence) is a
+hand-held six-position Ferraris recording of a real IMU in nominal m/s^2 at 102.4 Hz, with
+imucal's regions file.
 
 How close the two must be (derivation, checked below):
 
@@ -44,13 +45,11 @@ from accelcal.methods.triad.model import TriadCalibration
 
 imucal = pytest.importorskip("imucal")
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "imucal"
+DATA = Path(__file__).resolve().parent / "fixtures" / "real" / "imucal"
 SESSION = DATA / "example_ferraris_session.csv"
 REGIONS = DATA / "example_ferraris_session_list.json"
 RATE = 102.4
 GRAV = 9.81  # imucal's default grav, used by both tools here
-
-pytestmark = pytest.mark.skipif(not SESSION.exists(), reason="imucal example data not present")
 
 
 @pytest.fixture(scope="module")
