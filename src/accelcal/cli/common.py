@@ -96,6 +96,20 @@ def load_model(path: Path | None):
     return default_model() if path is None else ErrorModel.load(path)
 
 
+def check_writable(path: Path | None) -> None:
+    """Refuse an output in a missing directory or over a non-file before any work is done."""
+    from accelcal.io.limits import shown_path
+
+    if path is None:
+        return
+    if not path.parent.is_dir():
+        raise AccelcalError(f"cannot write {shown_path(path)}: directory "
+                            f"{shown_path(path.parent)} does not exist; create it first")
+    if path.exists() and not path.is_file():
+        raise AccelcalError(f"cannot write {shown_path(path)}: it exists and is not a regular "
+                            "file; give a file name")
+
+
 def check_format(fmt: str) -> str:
     """Validate an output format name."""
     if fmt not in FORMATS:

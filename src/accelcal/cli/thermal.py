@@ -5,7 +5,7 @@ from pathlib import Path
 import typer
 
 from accelcal.cli import record_options
-from accelcal.cli.common import check_format, emit, load_model, parse_grid
+from accelcal.cli.common import check_format, check_writable, emit, load_model, parse_grid
 from accelcal.cli.input_options import DELIMITER, INPUT_FORMAT, TIME, TIME_UNIT
 from accelcal.errors import AccelcalError
 
@@ -15,16 +15,6 @@ app = typer.Typer(
           "temperature compensation of recordings."),
     no_args_is_help=True,
 )
-
-
-def _check_writable(path: Path | None) -> None:
-    from accelcal.io.limits import shown_path
-
-    if path is not None and not path.parent.is_dir():
-        raise AccelcalError(f"cannot write {shown_path(path)}: directory "
-                            f"{shown_path(path.parent)} does not exist; create it first")
-    if path is not None and path.exists() and not path.is_file():
-        raise AccelcalError(f"cannot write {shown_path(path)}: it exists and is not a file")
 
 
 @app.command("simulate")
@@ -68,7 +58,7 @@ def simulate(
     from accelcal.rigs.thermal import DEFAULT_TEMPERATURE, Programme
     from accelcal.rigs.thermal import simulate as simulate_thermal
 
-    _check_writable(out)
+    check_writable(out)
     model = load_model(model_file)
     if model_file is None:
         model = model.replace(temperature=DEFAULT_TEMPERATURE)
@@ -129,7 +119,7 @@ def reduce(
     if order not in ("auto", "1", "2", "3"):
         raise AccelcalError(f"--order {order[:20]!r} is not auto, 1, 2 or 3")
     for path in (compensation, model_out, record_out):
-        _check_writable(path)
+        check_writable(path)
     info = record_options.lab_info_for(record_out, [file], serial=serial, operator=None)
     record = thermal_format.read(file)
     chosen = [t.strip() for t in terms.split(",")] if terms is not None else None
@@ -185,7 +175,7 @@ def compensate(
     from accelcal.io.recordings.sources import open_source
     from accelcal.methods.thermal import Compensation, compensate_stream
 
-    _check_writable(out)
+    check_writable(out)
     comp = Compensation.load(model)
     if temperature_unit is not None and temperature_unit not in TEMPERATURE_UNITS:
         raise AccelcalError(f"--temperature-unit {temperature_unit[:20]!r} is not degC or K")
@@ -199,7 +189,8 @@ def compensate(
         units={temperature_column: t_unit} if t_unit in TEMPERATURE_UNITS else None,
         delimiter="\t" if delimiter == "\\t" else delimiter)
     try:
-        prov, _ = describe(file, opts, need_rate=False, what="recording to compensate")
+        prov, _ = describe(file, opts, need_rate=False, what="recording to compensate",
+                           digest=False)
     except AccelcalError as exc:
         if exc.parameter != "columns":
             raise

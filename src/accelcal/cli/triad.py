@@ -5,7 +5,7 @@ from pathlib import Path
 import typer
 
 from accelcal.cli import record_options, triad_plan, uncertainty_options
-from accelcal.cli.common import check_format, emit
+from accelcal.cli.common import check_format, check_writable, emit
 from accelcal.cli.input_options import (
     COLUMNS,
     DELIMITER,
@@ -87,13 +87,13 @@ def detect(
                    min_length=min_length)
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter)
-    prov, sample_rate = describe(file, opts, channels=3, what="triad recording")
+    prov, sample_rate = describe(file, opts, channels=3, what="triad recording", digest=False)
     blocks = iter_blocks(file, opts, channels=3, what="triad recording")
     with DelayedProgress(f"static intervals of {file.name}") as progress:
         (found,) = detect_static_stream(
             blocks, sample_rate, init_static=init_static, window=window, factors=(factor,),
             min_length=min_length, unit=prov["unit"],
-            progress=lambda done: progress(done, max(done, prov.get("samples") or done)))
+            progress=lambda done: progress(done, done))  # the length is not known ahead
     if plot is not None:
         from accelcal.plotting import save_figure
         from accelcal.signal.static import figure
@@ -134,20 +134,6 @@ def _known(rec, positions: Path | None, detect_args):
     if known is None and rec.metadata.get("positions"):
         known = listed_positions(rec.values, rec.metadata["positions"], "the record's positions")
     return known, None
-
-
-def _check_writable(path: Path | None) -> None:
-    """Refuse an output in a missing directory or over a directory before any work."""
-    from accelcal.io.limits import shown_path
-
-    if path is None:
-        return
-    if not path.parent.is_dir():
-        raise AccelcalError(f"cannot write {shown_path(path)}: directory "
-                            f"{shown_path(path.parent)} does not exist; create it first")
-    if path.exists() and not path.is_file():
-        raise AccelcalError(f"cannot write {shown_path(path)}: it exists and is not a regular "
-                            "file; give a file name")
 
 
 @app.command("calibrate")
@@ -214,7 +200,7 @@ def calibrate(
     check_settings(init_static=init_static, window=window, min_length=min_length,
                    factor=2.0 if factor is None else factor)
     for path in (out, imucal_out, record_out):
-        _check_writable(path)
+        check_writable(path)
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
                          regions=regions)
@@ -346,14 +332,15 @@ def apply(
 
     if output_unit not in ("m/s^2", "g"):
         raise AccelcalError(f"--output-unit {output_unit!r} is not m/s^2 or g")
-    _check_writable(out)
+    check_writable(out)
     cal = read_calibration(calibration, input_unit=unit)
     source = open_source(file, input_format, delimiter)
     if unit is None and source.input_format in ("csv", "parquet", "imu_tk"):
         unit = cal.input_unit
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter)
-    prov, _ = describe(file, opts, channels=3, need_rate=False, what="triad recording")
+    prov, _ = describe(file, opts, channels=3, need_rate=False, what="triad recording",
+                       digest=False)
     factor = 1.0
     if prov["unit"] != cal.input_unit:
         if prov["unit"] not in ACCELERATION_UNITS or cal.input_unit not in ACCELERATION_UNITS:
@@ -400,7 +387,7 @@ def simulate(
         up = int(positions)
     else:
         raise AccelcalError(f"--positions {positions[:40]!r} is not 'six' or a number")
-    _check_writable(out)
+    check_writable(out)
     cal = (TriadCalibration([0.05, -0.08, 0.12], [1.01, 0.995, 1.02], [1e-3, -2e-3, 1.5e-3])
            if truth is None else read_calibration(truth))
     record = simulate_triad(cal, up, rate=rate, dwell=dwell, motion=motion, still=still,

@@ -253,7 +253,7 @@ def simulate(*, N=0.0, B=0.0, K=0.0, Q=0.0, R=0.0, rate, duration, seed=0, bias=
 
     n = check_settings(N, B, K, Q, R, rate, duration, bias)
     check_memory(n, 1, 3, "the simulated recording", parameter="duration",
-                 hint="stream it to a file with accelcal noise simulate --out X.parquet")
+                 hint="stream it in blocks (simulate_blocks) to a Parquet record")
     y = np.concatenate(list(simulate_blocks(N=N, B=B, K=K, Q=Q, R=R, rate=rate,
                                             duration=duration, seed=seed, bias=bias,
                                             b_range=b_range)))

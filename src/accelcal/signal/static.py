@@ -215,9 +215,7 @@ def detect_static(values, rate: float, *, init_static: float = 30.0, window: flo
             f"no still period at the start: {init_static:g} s is longer than the record "
             f"({duration:.4g} s); give a shorter one", parameter="init_static")
     if n_init < w:
-        raise AccelcalError(
-            f"no still period at the start: {init_static:g} s is shorter than the window "
-            f"({window:g} s); give a longer one or a shorter --window", parameter="init_static")
+        raise init_shorter_than_window(init_static, window)
     stat = np.linalg.norm(moving_variance(u, w), axis=1)  # Eq. (9) [Tedaldi2014]
     init = initial_variance(u[:n_init], stat[:n_init], w, init_static, window)
     threshold = factor * init
@@ -226,11 +224,8 @@ def detect_static(values, rate: float, *, init_static: float = 30.0, window: flo
     keep = (stops - starts) >= max(min_length * rate, 2)
     starts, stops = starts[keep], stops[keep]
     if not len(starts):
-        raise AccelcalError(
-            f"no static intervals found: the longest still run is {longest:.3g} s, below "
-            f"--min-length {min_length:g} s (threshold {threshold:.3g} = {factor:g} x "
-            f"{init:.3g} of the initial period, window {window:g} s); lower --min-length, "
-            "raise --factor or hold the positions longer")
+        raise no_intervals(longest, min_length=min_length, factor=factor, init=init,
+                           window=window)
     t = np.arange(n) / rate if time is None else np.asarray(time, dtype=float)
     means = np.array([u[a:b].mean(axis=0) for a, b in zip(starts, stops, strict=True)])
     sd = np.array([u[a:b].std(axis=0, ddof=1) for a, b in zip(starts, stops, strict=True)])
@@ -272,6 +267,23 @@ def initial_variance(u_init: np.ndarray, stat_init: np.ndarray, w: int, init_sta
             f"windows (a still period: under {STILL_RATIO:g}); give a shorter one that "
             "ends before the first motion", parameter="init_static")
     return init
+
+
+def init_shorter_than_window(init_static: float, window: float) -> AccelcalError:
+    """The error of an initial still period shorter than the window."""
+    return AccelcalError(
+        f"no still period at the start: {init_static:g} s is shorter than the window "
+        f"({window:g} s); give a longer one or a shorter window", parameter="init_static")
+
+
+def no_intervals(longest: float, *, min_length: float, factor: float, init: float,
+                 window: float) -> AccelcalError:
+    """The error of a detection that kept no interval (``longest``: the longest run, s)."""
+    return AccelcalError(
+        f"no static intervals found: the longest still run is {longest:.3g} s, below "
+        f"min_length {min_length:g} s (threshold {factor * init:.3g} = {factor:g} x "
+        f"{init:.3g} of the initial period, window {window:g} s); lower min_length, raise "
+        "the factor or hold the positions longer", parameter="min_length")
 
 
 def check_settings(**settings) -> None:

@@ -30,8 +30,10 @@ from accelcal.signal.static import (
     StaticIntervals,
     _runs,
     check_settings,
+    init_shorter_than_window,
     initial_variance,
     moving_variance,
+    no_intervals,
 )
 
 MAX_SETTING_SAMPLES = 1e9
@@ -159,9 +161,7 @@ def detect_static_stream(blocks: Iterable, rate: float, *, init_static: float = 
         raise AccelcalError(f"{window:g} s is {w} samples at {rate:g} Hz; the window needs "
                             "at least 3 samples", parameter="window")
     if n_init < w:
-        raise AccelcalError(
-            f"no still period at the start: {init_static:g} s is shorter than the window "
-            f"({window:g} s); give a longer one or a shorter --window", parameter="init_static")
+        raise init_shorter_than_window(init_static, window)
     buf, tbuf, buf_start, done = np.empty((0, 3)), np.empty(0), 0, 0
     runs, trace = None, _Trace(trace_points)
     for block in blocks:
@@ -234,10 +234,6 @@ def _results(runs, factors, *, rate, init_static, window, min_length, unit, trac
             init_variance=init, settings=settings, statistic=stat, unit=unit,
             trace=(t, norm)))
     if all(o is None for o in out):
-        init = runs[0][0]
-        raise AccelcalError(
-            f"no static intervals found: the longest still run is {longest / rate:.3g} s, "
-            f"below --min-length {min_length:g} s (threshold {factors[0] * init:.3g} = "
-            f"{factors[0]:g} x {init:.3g} of the initial period, window {window:g} s); lower "
-            "--min-length, raise --factor or hold the positions longer")
+        raise no_intervals(longest / rate, min_length=min_length, factor=factors[0],
+                           init=runs[0][0], window=window)
     return out

@@ -165,7 +165,7 @@ def _merge(stated: dict, given: dict) -> dict:
 def _temperatures(path, options: InputOptions, temperature: dict, rows: int) -> dict:
     opts = dataclasses.replace(options, columns=tuple(temperature.values()), unit=None,
                                scale=None, refuse_gaps=False)
-    prov, _ = describe(path, opts, need_rate=False)
+    prov, _ = describe(path, opts, need_rate=False, digest=False)
     units = prov.get("units") or dict.fromkeys(temperature.values(), prov["unit"])
     for name, source in temperature.items():
         if units[source] not in TEMPERATURE_UNITS:

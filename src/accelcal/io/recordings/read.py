@@ -199,8 +199,13 @@ def iter_blocks(path, options: InputOptions | None = None, *, rows: int = DEFAUL
 
 
 def describe(path, options: InputOptions | None = None, *, channels: int | None = None,
-             need_rate: bool = True, what: str = "recording") -> tuple[dict, float | None]:
-    """The provenance of a streamed recording and its rate, read from its first block."""
+             need_rate: bool = True, what: str = "recording",
+             digest: bool = True) -> tuple[dict, float | None]:
+    """The provenance of a streamed recording and its rate, read from its first block.
+
+    ``digest=False`` leaves out the SHA-256 (a read of the whole file), for
+    callers that need only the columns, units and rate.
+    """
     options = options or InputOptions()
     plan = make_plan(path, options, channels, need_rate, what)
     rate = plan.rate
@@ -210,15 +215,16 @@ def describe(path, options: InputOptions | None = None, *, channels: int | None 
             raise AccelcalError(f"{shown_name(plan.source.path.name)}: too few samples to "
                                 "tell the sample rate from the time column", parameter="rate")
         rate = _rate_of(first.time, plan)
-    return provenance(plan, rate, None), rate
+    return provenance(plan, rate, None, digest=digest), rate
 
 
-def provenance(plan: Plan, rate: float | None, samples: int | None) -> dict:
-    """What a record says about the recording it was reduced from."""
+def provenance(plan: Plan, rate: float | None, samples: int | None, *,
+               digest: bool = True) -> dict:
+    """What a record says about the recording it was reduced from (``sha256`` with ``digest``)."""
     source = plan.source
     out = {
         "file": source.path.name,
-        "sha256": sha256(source.path),
+        **({"sha256": sha256(source.path)} if digest else {}),
         "input_format": source.input_format,
         "columns": list(plan.channels),
         "unit": plan.unit,

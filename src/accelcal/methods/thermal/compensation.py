@@ -89,8 +89,8 @@ class Compensation:
         tt = model.temperature
         if tt is None or tt.valid_range is None:
             raise AccelcalError("the model has no temperature terms with a valid range; a "
-                                "compensation needs both (write one with `accelcal thermal "
-                                "reduce --compensation`)", parameter="model")
+                                "compensation needs both (a thermal reduction's model has "
+                                "them)", parameter="model")
         c = {"K0": model.K0, "K1": model.K1,
              **{n: v for n, v in tt.coefficients if n[:2] in ("K0", "K1")}}
         return cls(model.output_unit, tt.reference, tt.valid_range, c, description)

@@ -163,7 +163,7 @@ def fit_polynomial(y, std, dt, direction, *, order="auto", alpha: float = ALPHA,
         raise AccelcalError(
             f"{what}: order {top} needs at least {top + 2 + hyst} plateaus at {top + 1} or more "
             f"distinct temperatures (one degree of freedom left for the scatter); there are "
-            f"{y.size} at {np.unique(np.round(dt, 6)).size}: give a lower --order or more "
+            f"{y.size} at {np.unique(np.round(dt, 6)).size}: give a lower order or more "
             "plateaus", parameter="order")
     if not fits:
         raise AccelcalError(
