@@ -37,16 +37,54 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs" / "benchmarks.md"
 BUSY_PER_CORE = 0.5
-"""1-minute load average per core above which a figure is flagged "under load"."""
+"""1-minute load average per core above which the machine counts as busy before a section."""
+OTHERS_PER_CORE = 0.25
+"""CPU time of other processes per core and per second of a run above which the run's
+figure is flagged "under load" (0.5 of a core on a 2-core machine)."""
+
+
+POOL_SECONDS = 1.0
+"""Runs of a candidate shorter than this in all are too short for ``/proc/stat``'s 10 ms
+ticks: their others' CPU is that of the whole interleaved session."""
 
 
 @dataclass
 class Runs:
-    """Wall and CPU times of each run of one candidate, and the load before each run."""
+    """Wall and CPU times of each run of one candidate, the load before each run, the CPU
+    seconds other processes took during each run (None without ``/proc/stat``), and the
+    others' CPU of the whole interleaved session (cores)."""
 
     wall: list
     cpu: list
     load: list
+    others: list
+    session_others: float | None = None
+
+    def others_cores(self) -> float | None:
+        """Others' CPU during this candidate's runs, cores (pooled: seconds over seconds)."""
+        if not self.others or None in self.others:
+            return None
+        if sum(self.wall) >= POOL_SECONDS:
+            return sum(self.others) / sum(self.wall)
+        return self.session_others
+
+
+def _busy_seconds() -> float | None:
+    """CPU seconds the whole machine has spent busy (``/proc/stat``), or None without it."""
+    try:
+        with open("/proc/stat", encoding="ascii") as f:
+            fields = f.readline().split()
+    except OSError:
+        return None
+    # user nice system idle iowait irq softirq steal: busy = all but idle and iowait
+    ticks = [int(x) for x in fields[1:9]]
+    return (sum(ticks) - ticks[3] - ticks[4]) / os.sysconf("SC_CLK_TCK")
+
+
+def _own_seconds() -> float:
+    """CPU seconds of this process and of its children that have ended."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
 
 
 def interleaved(candidates: dict[str, Callable[[], object]], repeats: int = 5,
@@ -55,19 +93,33 @@ def interleaved(candidates: dict[str, Callable[[], object]], repeats: int = 5,
 
     A, B, C, A, B, C, ...: each round runs every candidate once, so slow
     drifts of the machine hit all alike. ``detail``, when given, receives a
-    :class:`Runs` per candidate (CPU times of this process and the 1-minute
-    load average sampled before each run).
+    :class:`Runs` per candidate (CPU times of this process, the 1-minute
+    load average sampled before each run, and the CPU time other processes
+    took during it: the machine's busy time from ``/proc/stat`` less this
+    process's and its ended children's, :meth:`Runs.others_cores`). The
+    load average lags by a minute and counts the benchmark's own earlier
+    runs; the other processes' share does neither, so it decides the flag.
     """
     if repeats < 5:
         raise ValueError("medians need at least 5 repeats")
-    runs = {name: Runs([], [], []) for name in candidates}
+    runs = {name: Runs([], [], [], []) for name in candidates}
+    start = (_busy_seconds(), _own_seconds(), time.perf_counter())
     for _ in range(repeats):
         for name, fn in candidates.items():
             runs[name].load.append(os.getloadavg()[0])
+            busy0, own0 = _busy_seconds(), _own_seconds()
             cpu, wall = time.process_time(), time.perf_counter()
             fn()
             runs[name].wall.append(time.perf_counter() - wall)
             runs[name].cpu.append(time.process_time() - cpu)
+            busy1, own1 = _busy_seconds(), _own_seconds()
+            runs[name].others.append(
+                None if busy0 is None else max(0.0, (busy1 - busy0) - (own1 - own0)))
+    busy1, own1, end = _busy_seconds(), _own_seconds(), time.perf_counter()
+    if start[0] is not None:
+        session = max(0.0, (busy1 - start[0]) - (own1 - start[1])) / max(end - start[2], 1e-9)
+        for r in runs.values():
+            r.session_others = session
     if detail is not None:
         detail.update(runs)
     return {name: r.wall for name, r in runs.items()}
@@ -87,8 +139,13 @@ def cpus() -> int:
 
 
 def busy(load: float, n_cpus: int | None = None) -> bool:
-    """Whether a 1-minute load average means the machine was too busy to trust a figure."""
+    """Whether a 1-minute load average means the machine was busy (before a section)."""
     return load / (n_cpus or cpus()) > BUSY_PER_CORE
+
+
+def crowded(others: float | None, n_cpus: int | None = None) -> bool:
+    """Whether other processes took enough CPU during runs to flag a figure "under load"."""
+    return others is not None and others / (n_cpus or cpus()) > OTHERS_PER_CORE
 
 
 def machine() -> dict:
@@ -129,8 +186,10 @@ class Figure:
     ``median_s`` is the median wall time of the runs, ``ratio`` that over
     the floor's median wall time (None without a floor), ``cpu_ratio`` the
     same with CPU times (less sensitive to other processes), ``load`` the
-    median 1-minute load average before the runs, ``flagged`` whether that
-    load marks the figure as taken "under load".
+    median 1-minute load average before the runs, ``others`` the CPU time
+    other processes took during the runs (cores, :meth:`Runs.others_cores`;
+    None where ``/proc/stat`` is missing), ``flagged`` whether that marks the figure as taken "under
+    load" (:func:`crowded`).
     """
 
     name: str
@@ -140,6 +199,7 @@ class Figure:
     flagged: bool
     cpu_ratio: float | None = None
     note: str = ""
+    others: float | None = None
 
 
 def figures(runs: dict[str, list[float]], detail: dict, floor: str | None = None, *,
@@ -163,11 +223,13 @@ def figures(runs: dict[str, list[float]], detail: dict, floor: str | None = None
     rows = []
     for name, times in runs.items():
         load = median(detail[name].load)
+        others = detail[name].others_cores()
         rows.append(Figure(
             name, median(times),
-            wall(name) / wall(floor) if floor else None, load, busy(load),
+            wall(name) / wall(floor) if floor else None, load,
+            crowded(others) if others is not None else busy(load),
             cpu(name) / cpu(floor) if cpu_ratios and floor and cpu(floor) > 0 else None,
-            notes.get(name, "")))
+            notes.get(name, ""), others))
     return rows
 
 
@@ -179,11 +241,13 @@ def markdown(rows: list[Figure], title: str, floor_name: str = "floor") -> str:
     """A markdown table of ``rows`` under a bold ``title``."""
     lines = [f"**{title}**", "",
              (f"| candidate | median wall (s) | time / {floor_name} | CPU time / {floor_name} "
-              "| load (1 min) | under load | note |"),
-             "| --- | --- | --- | --- | --- | --- | --- |"]
+              "| load (1 min) | others' CPU (cores) | under load | note |"),
+             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
+        others = "n/a" if r.others is None else f"{r.others:.2f}"
         lines.append(f"| {r.name} | {_g(r.median_s, 4)} | {_g(r.ratio)} | {_g(r.cpu_ratio)} "
-                     f"| {r.load:.2f} | {'yes' if r.flagged else 'no'} | {r.note} |")
+                     f"| {r.load:.2f} | {others} | {'yes' if r.flagged else 'no'} "
+                     f"| {r.note} |")
     return "\n".join(lines)
 
 

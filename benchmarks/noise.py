@@ -3,57 +3,65 @@
 Run from the repository root::
 
     python benchmarks/noise.py                 # both sections (the memory one takes minutes)
-    python benchmarks/noise.py speed           # time only
+    python benchmarks/noise.py speed --repeats 9
     python benchmarks/noise.py memory --samples 100000000
+    python benchmarks/noise.py --update-docs   # also write docs/benchmarks.md (section noise)
 
-``speed``: the overlapping Allan deviation at octave taus of one 1e7-sample
-series (white noise plus a random walk), each whole public call timed:
-``accelcal.signal.allan.deviations.deviation`` (deviations, noise
-identification per tau, Greenhall-Riley EDF, chi-square intervals) and
-``allantools.oadev`` (deviations and its simple error bars), beside the
-floor of one read of the array (``np.sum``). Medians of 7 repeats,
-interleaved (A, B, C, A, B, C ...); the 1-minute load average of the
-machine is printed beside each figure. The deviations must agree to 1e-9.
+``speed``: the overlapping Allan deviation at octave taus of one series of
+``--samples`` samples (default 1e7; white noise plus a random walk), each
+whole public call timed: ``accelcal.signal.allan.deviations.deviation``
+(deviations, noise identification per tau, Greenhall-Riley EDF, chi-square
+intervals) and ``allantools.oadev`` (deviations and its simple error bars),
+beside the floor of one read of the array (``np.sum``). Each figure is the
+median of ``--repeats`` runs (default 7) timed interleaved by
+:func:`common.interleaved` (A, B, C, A, B, C, ...), with its ratio to the
+floor, the 1-minute load average and the other processes' CPU beside it.
+The summary gives the largest relative difference between the two
+deviations over their common taus (they must agree to 1e-9) and the speed
+ratio allantools / accelcal.
 
-``memory``: a Parquet noise record of ``--samples`` samples is written
-(streamed), then, in a new process, streamed through the overlapping ADEV
-with noise identification and intervals (:func:`accelcal.methods.noise.stream.stream_deviation`);
+``memory``: a Parquet noise record of ``--samples`` samples (default 1e8)
+is written (streamed), then, in a new process, streamed through the
+overlapping ADEV with noise identification and intervals
+(:func:`accelcal.methods.noise.stream.stream_deviation`); the summary gives
 the process's peak resident memory (``resource.getrusage``, ``ru_maxrss``:
 it counts the pages of the memmapped phase file that were touched, which
 are page cache) and its peak anonymous resident memory (``RssAnon`` of
 ``/proc/self/status``, sampled every 20 ms: the memory the process itself
-holds) are printed beside the record's size as float64.
+holds) beside the samples' size as float64, with the stream's wall time
+(one run) and the load average before it.
+
+``--update-docs`` writes the tables into ``docs/benchmarks.md`` (section
+``noise``).
 """
 
+import common  # noqa: I001  (first: it pins BLAS to one thread before numpy loads)
+
 import argparse
+import json
 import os
-import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-
-def median_times(candidates: dict, repeat: int = 7) -> dict[str, tuple[float, float]]:
-    """Median wall time and mean load average of each candidate, timed interleaved."""
-    times = {k: [] for k in candidates}
-    loads = {k: [] for k in candidates}
-    for _ in range(repeat):
-        for name, fn in candidates.items():
-            loads[name].append(os.getloadavg()[0])
-            start = time.perf_counter()
-            fn()
-            times[name].append(time.perf_counter() - start)
-    return {k: (statistics.median(times[k]), float(np.mean(loads[k]))) for k in candidates}
+AGREEMENT = 1e-9
+"""Largest relative difference allowed between accelcal's and allantools' deviations."""
 
 
-def bench_speed(samples: int = 10_000_000, rate: float = 100.0) -> None:
+def _agreement(ours, taus, dev) -> tuple[float, int]:
+    """Largest relative difference of the deviations at the common taus, and their count."""
+    mine, theirs = np.round(ours.tau, 9), np.round(taus, 9)
+    common_taus = np.intersect1d(mine, theirs)
+    a = ours.dev[np.isin(mine, common_taus)]
+    b = dev[np.isin(theirs, common_taus)]
+    return float(np.max(np.abs(a / b - 1))), common_taus.size
+
+
+def bench_speed(report: common.Report, samples: int, repeats: int, rate: float = 100.0) -> None:
     """accelcal vs allantools, oadev at octave taus of the same series."""
     import allantools
 
@@ -63,28 +71,34 @@ def bench_speed(samples: int = 10_000_000, rate: float = 100.0) -> None:
     y = 1e-4 * rng.standard_normal(samples) + 1e-7 * np.cumsum(rng.standard_normal(samples))
     ours = deviation(y, rate, kind="oadev", taus="octave")
     taus, dev, _, _ = allantools.oadev(y, rate=rate, data_type="freq", taus="octave")
-    common = np.intersect1d(np.round(ours.tau, 9), np.round(taus, 9))
-    a = ours.dev[np.isin(np.round(ours.tau, 9), common)]
-    b = dev[np.isin(np.round(taus, 9), common)]
-    agree = float(np.max(np.abs(a / b - 1)))
-    res = median_times({
-        "read once (np.sum)": lambda: np.sum(y),
-        "accelcal deviation(oadev, octave)": lambda: deviation(y, rate, kind="oadev",
-                                                               taus="octave"),
-        "allantools.oadev(octave)": lambda: allantools.oadev(y, rate=rate, data_type="freq",
-                                                             taus="octave"),
-    })
-    print(f"\nspeed: {samples:.0e} samples, {ours.tau.size} octave taus (allantools "
-          f"{len(taus)}), max relative difference {agree:.1e} over {common.size} common taus")
-    floor = res["read once (np.sum)"][0]
-    for name, (t, load) in res.items():
-        print(f"  {name:<36} {t:9.3f} s  {t / floor:8.1f} x floor   load {load:.2f}")
-    ratio = res["allantools.oadev(octave)"][0] / res["accelcal deviation(oadev, octave)"][0]
-    print(f"  allantools / accelcal: {ratio:.2f}")
+    agree, n_common = _agreement(ours, taus, dev)
+    floor, mine, theirs = ("read once (np.sum, floor)", "accelcal deviation(oadev, octave)",
+                           "allantools.oadev(octave)")
+    detail: dict = {}
+    runs = common.interleaved({
+        floor: lambda: np.sum(y),
+        mine: lambda: deviation(y, rate, kind="oadev", taus="octave"),
+        theirs: lambda: allantools.oadev(y, rate=rate, data_type="freq", taus="octave"),
+    }, repeats, detail=detail)
+    rows = {r.name: r for r in common.figures(runs, detail, floor=floor, notes={
+        mine: "deviations, noise identification, EDF, chi-square intervals",
+        theirs: "deviations, simple error bars"})}
+    report.add(common.markdown(
+        list(rows.values()), f"Overlapping ADEV at octave taus, {samples:,} samples "
+        f"(median of {repeats})", floor_name="one read"))
+    report.add(common.pairs([
+        ("octave taus, accelcal / allantools", f"{ours.tau.size} / {len(taus)}"),
+        (f"largest relative difference of the deviations over the {n_common} common taus",
+         f"{agree:.2g} ({'within' if agree <= AGREEMENT else 'OUTSIDE'} {AGREEMENT:g})"),
+        ("allantools / accelcal, median wall times",
+         f"{rows[theirs].median_s / rows[mine].median_s:.2f}"),
+        ("allantools / accelcal, median CPU times",
+         f"{common.median(detail[theirs].cpu) / common.median(detail[mine].cpu):.2f}"),
+    ], "Noise speed: summary"))
 
 
 _CHILD = """
-import resource, sys, threading, time
+import json, resource, sys, threading, time
 from accelcal.methods.noise.stream import stream_deviation
 
 peak_anon = [0]
@@ -103,12 +117,13 @@ start = time.perf_counter()
 dev, _, prov = stream_deviation(sys.argv[1], tmpdir=sys.argv[2])
 seconds = time.perf_counter() - start
 done.set()
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-print(f"{prov['samples']} {dev.tau.size} {seconds:.1f} {peak:.0f} {peak_anon[0] / 1024:.0f}")
+print(json.dumps({"samples": prov["samples"], "taus": int(dev.tau.size), "seconds": seconds,
+                  "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                  "anon_mib": peak_anon[0] / 1024}))
 """
 
 
-def bench_memory(samples: int = 100_000_000, rate: float = 1000.0) -> None:
+def bench_memory(report: common.Report, samples: int, rate: float = 1000.0) -> None:
     """Peak resident memory of streaming a long Parquet record (in a child process)."""
     from accelcal.io.formats.noise import write_blocks
     from accelcal.rigs.noise import simulate_blocks
@@ -120,27 +135,45 @@ def bench_memory(samples: int = 100_000_000, rate: float = 1000.0) -> None:
                                            seed=1), rate=rate, unit="g")
         written = time.perf_counter() - start
         load = os.getloadavg()[0]
-        out = subprocess.run([sys.executable, "-c", _CHILD, str(path), tmp], check=True,
-                             capture_output=True, text=True).stdout.split()
-        n, taus, seconds = int(out[0]), int(out[1]), float(out[2])
-        peak, anon = float(out[3]), float(out[4])
-        print(f"\nmemory: {n:.2e} samples streamed from Parquet ({path.stat().st_size / 2**20:.0f}"
-              f" MiB file, written in {written:.0f} s), oadev at {taus} octave taus")
-        print(f"  peak resident memory {peak:.0f} MiB, of which anonymous (the process's own) "
-              f"{anon:.0f} MiB; the rest is the memmapped phase file's pages (page cache); "
-              f"the samples as float64: {8 * n / 2**20:.0f} MiB   time {seconds:.0f} s   "
-              f"load {load:.2f}")
+        out = json.loads(subprocess.run([sys.executable, "-c", _CHILD, str(path), tmp],
+                                        check=True, stdout=subprocess.PIPE, text=True).stdout)
+        size = path.stat().st_size / 2**20
+    report.add(common.pairs([
+        ("samples streamed from Parquet (file size, time to write it)",
+         f"{out['samples']:,} ({size:.0f} MiB, {written:.1f} s)"),
+        ("octave taus", str(out["taus"])),
+        ("peak resident memory (ru_maxrss, with the memmapped phase file's pages)",
+         f"{out['peak_mib']:.0f} MiB"),
+        ("peak anonymous resident memory (RssAnon: the process's own)",
+         f"{out['anon_mib']:.0f} MiB"),
+        ("the samples as float64", f"{8 * out['samples'] / 2**20:.0f} MiB"),
+        ("wall time of the stream (one run)", f"{out['seconds']:.1f} s"),
+        ("load before the run (1 min)", f"{load:.2f} on {common.cpus()} CPUs"),
+    ], "Noise memory: oadev of a long record streamed by stream_deviation (fresh subprocess)"))
+
+
+DEFAULT_SAMPLES = {"speed": 10_000_000, "memory": 100_000_000}
+"""The sections and the samples of each when ``--samples`` is not given."""
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("sections", nargs="*", default=["speed", "memory"])
-    parser.add_argument("--samples", type=int, default=100_000_000, help="memory: samples")
+    parser.add_argument("sections", nargs="*", choices=[*DEFAULT_SAMPLES, []], default=[])
+    parser.add_argument("--samples", type=int, default=None,
+                        help="samples of the series (default: 1e7 for speed, 1e8 for memory)")
+    parser.add_argument("--repeats", type=int, default=7,
+                        help="speed: interleaved repeats (>= 5)")
+    common.add_docs_option(parser)
     args = parser.parse_args()
-    if "speed" in args.sections:
-        bench_speed()
-    if "memory" in args.sections:
-        bench_memory(args.samples)
+    report = common.Report("noise")
+    print(common.describe(report.start))
+    for name in args.sections or DEFAULT_SAMPLES:
+        samples = args.samples or DEFAULT_SAMPLES[name]
+        if name == "speed":
+            bench_speed(report, samples, args.repeats)
+        else:
+            bench_memory(report, samples)
+    report.finish(args.update_docs)
 
 
 if __name__ == "__main__":

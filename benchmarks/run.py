@@ -198,11 +198,12 @@ def bench_dask(report, trials: int = 10**7, repeats: int = 5, **_) -> None:
     same = all(np.array_equal(getattr(results[1], f), getattr(results[2], f))
                for f in ("rms_error", "mean_formal_sd"))
     speedup = 1 / rows[1].ratio
+    idle = idle and not any(r.flagged for r in rows)  # nor crowded during the runs
     if idle:
         verdict = f"{'met' if speedup >= 1.6 and same else 'MISSED'} (speed-up {speedup:.2f})"
     else:
-        verdict = (f"not judged: the machine was busy before the section started "
-                   f"(load {load0:.2f} on {common.cpus()} CPUs)")
+        verdict = (f"not judged: the machine was busy (load {load0:.2f} on {common.cpus()} "
+                   "CPUs before the section, or other processes' CPU during the runs)")
     report.add(common.markdown(rows, f"Dask local cluster: {trials} trials (cluster start-up "
                                      "included)", floor_name="1 worker"))
     report.add(common.pairs([

@@ -76,3 +76,59 @@ def test_render_writes_undetermined_values_validly():
     assert json.loads(render(rows, "json")) == [{"a": None, "b": 1.0}]
     assert render(rows, "csv").splitlines()[1] == "nan,1.0"
     assert "n/a" in render(rows, "table")
+
+
+def _csv_module(rows, columns):
+    import csv
+    import io
+
+    from accelcal.cli.common import _csv_cell
+
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(columns)
+    for r in rows:
+        writer.writerow([_csv_cell(r[c]) for c in columns])
+    return buf.getvalue()
+
+
+def test_csv_column_path_is_byte_identical_to_the_csv_module():
+    # The column-wise fast path (plain floats, ints, strings) and the per-cell csv module
+    # path must give the same bytes for every kind of cell, quoting included.
+    import math
+
+    import numpy as np
+
+    rng = np.random.default_rng(3)
+    floats = [float(x) for x in rng.normal(0, 1, 50) * 10.0 ** rng.integers(-20, 20, 50)]
+    floats += [math.nan, math.inf, -math.inf, 0.0, -0.0, 1.0, 1e16, 1e-5, 123456789.0]
+    n = len(floats)
+    cases = [
+        {"id": list(range(n)), "x": floats, "name": [f"K{i}" for i in range(n)]},
+        {"a": floats, "b": [f"with,comma {i}" for i in range(n)]},  # quoted: csv module
+        {"a": floats, "b": ['say "hi"'] * n},
+        {"a": floats, "b": ["line\nbreak"] * n},
+        {"a": floats, "b": [""] * n},
+        {"a": floats, "b": [np.float64(v) for v in floats]},  # numpy scalars: per cell
+        {"a": floats, "b": [True, False] * (n // 2) + [True] * (n % 2)},
+        {"a": floats, "b": [None] * n},
+        {"only": floats},
+    ]
+    for case in cases:
+        columns = list(case)
+        rows = [dict(zip(columns, values, strict=True)) for values in zip(*case.values(),
+                                                                         strict=True)]
+        assert render(rows, "csv") == _csv_module(rows, columns), columns
+    assert render([], "csv") == _csv_module([], [])
+
+
+def test_plain_columns_take_the_column_path(monkeypatch):
+    from accelcal.cli import common
+
+    def no_csv_module(*args, **kwargs):
+        raise AssertionError("the per-cell csv module path was taken")
+
+    monkeypatch.setattr(common.csv, "writer", no_csv_module)
+    rows = [{"id": i, "date": "2020-01-01", "estimate": i / 7, "std": float("nan")}
+            for i in range(5)]
+    assert render(rows, "csv").splitlines()[1] == "0,2020-01-01,0.0,nan"

@@ -22,6 +22,34 @@ def test_import_accelcal_loads_no_heavy_module():
     assert not loaded & set(HEAVY), sorted(loaded & set(HEAVY))
 
 
+def test_import_accelcal_loads_no_numpy_until_a_public_name_is_used():
+    # The root's names are imported on first use: `accelcal --help` never loads numpy.
+    assert "numpy" not in _loaded_after("import accelcal")
+    loaded = _loaded_after("from accelcal import ErrorModel, Reduction, default_model")
+    assert "numpy" in loaded
+    assert not loaded & set(HEAVY), sorted(loaded & set(HEAVY))
+
+
+def test_an_unknown_root_name_is_an_attribute_error():
+    import pytest
+
+    import accelcal
+
+    assert {"ErrorModel", "Reduction", "default_model", "__version__"} <= set(dir(accelcal))
+    assert set(accelcal.__all__) <= set(dir(accelcal))
+    with pytest.raises(AttributeError, match="no_such_name"):
+        accelcal.no_such_name  # noqa: B018
+    assert accelcal.model.ErrorModel is accelcal.ErrorModel  # a submodule, imported on use
+
+
+def test_help_loads_no_numpy():
+    code = ("import sys\nfrom accelcal.cli import main\ntry:\n    main(['--help'])\n"
+            "except SystemExit:\n    pass\nprint('NUMPY', 'numpy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.rstrip().endswith("NUMPY False")
+
+
 def test_cli_app_import_does_not_load_plotting_or_tables():
     # What `accelcal --help` imports: typer and rich, but not the numeric extras.
     loaded = _loaded_after("import accelcal.cli.app")

@@ -144,12 +144,7 @@ def render(
         return json.dumps(rows_json, indent=2, allow_nan=False) + "\n"
     columns = [c for c in (rows[0] if rows else []) if not isinstance(rows[0][c], list)]
     if fmt == "csv":
-        buf = io.StringIO()
-        writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(columns)
-        for r in rows:
-            writer.writerow([_csv_cell(r[c]) for c in columns])
-        return buf.getvalue()
+        return _render_csv(rows, columns)
     from rich.console import Console
     from rich.table import Table
 
@@ -177,6 +172,42 @@ def _plain(value):
     if isinstance(value, float) and math.isnan(value):
         return None
     return value
+
+
+_QUOTED = re.compile(r'[,"\r\n]')
+"""A character that makes the csv module quote a field (minimal quoting, ``,`` and ``\n``)."""
+
+
+def _render_csv(rows: Sequence[dict], columns: list[str]) -> str:
+    """CSV text of ``rows``, byte for byte what ``csv.writer`` gives for :func:`_csv_cell`.
+
+    Column by column: a column of plain floats, ints or strings (no
+    character needing quotes) is formatted by C-level ``map`` (``repr`` of
+    a float is its shortest round-trip text, ``nan`` for NaN, as
+    :func:`_csv_cell`); anything else goes through the csv module. Some
+    300,000 rows (``records history`` of a long-lived serial) format in a
+    fraction of the per-cell path's time.
+    """
+    texts = []
+    for c in columns:
+        values = [r[c] for r in rows]
+        kinds = set(map(type, values))
+        if kinds <= {float, int}:
+            texts.append(list(map(repr, values)))
+        elif kinds == {str} and not _QUOTED.search("".join(values)) and all(values):
+            texts.append(values)
+        else:
+            texts = None
+            break
+    if texts is None or len(columns) < 2 or _QUOTED.search("".join(columns)):
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(columns)
+        for r in rows:
+            writer.writerow([_csv_cell(r[c]) for c in columns])
+        return buf.getvalue()
+    lines = [",".join(columns), *map(",".join, zip(*texts, strict=True))]
+    return "\n".join(lines) + "\n"
 
 
 def _csv_cell(value) -> str:

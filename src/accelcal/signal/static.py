@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.plotting.decimate import BINS, envelope_indices
 
 STILL_RATIO = 4.0
 """Largest ratio of the initial period's variance magnitude to the median of
@@ -300,7 +301,7 @@ def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
 
 
-def figure(intervals: StaticIntervals, values=None, *, time=None, max_points: int = 20_000):
+def figure(intervals: StaticIntervals, values=None, *, time=None, bins: int = BINS):
     """The signal norm with the static intervals shaded, and ς with its threshold.
 
     Parameters
@@ -311,8 +312,10 @@ def figure(intervals: StaticIntervals, values=None, *, time=None, max_points: in
         The samples, ``(n, 3)``; None for intervals that carry their trace.
     time : array_like, optional
         Time of each sample, seconds (default: index / rate).
-    max_points : int
-        Most points drawn per curve (thinned evenly).
+    bins : int
+        Horizontal bins of each curve's envelope: the points drawn are each
+        bin's first, last, least and greatest
+        (:func:`accelcal.plotting.decimate.envelope_indices`).
 
     Returns
     -------
@@ -327,12 +330,13 @@ def figure(intervals: StaticIntervals, values=None, *, time=None, max_points: in
         u = np.asarray(values, dtype=float)
         t = np.arange(len(u)) / intervals.settings["rate"] if time is None else np.asarray(time)
         norm, stat = np.linalg.norm(u, axis=1), intervals.statistic
-    step = max(1, -(-len(t) // max_points))
+    stat = np.maximum(stat, 1e-300)
+    drawn = [envelope_indices(t, y, bins) for y in (norm, stat)]
     fig = new_figure(figsize=(8.0, 5.0))
     top, bottom = fig.subplots(2, 1, sharex=True)
-    top.plot(t[::step], norm[::step], lw=0.6, color="k")
+    top.plot(t[drawn[0]], norm[drawn[0]], lw=0.6, color="k")
     top.set_ylabel(f"|u| ({intervals.unit})" if intervals.unit else "|u|")
-    bottom.semilogy(t[::step], np.maximum(stat[::step], 1e-300), lw=0.6)
+    bottom.semilogy(t[drawn[1]], stat[drawn[1]], lw=0.6)
     bottom.axhline(intervals.threshold, color="r", lw=0.8,
                    label=f"threshold ({intervals.settings['factor']:g} x initial)")
     bottom.set(ylabel="ς (variance magnitude)", xlabel="time (s)")

@@ -11,8 +11,9 @@ window of samples, whatever the recording's length: the statistic of a
 sample is final once the samples half a window after it have arrived, so
 each block is classified as it comes, and an interval keeps only running
 sums (shifted by its first sample, so raw counts with a large offset keep
-their small variance). The figure keeps a thinned trace of at most
-``2 trace_points`` samples (every k-th, k doubling as the record grows).
+their small variance). The figure keeps an envelope of the trace in at most
+``2 trace_points`` buckets (each bucket's first and last sample and the extremes
+of |u| and of ς: no peak is lost).
 
 References
 ----------
@@ -88,24 +89,97 @@ class _Runs:
 
 
 class _Trace:
-    """Every k-th sample's time, |u| and ς, k doubling to keep at most 2 ``points``."""
+    """The figure's trace of |u| and ς, streamed: an envelope in at most 2 ``points`` buckets.
+
+    Buckets are ``step`` consecutive samples (``step`` a power of two,
+    doubling as the record grows, neighbouring buckets merged). Each keeps
+    the samples where |u| and where ς take their least and greatest value
+    (the earliest, on ties) and its first and last sample: the M4
+    aggregation [Jugel2014] of both curves, so no peak is lost. What is kept
+    depends on the samples alone, never on the blocks they came in. O(n)
+    time, memory one block plus the buckets.
+
+    References
+    ----------
+    .. [Jugel2014] Jugel U., Jerzak Z., Hackenbroich G., Markl V., M4: a
+       visualization-oriented time series data aggregation, PVLDB 7(10), 2014.
+    """
 
     def __init__(self, points: int):
-        self.points, self.step, self.parts = points, 1, []
+        self.points, self.step = max(int(points), 1), 1
+        self.bucket = np.empty(0, dtype=np.int64)  # bucket number (sample // step)
+        self.idx = np.empty((0, 6), dtype=np.int64)  # first, last, min/max |u|, min/max ς
+        self.val = np.empty((0, 6, 3))  # time, |u| and ς of each of those samples
 
     def add(self, first: int, t: np.ndarray, u: np.ndarray, stat: np.ndarray) -> None:
-        keep = np.flatnonzero((first + np.arange(len(t))) % self.step == 0)
-        self.parts.append((first + keep, t[keep], np.linalg.norm(u[keep], axis=1), stat[keep]))
-        if sum(len(p[0]) for p in self.parts) > 2 * self.points:
-            self.step *= 2
-            idx, *rest = (np.concatenate(c) for c in zip(*self.parts, strict=True))
-            sel = idx % self.step == 0
-            self.parts = [(idx[sel], *(r[sel] for r in rest))]
+        """Add samples ``first, first + 1, ...`` (times ``t``, values ``u``, statistic ``stat``)."""
+        n = len(t)
+        if not n:
+            return
+        step, lead = self.step, first % self.step
+        nb = -(-(lead + n) // step)
+        values = np.full((nb * step, 3), np.nan)
+        values[lead:lead + n] = np.column_stack([t, np.linalg.norm(u, axis=1), stat])
+        values = values.reshape(nb, step, 3)
+        local = np.arange(nb)[:, None] * step + np.arange(step) - lead  # row in the block
+        valid = (local >= 0) & (local < n)
+        rows = np.stack([
+            np.argmax(valid, axis=1), step - 1 - np.argmax(valid[:, ::-1], axis=1),
+            *(_arg(values[..., c], valid, best) for c in (1, 2) for best in (np.argmin,
+                                                                             np.argmax))],
+            axis=1)  # (nb, 6) positions within each bucket
+        idx = first - lead + np.arange(nb)[:, None] * step + rows
+        val = np.take_along_axis(values, rows[..., None], axis=1)
+        bucket = (first - lead) // step + np.arange(nb)
+        if len(self.bucket) and self.bucket[-1] == bucket[0]:  # the last bucket continues
+            i0, v0 = _merge(self.idx[-1:], self.val[-1:], idx[:1], val[:1])
+            self.idx[-1], self.val[-1] = i0[0], v0[0]
+            bucket, idx, val = bucket[1:], idx[1:], val[1:]
+        self.bucket = np.concatenate([self.bucket, bucket])
+        self.idx = np.concatenate([self.idx, idx])
+        self.val = np.concatenate([self.val, val])
+        while len(self.bucket) > 2 * self.points:
+            self._halve()
+
+    def _halve(self) -> None:
+        """Double ``step``: merge each pair of buckets that now share a number."""
+        self.step *= 2
+        bucket = self.bucket // 2
+        head = int(self.bucket[0] % 2)  # an odd first bucket stands alone
+        tail = (len(self.bucket) - head) % 2  # so may the last one
+        pairs = slice(head, len(self.bucket) - tail)
+        left, right = self.idx[pairs][0::2], self.idx[pairs][1::2]
+        merged_idx, merged_val = _merge(left, self.val[pairs][0::2], right,
+                                        self.val[pairs][1::2])
+        self.idx = np.concatenate([self.idx[:head], merged_idx, self.idx[len(self.idx) - tail:]])
+        self.val = np.concatenate([self.val[:head], merged_val, self.val[len(self.val) - tail:]])
+        self.bucket = np.concatenate([bucket[:head], bucket[pairs][0::2],
+                                      bucket[len(bucket) - tail:]])
 
     def arrays(self):
-        if not self.parts:
+        """Time, |u| and ς of the kept samples, in sample order (each sample once)."""
+        if not len(self.idx):
             return (np.empty(0),) * 3
-        return tuple(np.concatenate(c) for c in list(zip(*self.parts, strict=True))[1:])
+        _, keep = np.unique(self.idx.ravel(), return_index=True)
+        values = self.val.reshape(-1, 3)[keep]
+        return values[:, 0], values[:, 1], values[:, 2]
+
+
+def _arg(values: np.ndarray, valid: np.ndarray, best) -> np.ndarray:
+    """Per row, the position of the least (``np.argmin``) or greatest valid value (earliest)."""
+    fill = np.inf if best is np.argmin else -np.inf
+    return best(np.where(valid, values, fill), axis=1)
+
+
+def _merge(idx_a, val_a, idx_b, val_b):
+    """Candidate sets of adjacent buckets ``a`` (earlier) and ``b`` merged, row by row."""
+    idx, val = idx_a.copy(), val_a.copy()
+    idx[:, 1], val[:, 1] = idx_b[:, 1], val_b[:, 1]  # the last sample is b's
+    for slot, column, later_wins in ((2, 1, np.less), (3, 1, np.greater),
+                                     (4, 2, np.less), (5, 2, np.greater)):
+        take = later_wins(val_b[:, slot, column], val_a[:, slot, column])  # ties: a's
+        idx[take, slot], val[take, slot] = idx_b[take, slot], val_b[take, slot]
+    return idx, val
 
 
 def detect_static_stream(blocks: Iterable, rate: float, *, init_static: float = 30.0,
@@ -129,7 +203,8 @@ def detect_static_stream(blocks: Iterable, rate: float, *, init_static: float = 
     unit : str
         Unit of the values (for the tables).
     trace_points : int
-        Points of the thinned trace kept for the figure (at most twice this).
+        Buckets of the trace's envelope kept for the figure (at most twice
+        this; up to 6 samples each).
     progress : callable, optional
         ``progress(samples_done)`` after each block.
 

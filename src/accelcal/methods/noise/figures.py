@@ -5,8 +5,9 @@
 axes with the intervals at the stated confidence as error bars, the fitted
 curve and one line per fitted term (its own Allan deviation); and, when the
 reduction holds a spectrum, the one-sided Welch PSD with each term's level
-(:func:`accelcal.methods.noise.psd.levels`). matplotlib is imported only
-when a figure is drawn.
+(:func:`accelcal.methods.noise.psd.levels`), drawn from each frequency bin's
+envelope (:func:`accelcal.plotting.decimate.envelope_indices`). matplotlib
+is imported only when a figure is drawn.
 
 References
 ----------
@@ -18,6 +19,7 @@ References
 import numpy as np
 
 from accelcal.plotting import new_figure
+from accelcal.plotting.decimate import envelope_indices
 
 STYLES = {"Q": ("tab:purple", "Q  (slope -1)"), "N": ("tab:blue", "N  (slope -1/2)"),
           "B": ("tab:green", "B  (floor 0.664 B)"), "K": ("tab:orange", "K  (slope +1/2)"),
@@ -90,14 +92,18 @@ def _psd_figure(reduction, values, unit):
     obs = reduction.observations
     f, p = np.asarray(obs["psd_frequency"]), np.asarray(obs["psd"])
     keep = f > 0
+    f, p = f[keep], p[keep]
+    rate = float(reduction.provenance.get("rate_hz", 2 * f.max()))
+    lines = levels(values, f, rate)
+    # the spectrum and the levels drawn from the same points: every bin's envelope
+    drawn = envelope_indices(f, np.column_stack([p, *lines.values()]), log=True)
     fig = new_figure(figsize=(6.0, 4.2))
     ax = fig.add_subplot()
-    ax.loglog(f[keep], p[keep], color="k", lw=0.6, label="Welch PSD (one-sided)")
-    rate = float(reduction.provenance.get("rate_hz", 2 * f.max()))
-    for name, line in levels(values, f[keep], rate).items():
+    ax.loglog(f[drawn], p[drawn], color="k", lw=0.6, label="Welch PSD (one-sided)")
+    for name, line in lines.items():
         color, label = STYLES[name]
-        ax.loglog(f[keep], line, "--", color=color, lw=1, label=label.split("(")[0])
-    ax.set_ylim(0.1 * p[keep].min(), 10 * p[keep].max())
+        ax.loglog(f[drawn], line[drawn], "--", color=color, lw=1, label=label.split("(")[0])
+    ax.set_ylim(0.1 * p.min(), 10 * p.max())
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel(f"PSD ({unit}²/Hz)")
     ax.grid(True, which="both", alpha=0.3)
