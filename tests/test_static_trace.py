@@ -33,8 +33,8 @@ def test_the_trace_is_the_envelope_whatever_the_blocks(first):
             np.testing.assert_array_equal(got, want)
     tt, norm, st = a.arrays()
     full = np.linalg.norm(u, axis=1)
-    assert len(a.bucket) <= 2 * points
-    assert len(tt) <= 6 * len(a.bucket)
+    assert len(a.idx) <= 2 * points
+    assert len(tt) <= 6 * len(a.idx)
     assert tt[0] == t[0]
     assert tt[-1] == t[-1]
     # brute force: every bucket's least and greatest |u| and ς, and its first and last sample

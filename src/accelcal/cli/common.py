@@ -200,14 +200,19 @@ def _render_csv(rows: Sequence[dict], columns: list[str]) -> str:
             texts = None
             break
     if texts is None or len(columns) < 2 or _QUOTED.search("".join(columns)):
-        buf = io.StringIO()
-        writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(columns)
-        for r in rows:
-            writer.writerow([_csv_cell(r[c]) for c in columns])
-        return buf.getvalue()
+        return _csv_per_cell(rows, columns)
     lines = [",".join(columns), *map(",".join, zip(*texts, strict=True))]
     return "\n".join(lines) + "\n"
+
+
+def _csv_per_cell(rows: Sequence[dict], columns: list[str]) -> str:
+    """CSV text of ``rows`` through the csv module, cell by cell (:func:`_csv_cell`)."""
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(columns)
+    for r in rows:
+        writer.writerow([_csv_cell(r[c]) for c in columns])
+    return buf.getvalue()
 
 
 def _csv_cell(value) -> str:

@@ -107,12 +107,16 @@ class _Trace:
 
     def __init__(self, points: int):
         self.points, self.step = max(int(points), 1), 1
-        self.bucket = np.empty(0, dtype=np.int64)  # bucket number (sample // step)
+        self.first_bucket = 0  # bucket number (sample // step) of row 0; the rest follow on
         self.idx = np.empty((0, 6), dtype=np.int64)  # first, last, min/max |u|, min/max ς
         self.val = np.empty((0, 6, 3))  # time, |u| and ς of each of those samples
 
     def add(self, first: int, t: np.ndarray, u: np.ndarray, stat: np.ndarray) -> None:
-        """Add samples ``first, first + 1, ...`` (times ``t``, values ``u``, statistic ``stat``)."""
+        """Add samples ``first, first + 1, ...`` (times ``t``, values ``u``, statistic ``stat``).
+
+        The samples are finite: NaN marks only the padding that aligns the
+        block with the buckets.
+        """
         n = len(t)
         if not n:
             return
@@ -121,40 +125,37 @@ class _Trace:
         values = np.full((nb * step, 3), np.nan)
         values[lead:lead + n] = np.column_stack([t, np.linalg.norm(u, axis=1), stat])
         values = values.reshape(nb, step, 3)
-        local = np.arange(nb)[:, None] * step + np.arange(step) - lead  # row in the block
-        valid = (local >= 0) & (local < n)
-        rows = np.stack([
-            np.argmax(valid, axis=1), step - 1 - np.argmax(valid[:, ::-1], axis=1),
-            *(_arg(values[..., c], valid, best) for c in (1, 2) for best in (np.argmin,
-                                                                             np.argmax))],
-            axis=1)  # (nb, 6) positions within each bucket
+        edge_first, edge_last = np.zeros(nb, np.intp), np.full(nb, step - 1, np.intp)
+        edge_first[0], edge_last[-1] = lead, lead + n - 1 - (nb - 1) * step
+        rows = np.stack([edge_first, edge_last,
+                         *(best(values[..., c], axis=1) for c in (1, 2)
+                           for best in (np.nanargmin, np.nanargmax))],
+                        axis=1)  # (nb, 6) positions within each bucket
         idx = first - lead + np.arange(nb)[:, None] * step + rows
         val = np.take_along_axis(values, rows[..., None], axis=1)
-        bucket = (first - lead) // step + np.arange(nb)
-        if len(self.bucket) and self.bucket[-1] == bucket[0]:  # the last bucket continues
+        if not len(self.idx):
+            self.first_bucket = (first - lead) // step
+        elif self.first_bucket + len(self.idx) - 1 == (first - lead) // step:  # continues
             i0, v0 = _merge(self.idx[-1:], self.val[-1:], idx[:1], val[:1])
             self.idx[-1], self.val[-1] = i0[0], v0[0]
-            bucket, idx, val = bucket[1:], idx[1:], val[1:]
-        self.bucket = np.concatenate([self.bucket, bucket])
+            idx, val = idx[1:], val[1:]
         self.idx = np.concatenate([self.idx, idx])
         self.val = np.concatenate([self.val, val])
-        while len(self.bucket) > 2 * self.points:
+        while len(self.idx) > 2 * self.points:
             self._halve()
 
     def _halve(self) -> None:
         """Double ``step``: merge each pair of buckets that now share a number."""
         self.step *= 2
-        bucket = self.bucket // 2
-        head = int(self.bucket[0] % 2)  # an odd first bucket stands alone
-        tail = (len(self.bucket) - head) % 2  # so may the last one
-        pairs = slice(head, len(self.bucket) - tail)
-        left, right = self.idx[pairs][0::2], self.idx[pairs][1::2]
-        merged_idx, merged_val = _merge(left, self.val[pairs][0::2], right,
-                                        self.val[pairs][1::2])
-        self.idx = np.concatenate([self.idx[:head], merged_idx, self.idx[len(self.idx) - tail:]])
-        self.val = np.concatenate([self.val[:head], merged_val, self.val[len(self.val) - tail:]])
-        self.bucket = np.concatenate([bucket[:head], bucket[pairs][0::2],
-                                      bucket[len(bucket) - tail:]])
+        count = len(self.idx)
+        head = self.first_bucket % 2  # an odd first bucket stands alone
+        tail = (count - head) % 2  # so may the last one
+        pairs = slice(head, count - tail)
+        merged_idx, merged_val = _merge(self.idx[pairs][0::2], self.val[pairs][0::2],
+                                        self.idx[pairs][1::2], self.val[pairs][1::2])
+        self.idx = np.concatenate([self.idx[:head], merged_idx, self.idx[count - tail:]])
+        self.val = np.concatenate([self.val[:head], merged_val, self.val[count - tail:]])
+        self.first_bucket //= 2
 
     def arrays(self):
         """Time, |u| and ς of the kept samples, in sample order (each sample once)."""
@@ -163,12 +164,6 @@ class _Trace:
         _, keep = np.unique(self.idx.ravel(), return_index=True)
         values = self.val.reshape(-1, 3)[keep]
         return values[:, 0], values[:, 1], values[:, 2]
-
-
-def _arg(values: np.ndarray, valid: np.ndarray, best) -> np.ndarray:
-    """Per row, the position of the least (``np.argmin``) or greatest valid value (earliest)."""
-    fill = np.inf if best is np.argmin else -np.inf
-    return best(np.where(valid, values, fill), axis=1)
 
 
 def _merge(idx_a, val_a, idx_b, val_b):
