@@ -13,9 +13,10 @@ Sections:
   read of the array and against ``scipy.optimize.curve_fit``;
 - ``study``: the indexing-head study of 1e6 trials, whole public call
   (``run_study``: set-up, simulation, reduction, statistics), against the
-  bare random-number floor (the uniform ``(N, 24)`` head errors and normal
-  ``(N, 96)`` noise drawn with numpy's default generator in the study's
-  seed blocks and sub-blocks, into preallocated arrays: nothing else) and
+  bare random-number floor (the uniform ``(N, 24)`` head errors, normal
+  ``(N, 96)`` noise and normal ``(N, 2)`` first-harmonic errors drawn with
+  numpy's default generator in the study's seed blocks and sub-blocks, into
+  preallocated arrays: nothing else) and
   against ``naive_study.py`` (the same trials reduced one at a time by the
   public reductions), per trial;
 - ``exact``: ``exact_study`` (``--exact``) against a 1e5-trial Monte Carlo
@@ -102,18 +103,23 @@ def bench_sinefit(report, records: int = 64, samples: int = 100_000,
 
 
 def _floor(trials: int, seed: int, half_width: float):
-    """The bare random numbers of the study, in its seed blocks and sub-blocks."""
+    """The bare random numbers of the study, in its seed blocks and sub-blocks.
+
+    Per trial, as the study draws them: 24 uniform head errors, 96 normal
+    noises (4 sensors x 24 positions) and 2 normal first-harmonic errors.
+    """
     from accelcal.methods.dividing_head import STUDY_BLOCK, SUB_BLOCK
     from accelcal.montecarlo import block_generator
 
     def floor():
-        u, z = np.empty((SUB_BLOCK, 24)), np.empty((SUB_BLOCK, 96))
+        u, z, h1 = np.empty((SUB_BLOCK, 24)), np.empty((SUB_BLOCK, 96)), np.empty((SUB_BLOCK, 2))
         for b in range(-(-trials // STUDY_BLOCK)):
             n, rng = min(STUDY_BLOCK, trials - b * STUDY_BLOCK), block_generator(seed, b)
             for start in range(0, n, SUB_BLOCK):
                 t = min(SUB_BLOCK, n - start)
                 rng.random(out=u[:t])
                 rng.standard_normal(out=z[:t])
+                rng.standard_normal(out=h1[:t])
     return floor
 
 

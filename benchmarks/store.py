@@ -185,6 +185,46 @@ def bench_queries(report: common.Report, work: Path, count: int, repeats: int) -
     report.add(common.markdown(common.figures(runs, detail),
                                f"Queries of a {count:,}-record store (median of {repeats})"))
     report.add(f"Rows returned: {rows}.")
+    bench_history_floor(report, db, repeats)
+
+
+_HISTORY_SQL = (
+    "SELECT c.id, c.date, c.method, k.name, k.unit, k.estimate, k.std FROM calibrations c "
+    "JOIN coefficients k ON k.calibration_id = c.id WHERE c.serial = ? "
+    "ORDER BY c.date, c.id, k.id")
+"""The rows of ``records history`` (as the store's query gives them), for the floors."""
+
+
+def bench_history_floor(report: common.Report, db: Path, repeats: int) -> None:
+    """``records history SN-A`` against what any Python writer of its CSV must do.
+
+    Floors: the sqlite3 module's fetch of the same rows alone, and that fetch
+    followed by the cheapest CSV text of them (``repr`` of the numbers,
+    ``str.join``): no accelcal code at all.
+    """
+    import sqlite3
+    from operator import itemgetter
+
+    def fetch():
+        with contextlib.closing(sqlite3.connect(f"file:{db}?mode=ro", uri=True)) as con:
+            return con.execute(_HISTORY_SQL, ("SN-A",)).fetchall()
+
+    def fetch_and_format():
+        rows = fetch()
+        columns = [list(map(itemgetter(i), rows)) for i in range(len(rows[0]))]
+        texts = [list(map(repr, col)) if isinstance(col[0], int | float) else col
+                 for col in columns]
+        return "\n".join(map(",".join, zip(*texts, strict=True)))
+
+    floor, text, cli = ("sqlite3 fetch of the rows (floor)", "fetch + repr and join (floor)",
+                        "records history SN-A (csv)")
+    candidates = {floor: fetch, text: fetch_and_format,
+                  cli: lambda: _cli("records", "history", "SN-A", "--db", db, "--format", "csv")}
+    detail = {}
+    runs = common.interleaved(candidates, repeats, detail=detail)
+    report.add(common.markdown(common.figures(runs, detail, floor=floor),
+                               f"records history of a serial with {len(fetch()):,} coefficient "
+                               "rows, against its floors", floor_name="fetch"))
 
 
 def main() -> None:

@@ -7,7 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from accelcal import AccelcalError
-from accelcal.cli.common import _csv_per_cell, parse_grid, render
+from accelcal.cli.common import _csv_per_cell, csv_text, parse_grid, render
 
 
 @pytest.mark.parametrize(
@@ -104,7 +104,9 @@ def test_csv_column_path_is_byte_identical_to_the_csv_module():
         columns = list(case)
         rows = [dict(zip(columns, values, strict=True)) for values in zip(*case.values(),
                                                                          strict=True)]
-        assert render(rows, "csv") == _csv_per_cell(rows, columns), columns
+        cells = ([r[c] for c in columns] for r in rows)
+        assert render(rows, "csv") == _csv_per_cell(columns, cells), columns
+        assert csv_text(case) == render(rows, "csv"), columns
     assert render([], "csv") == _csv_per_cell([], [])
 
 

@@ -54,6 +54,37 @@ def test_records_workflow(capsys, tmp_path):
     assert "by method 'tumble'" in err
 
 
+@pytest.mark.parametrize("fmt", ["csv", "json", "table"])
+def test_history_and_list_output_is_the_rows_rendered(capsys, tmp_path, fmt):
+    # records history and list write their columns straight to CSV (no row dicts): every
+    # format must still be exactly what rendering the store's rows gives.
+    from accelcal.cli.common import render
+    from accelcal.io.calibration_record import CalibrationRecord
+    from accelcal.store import Store
+    from test_store import FIXTURES
+
+    db = str(tmp_path / "store.sqlite")
+    with Store(db) as store:
+        store.add(CalibrationRecord.load(FIXTURES / "calibration_record_v1.json"))  # a NaN std
+        store.add(make_record(serial="SN-0042", date="2026-01-01T00:00:00+00:00"))
+        rows = store.history("SN-0042")
+        calibrations = store.calibrations()
+    code, out, _ = run(capsys, "records", "history", "SN-0042", "--db", db, "--format", fmt)
+    assert code == 0
+    assert out == render(rows, fmt, title="Coefficient history of SN-0042")
+    if fmt == "csv":
+        assert out.splitlines()[5].endswith(",nan")
+    code, out, _ = run(capsys, "records", "list", "--db", db, "--format", fmt)
+    assert code == 0
+    assert out == render(calibrations, fmt, title="Calibrations")
+    assert [c["simulated"] for c in calibrations] == [False, False]
+    if fmt != "table":  # an empty store lists as before (the table says so in words)
+        empty = str(tmp_path / "empty.sqlite")
+        Store(empty).close()
+        code, out, _ = run(capsys, "records", "list", "--db", empty, "--format", fmt)
+        assert (code, out) == (0, render([], fmt))
+
+
 def test_records_errors_exit_2(capsys, tmp_path):
     db = str(tmp_path / "store.sqlite")
     good = tmp_path / "good.json"

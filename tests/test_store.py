@@ -94,6 +94,30 @@ def test_bad_records_are_refused(tmp_path, change, message):
     assert str(path) in str(info.value)
 
 
+def test_history_columns_are_the_history_by_column(db):
+    # The columnar form (records history --format csv) holds the same values in the same
+    # order as the rows, NaN where a coefficient was not identified.
+    store = Store(db)
+    store.add(CalibrationRecord.load(FIXTURES / "calibration_record_v1.json"))
+    for month in (1, 2):
+        store.add(make_record(serial="SN-0042", date=f"2026-{month:02d}-01T00:00:00+00:00"))
+    rows = store.history("SN-0042")
+    columns = store.history_columns("SN-0042")
+    assert list(columns) == list(rows[0])
+    for name, values in columns.items():
+        assert len(values) == len(rows) == 5 + 2 * 3
+        expected = [r[name] for r in rows]
+        if name == "std":
+            assert np.array_equal(values, expected, equal_nan=True)
+            assert np.isnan(values).sum() == 1
+        else:
+            assert values == expected, name
+    only = store.history_columns("SN-0042", "dividing-head/joint")
+    assert set(only["method"]) == {"dividing-head/joint"}
+    with pytest.raises(AccelcalError, match="no calibration of serial 'SN-9'"):
+        store.history_columns("SN-9")
+
+
 def test_store_add_list_history_stats(db):
     store = Store(db)
     assert store.schema_version == SCHEMA_VERSION

@@ -144,7 +144,7 @@ def render(
         return json.dumps(rows_json, indent=2, allow_nan=False) + "\n"
     columns = [c for c in (rows[0] if rows else []) if not isinstance(rows[0][c], list)]
     if fmt == "csv":
-        return _render_csv(rows, columns)
+        return csv_text({c: [r[c] for r in rows] for c in columns})
     from rich.console import Console
     from rich.table import Table
 
@@ -166,6 +166,25 @@ def emit(rows: Sequence[dict], fmt: str, **kwargs) -> None:
     sys.stdout.write(render(rows, fmt, **kwargs))
 
 
+def emit_columns(columns: dict[str, Sequence], fmt: str, **kwargs) -> None:
+    """:func:`emit` of a table held by columns (name -> values, all of one length).
+
+    CSV is formatted straight from the columns (:func:`csv_text`), with no
+    row dicts; the other formats (and an empty table) render the rows the
+    columns make.
+    """
+    if fmt == "csv" and any(map(len, columns.values())):
+        sys.stdout.write(csv_text(columns))
+        return
+    emit(rows_of(columns), fmt, **kwargs)
+
+
+def rows_of(columns: dict[str, Sequence]) -> list[dict]:
+    """The rows (dicts) of a table held by columns."""
+    names = list(columns)
+    return [dict(zip(names, values, strict=True)) for values in zip(*columns.values(), strict=True)]
+
+
 def _plain(value):
     if hasattr(value, "item"):
         value = value.item()
@@ -178,40 +197,45 @@ _QUOTED = re.compile(r'[,"\r\n]')
 """A character that makes the csv module quote a field (minimal quoting, ``,`` and ``\n``)."""
 
 
-def _render_csv(rows: Sequence[dict], columns: list[str]) -> str:
-    """CSV text of ``rows``, byte for byte what ``csv.writer`` gives for :func:`_csv_cell`.
+def csv_text(columns: dict[str, Sequence]) -> str:
+    """CSV text of a table held by columns, byte for byte what ``csv.writer`` gives.
 
     Column by column: a column of plain floats, ints or strings (no
     character needing quotes) is formatted by C-level ``map`` (``repr`` of
     a float is its shortest round-trip text, ``nan`` for NaN, as
-    :func:`_csv_cell`); anything else goes through the csv module. Some
-    300,000 rows (``records history`` of a long-lived serial) format in a
-    fraction of the per-cell path's time.
+    :func:`_csv_cell`); anything else goes through the csv module
+    (:func:`_csv_per_cell`). Some 300,000 rows (``records history`` of a
+    long-lived serial) format in a fraction of the per-cell path's time.
     """
+    names = list(columns)
     texts = []
-    for c in columns:
-        values = [r[c] for r in rows]
+    for values in columns.values():
         kinds = set(map(type, values))
         if kinds <= {float, int}:
-            texts.append(list(map(repr, values)))
-        elif kinds == {str} and not _QUOTED.search("".join(values)) and all(values):
+            texts.append(map(repr, values))
+        elif kinds == {str} and _plain_strings(set(values)):
             texts.append(values)
         else:
             texts = None
             break
-    if texts is None or len(columns) < 2 or _QUOTED.search("".join(columns)):
-        return _csv_per_cell(rows, columns)
-    lines = [",".join(columns), *map(",".join, zip(*texts, strict=True))]
+    if texts is None or len(names) < 2 or not _plain_strings(set(names)):
+        return _csv_per_cell(names, zip(*columns.values(), strict=True))
+    lines = [",".join(names), *map(",".join, zip(*texts, strict=True))]
     return "\n".join(lines) + "\n"
 
 
-def _csv_per_cell(rows: Sequence[dict], columns: list[str]) -> str:
-    """CSV text of ``rows`` through the csv module, cell by cell (:func:`_csv_cell`)."""
+def _plain_strings(distinct: set) -> bool:
+    """Whether strings go into CSV as they are: none empty, none needing quotes."""
+    return "" not in distinct and not _QUOTED.search("".join(distinct))
+
+
+def _csv_per_cell(names: Sequence[str], rows) -> str:
+    """CSV text through the csv module, cell by cell (:func:`_csv_cell`); rows of values."""
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(columns)
-    for r in rows:
-        writer.writerow([_csv_cell(r[c]) for c in columns])
+    writer.writerow(names)
+    for values in rows:
+        writer.writerow([_csv_cell(v) for v in values])
     return buf.getvalue()
 
 

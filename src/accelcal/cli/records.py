@@ -4,7 +4,7 @@ from pathlib import Path
 
 import typer
 
-from accelcal.cli.common import emit
+from accelcal.cli.common import emit, emit_columns, rows_of
 
 app = typer.Typer(
     help=(
@@ -58,11 +58,11 @@ def list_(
 ) -> None:
     """List stored calibrations, oldest first."""
     with _store(db, readonly=True) as store:
-        rows = store.calibrations(serial)
-    if not rows and fmt == "table":
+        columns = store.calibrations_columns(serial)
+    if not columns["id"] and fmt == "table":
         typer.echo("the store holds no calibration" + (f" of {serial}" if serial else ""))
         return
-    emit(rows, fmt, title="Calibrations")
+    emit_columns(columns, fmt, title="Calibrations")
 
 
 @app.command("history")
@@ -77,13 +77,14 @@ def history(
 ) -> None:
     """Every coefficient of every calibration of SERIAL (estimate and standard uncertainty)."""
     with _store(db, readonly=True) as store:
-        rows = store.history(serial, method)
-    emit(rows, fmt, title=f"Coefficient history of {serial}")
+        columns = store.history_columns(serial, method)
+    emit_columns(columns, fmt, title=f"Coefficient history of {serial}")
     if plot is not None:
         from accelcal.plotting import save_figure
         from accelcal.plotting.records import history_figure
 
-        paths = save_figure(history_figure(rows, serial), plot, f"history-{_safe(serial)}")
+        figure = history_figure(rows_of(columns), serial)
+        paths = save_figure(figure, plot, f"history-{_safe(serial)}")
         typer.echo("wrote " + ", ".join(map(str, paths)), err=True)
 
 

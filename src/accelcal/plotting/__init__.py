@@ -1,7 +1,8 @@
 """Figures (matplotlib, imported only here and lazily by callers).
 
 Every figure is written as PNG and SVG side by side by :func:`save_figure`,
-atomically, with the non-interactive Agg backend.
+atomically, with the non-interactive Agg backend; log axes are labelled in
+plain text (:mod:`accelcal.plotting.ticks`).
 """
 
 from pathlib import Path
@@ -30,12 +31,14 @@ def save_figure(fig, directory, stem: str) -> list[Path]:
     """
     from accelcal.errors import AccelcalError
     from accelcal.io.atomic import atomic_path
+    from accelcal.plotting.ticks import plain_log_labels
 
     directory = Path(directory)
     try:
         directory.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise AccelcalError(f"cannot create the figure directory {directory}: {exc}") from None
+    plain_log_labels(fig)
     paths = []
     for ext, extra in (("png", {"dpi": 150}), ("svg", {})):
         target = directory / f"{stem}.{ext}"

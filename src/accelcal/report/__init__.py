@@ -66,7 +66,13 @@ class Section:
 
 
 def figure_svg(fig) -> str:
-    """A matplotlib figure as SVG text for inline embedding (no XML prologue)."""
+    """A matplotlib figure as SVG text for inline embedding (no XML prologue).
+
+    Log axes are labelled in plain text (:func:`accelcal.plotting.ticks.plain_log_labels`).
+    """
+    from accelcal.plotting.ticks import plain_log_labels
+
+    plain_log_labels(fig)
     buf = io.StringIO()
     fig.savefig(buf, format="svg")
     text = buf.getvalue()

@@ -284,6 +284,16 @@ class Store:
 
     def calibrations(self, serial: str | None = None) -> list[dict]:
         """Stored calibrations, oldest first: id, serial, method, date, software, simulated."""
+        columns = self.calibrations_columns(serial)
+        return [dict(zip(columns, values, strict=True))
+                for values in zip(*columns.values(), strict=True)]
+
+    def calibrations_columns(self, serial: str | None = None) -> dict[str, list]:
+        """:meth:`calibrations` as columns: name -> list of values, in the same order.
+
+        No dict per row: the form for writing a long list out (``records
+        list --format csv`` of a store of 100k calibrations).
+        """
         import sqlalchemy as sa
 
         cal = self._tables["calibrations"]
@@ -292,10 +302,10 @@ class Store:
                           simulated)
         if serial is not None:
             query = query.where(cal.c.serial == check_label(serial, "serial number"))
-        rows = self._select(query.order_by(cal.c.date, cal.c.id))
-        for r in rows:
-            r["simulated"] = bool(r["simulated"])
-        return rows
+        columns = _columns(self._rows(query.order_by(cal.c.date, cal.c.id))[0],
+                           [c.name for c in query.selected_columns])
+        columns["simulated"] = list(map(bool, columns["simulated"]))
+        return columns
 
     def record(self, record_id: int) -> CalibrationRecord:
         """The full record with id ``record_id``."""
@@ -377,6 +387,18 @@ class Store:
                  "std": nan if s is None else s}
                 for i, d, m, n, u, e, s in self._history(serial, method, "history")[0]]
 
+    def history_columns(self, serial: str, method: str | None = None) -> dict[str, list]:
+        """:meth:`history` as columns: name -> list of values, in the same order.
+
+        No dict per row: the form for writing a long history out (``records
+        history --format csv`` of a serial with 100k calibrations).
+        """
+        columns = _columns(self._history(serial, method, "history")[0],
+                           ("id", "date", "method", "name", "unit", "estimate", "std"))
+        if None in columns["std"]:
+            columns["std"] = [math.nan if s is None else s for s in columns["std"]]
+        return columns
+
     def stats(self, serial: str, method: str | None = None) -> list[CoefficientStats]:
         """Repeatability and drift of each coefficient of ``serial``, per method.
 
@@ -396,3 +418,10 @@ class Store:
         .. [1] IEEE Std 1293-2018, definitions of repeatability and drift.
         """
         return summarise(*self._history(serial, method, "calibrations", "coefficients"))
+
+
+def _columns(rows: list[tuple], names: Sequence[str]) -> dict[str, list]:
+    """The driver's row tuples as columns, ``names[i]`` -> every row's ``i``-th value."""
+    from operator import itemgetter
+
+    return {name: list(map(itemgetter(i), rows)) for i, name in enumerate(names)}
