@@ -193,6 +193,21 @@ def reference_loop(repeats: int = 3) -> float:
     return median(times)
 
 
+def child_json(code: str, *args, env: dict | None = None) -> dict:
+    """Run ``python -c code args`` in a fresh interpreter and parse the JSON it prints.
+
+    For figures a fresh process must give (peak memory, start-up, a whole
+    program); the child's error output passes through, and a failing child
+    stops the benchmark.
+    """
+    import json
+    import subprocess
+
+    res = subprocess.run([sys.executable, "-c", code, *map(str, args)], check=True,
+                         stdout=subprocess.PIPE, text=True, env=env)
+    return json.loads(res.stdout)
+
+
 def describe(info: dict | None = None) -> str:
     """One line naming the machine and its load, for a table's caption."""
     m = info or machine()

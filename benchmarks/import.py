@@ -40,10 +40,7 @@ million rows, blocks of 2^20), the two peaks should match.
 import common  # noqa: I001  (first: it pins BLAS to one thread before numpy loads)
 
 import argparse
-import json
 import os
-import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
@@ -124,10 +121,9 @@ def _peak(src: Path, block_rows: int) -> dict:
     """Wall time and peak resident memory of one import of ``src``, in a fresh subprocess."""
     code = _CHILD.format(options=OPTIONS, channels=CHANNELS)
     out = src.with_suffix(".parquet")
-    res = subprocess.run([sys.executable, "-c", code, str(src), str(out), str(block_rows)],
-                         check=True, stdout=subprocess.PIPE, text=True)
+    result = common.child_json(code, src, out, block_rows)
     out.unlink()
-    return json.loads(res.stdout)
+    return result
 
 
 def bench_memory(report: common.Report, src: Path, rows: int, block_rows: int) -> None:

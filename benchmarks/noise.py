@@ -38,10 +38,7 @@ holds) beside the samples' size as float64, with the stream's wall time
 import common  # noqa: I001  (first: it pins BLAS to one thread before numpy loads)
 
 import argparse
-import json
 import os
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -135,8 +132,7 @@ def bench_memory(report: common.Report, samples: int, rate: float = 1000.0) -> N
                                            seed=1), rate=rate, unit="g")
         written = time.perf_counter() - start
         load = os.getloadavg()[0]
-        out = json.loads(subprocess.run([sys.executable, "-c", _CHILD, str(path), tmp],
-                                        check=True, stdout=subprocess.PIPE, text=True).stdout)
+        out = common.child_json(_CHILD, path, tmp)
         size = path.stat().st_size / 2**20
     report.add(common.pairs([
         ("samples streamed from Parquet (file size, time to write it)",

@@ -35,7 +35,6 @@ runs; figures taken with a load above 0.5 per core are flagged "under load"
 """
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -149,9 +148,7 @@ def bench_vre(report: common.Report, repeats: int, pythonpath=None, **_) -> None
     trials, out = 1000, {}
 
     def run(n, t=trials):
-        res = subprocess.run([PYTHON, "-c", _VRE, str(n), str(t)], capture_output=True,
-                             text=True, check=True, env=_env(pythonpath))
-        out.setdefault((n, t), []).append(json.loads(res.stdout))
+        out.setdefault((n, t), []).append(common.child_json(_VRE, n, t, env=_env(pythonpath)))
 
     _, detail = _timed({"1,173 points": lambda: run(1173),
                         "11,703 points": lambda: run(11703)}, repeats)
@@ -289,9 +286,7 @@ def bench_demo(report: common.Report, repeats: int, pythonpath=None, **_) -> Non
     out = []
 
     def demo():
-        res = subprocess.run([PYTHON, "-c", _DEMO], capture_output=True, text=True, check=True,
-                             env=_env(pythonpath))
-        out.append(json.loads(res.stdout))
+        out.append(common.child_json(_DEMO, env=_env(pythonpath)))
 
     runs, detail = _timed({"accelcal demo (process wall time)": demo}, repeats)
     med = {k: common.median([o[k] for o in out]) for k in ("wall", "run", "build", "svg")}

@@ -37,7 +37,6 @@ wall-time ratios. BLAS runs single-threaded (as in a Dask worker).
 
 import argparse
 import os
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -221,13 +220,14 @@ def bench_dask(report, trials: int = 10**7, repeats: int = 5, **_) -> None:
 
 
 _MEMORY_CHILD = """
-import resource, sys, time
+import json, resource, sys, time
 sys.path.insert(0, {bench!r})
 from run import study_rig
 from accelcal.methods.dividing_head import run_study
 start = time.perf_counter()
 run_study(study_rig(), {trials}, 3)
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, time.perf_counter() - start)
+print(json.dumps({{"maxrss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
+                  "seconds": time.perf_counter() - start}}))
 """
 
 
@@ -238,9 +238,8 @@ def bench_memory(report, trials: int = 10**7, **_) -> None:
         code = _MEMORY_CHILD.format(bench=str(Path(__file__).parent), trials=n)
         print(f"  memory: {n} trials in a subprocess ...", flush=True)
         load = os.getloadavg()[0]
-        text = subprocess.run([sys.executable, "-c", code], check=True, stdout=subprocess.PIPE,
-                              text=True).stdout.split()
-        out[n] = (int(text[0]) / 1024, float(text[1]), load)
+        child = common.child_json(code)
+        out[n] = (child["maxrss_kib"] / 1024, child["seconds"], load)
     small, large = out[trials // 10], out[trials]
     report.add(common.pairs([
         (f"peak resident memory, {trials // 10} trials",

@@ -100,3 +100,18 @@ def test_a_docs_section_is_replaced_in_place(common, tmp_path):
     assert "old" not in text
     assert "<!-- bench:x -->\nnew\n<!-- /bench:x -->" in text
     assert text.index("tail") < text.index("<!-- bench:y -->")
+
+
+def test_child_json_runs_a_fresh_interpreter_and_parses_its_printout(common, tmp_path):
+    code = "import json, sys; print(json.dumps({'args': sys.argv[1:], 'numpy': 'numpy' in "\
+           "sys.modules}))"
+    assert common.child_json(code, 3, tmp_path) == {"args": ["3", str(tmp_path)],
+                                                   "numpy": False}
+    with pytest.raises(subprocess.CalledProcessError):
+        common.child_json("raise SystemExit(3)")
+
+
+def test_machine_records_the_reference_loop(common):
+    info = common.machine()
+    assert 0 < info["speed"] < 60
+    assert "reference loop (1e+06 Python additions)" in common.describe(info)
