@@ -9,6 +9,7 @@ References
 import datetime as dt
 import math
 from dataclasses import dataclass
+from operator import itemgetter
 
 import numpy as np
 
@@ -78,22 +79,21 @@ def summarise(calibrations: list[tuple], coefficients: list[tuple]) -> list[Coef
     """
     if not (calibrations and coefficients):
         return []
-    cal_ids = np.array([c[0] for c in calibrations])
-    row_cal = np.array([r[0] for r in coefficients])
+    cal_ids, dates, methods = (list(map(itemgetter(i), calibrations)) for i in range(3))
+    row_cal, names, x_all, s_all = (list(map(itemgetter(i), coefficients))
+                                    for i in (0, 1, 3, 4))
+    cal_ids, row_cal = np.array(cal_ids), np.array(row_cal)
     by_id = np.argsort(cal_ids)
     at = by_id[np.searchsorted(cal_ids, row_cal, sorter=by_id).clip(max=len(cal_ids) - 1)]
     known = cal_ids[at] == row_cal
-    method_of: dict[str, int] = {}
-    name_of: dict[str, int] = {}
-    method_code = np.array([method_of.setdefault(c[2], len(method_of)) for c in calibrations])
-    name_code = np.array([name_of.setdefault(r[1], len(name_of)) for r in coefficients])
-    codes = np.where(known, method_code[at] * len(name_of) + name_code, -1)
-    x_all = np.array([r[3] for r in coefficients], dtype=float)
-    s_all = np.array([r[4] for r in coefficients], dtype=float)  # None -> NaN
-    t_all = _seconds([c[1] for c in calibrations])[at]
+    method_names, method_code = _codes(methods)
+    coefficient_names, name_code = _codes(names)
+    codes = np.where(known, method_code[at] * len(coefficient_names) + name_code, -1)
+    x_all = np.array(x_all, dtype=float)
+    s_all = np.array(s_all, dtype=float)  # None -> NaN
+    t_all = _seconds(dates)[at]
     order = np.argsort(codes, kind="stable")  # stable: each group keeps its date order
     values, first, counts = np.unique(codes[order], return_index=True, return_counts=True)
-    method_names, coefficient_names = list(method_of), list(name_of)
     out = []
     for g in np.argsort(order[first]):  # groups in order of their first row
         if values[g] < 0:
@@ -102,14 +102,23 @@ def summarise(calibrations: list[tuple], coefficients: list[tuple]) -> list[Coef
         x, s, t = x_all[rows], s_all[rows], t_all[rows]
         slope, slope_std = _drift((t - t.min()) / SECONDS_PER_YEAR, x)
         out.append(CoefficientStats(
-            method=method_names[values[g] // len(name_of)],
-            name=coefficient_names[values[g] % len(name_of)], unit=coefficients[rows[0]][2],
+            method=method_names[values[g] // len(coefficient_names)],
+            name=coefficient_names[values[g] % len(coefficient_names)],
+            unit=coefficients[rows[0]][2],
             n=len(x), mean=float(x.mean()),
             repeatability=float(x.std(ddof=1)) if len(x) > 1 else math.nan,
             mean_std=float(np.nanmean(s)) if np.isfinite(s).any() else math.nan,
             drift_per_year=slope, drift_std=slope_std,
         ))
     return out
+
+
+def _codes(labels: list[str]) -> tuple[list[str], np.ndarray]:
+    """The distinct labels in order of first appearance, and each label's index among them."""
+    distinct = list(dict.fromkeys(labels))
+    index = {label: i for i, label in enumerate(distinct)}
+    return distinct, np.fromiter(map(index.__getitem__, labels), dtype=np.intp,
+                                 count=len(labels))
 
 
 def _seconds(dates: list[str]) -> np.ndarray:
