@@ -1,8 +1,8 @@
 """Log-axis tick labels as plain text (``10⁻³``), not math text (``$10^{-3}$``).
 
 Matplotlib labels a log axis with math text, which every renderer parses
-again (pyparsing, several milliseconds a label): on the Allan-deviation and
-spectrum figures that parsing is most of the rendering time. The same
+again (pyparsing, several milliseconds a label): on the Allan-deviation
+figure that parsing was a third of the SVG rendering time. The same
 labels written with Unicode superscripts need no parsing and read the
 same. :func:`plain_log_labels` swaps matplotlib's default log formatters
 of a figure for :class:`PlainLogFormatter` just before it is rendered
