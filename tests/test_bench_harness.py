@@ -103,8 +103,8 @@ def test_a_docs_section_is_replaced_in_place(common, tmp_path):
 
 
 def test_child_json_runs_a_fresh_interpreter_and_parses_its_printout(common, tmp_path):
-    code = "import json, sys; print(json.dumps({'args': sys.argv[1:], 'numpy': 'numpy' in "\
-           "sys.modules}))"
+    code = ("import json, sys; "
+            "print(json.dumps({'args': sys.argv[1:], 'numpy': 'numpy' in sys.modules}))")
     assert common.child_json(code, 3, tmp_path) == {"args": ["3", str(tmp_path)],
                                                    "numpy": False}
     with pytest.raises(subprocess.CalledProcessError):
