@@ -284,9 +284,10 @@ class Store:
 
     def calibrations(self, serial: str | None = None) -> list[dict]:
         """Stored calibrations, oldest first: id, serial, method, date, software, simulated."""
-        columns = self.calibrations_columns(serial)
-        return [dict(zip(columns, values, strict=True))
-                for values in zip(*columns.values(), strict=True)]
+        rows = self._select(self._calibrations_query(serial))
+        for r in rows:
+            r["simulated"] = bool(r["simulated"])
+        return rows
 
     def calibrations_columns(self, serial: str | None = None) -> dict[str, list]:
         """:meth:`calibrations` as columns: name -> list of values, in the same order.
@@ -294,6 +295,13 @@ class Store:
         No dict per row: the form for writing a long list out (``records
         list --format csv`` of a store of 100k calibrations).
         """
+        query = self._calibrations_query(serial)
+        columns = _columns(self._rows(query)[0], [c.name for c in query.selected_columns])
+        columns["simulated"] = list(map(bool, columns["simulated"]))
+        return columns
+
+    def _calibrations_query(self, serial: str | None):
+        """The query of :meth:`calibrations` (of ``serial`` only, when given)."""
         import sqlalchemy as sa
 
         cal = self._tables["calibrations"]
@@ -302,10 +310,7 @@ class Store:
                           simulated)
         if serial is not None:
             query = query.where(cal.c.serial == check_label(serial, "serial number"))
-        columns = _columns(self._rows(query.order_by(cal.c.date, cal.c.id))[0],
-                           [c.name for c in query.selected_columns])
-        columns["simulated"] = list(map(bool, columns["simulated"]))
-        return columns
+        return query.order_by(cal.c.date, cal.c.id)
 
     def record(self, record_id: int) -> CalibrationRecord:
         """The full record with id ``record_id``."""
