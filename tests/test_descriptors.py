@@ -110,10 +110,12 @@ def test_root_help_lists_every_method_group_with_its_help(capsys, monkeypatch):
         assert f" {m.name} {' '.join(m.cli_help.split())}" in text, m.name
 
 
-def test_import_help_lists_every_record_kind(capsys, monkeypatch):
+def test_import_and_inspect_help_list_every_record_kind(capsys, monkeypatch):
+    kinds = listed(sorted(k for m in METHODS for k in m.kinds))
     text = _help(["import", "--help"], capsys, monkeypatch)
-    kinds = sorted(k for m in METHODS for k in m.kinds)
-    assert f"Record kind: {listed(kinds)} (default: the mapping file's)." in text
+    assert f"Record kind: {kinds} (default: the mapping file's)." in text
+    text = _help(["inspect", "--help"], capsys, monkeypatch)
+    assert f"a record of kind {kinds} (--channels" in text
 
 
 def test_demo_help_names_every_test_it_runs(capsys, monkeypatch):

@@ -159,6 +159,11 @@ def inspect(
             typer.echo(f"file properties: {_short(found['properties'], 600)}")
 
 
+inspect.__doc__ = (f"{inspect.__doc__}\n\nThe channels are what `accelcal import` maps to the "
+                   f"columns of a record of kind {listed(KINDS)} (--channels, or a mapping "
+                   "file).")
+
+
 def _short(props: dict, limit: int = 80) -> str:
     import json
 
