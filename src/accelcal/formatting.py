@@ -12,9 +12,9 @@ References
 ----------
 .. [GUM] JCGM 100:2008, Evaluation of measurement data - Guide to the
    expression of uncertainty in measurement, sec. 7.2.6.
-.. [IEEE754] IEEE Std 754-2019, Floating-Point Arithmetic, sec. 5.12.2: a
-   binary64 number holds 15 significant decimal digits exactly
-   (``sys.float_info.dig``).
+.. [IEEE754] IEEE Std 754-2019, Floating-Point Arithmetic, sec. 5.12.2:
+   a decimal of 15 significant digits survives the round trip through a
+   binary64 number (``sys.float_info.dig``).
 """
 
 import math
@@ -23,7 +23,7 @@ import sys
 
 MAX_DIGITS = sys.float_info.dig
 """Most significant digits a value shows: 15, the decimal digits a double
-holds exactly [IEEE754]; any more would print its rounding error."""
+carries [IEEE754]; any more would print its rounding error."""
 
 
 def format_value(value: float, std: float | None = None) -> str:
