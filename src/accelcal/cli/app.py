@@ -19,6 +19,9 @@ from accelcal.catalog import METHODS
 from accelcal.cli import demo as demo_cmd
 from accelcal.cli import importer as importer_cmd
 from accelcal.cli import report as report_cmd
+from accelcal.cli.help_format import bare_flags
+
+bare_flags()
 
 GROUPS: dict[str, tuple[str, str]] = {
     "model": ("accelcal.cli.model", (

@@ -17,6 +17,7 @@ from accelcal.cli import input_options as io_opts
 from accelcal.cli import record_options
 from accelcal.cli.common import check_format, emit, parse_grid
 from accelcal.errors import AccelcalError
+from accelcal.formatting import unit_squared
 
 app = typer.Typer(
     help="Noise and stability of still recordings: Allan deviations with confidence "
@@ -204,7 +205,8 @@ def psd(
     rows = [{"frequency_hz": float(fk), "psd": float(pk),
              **{f"level_{t}": float(v[i]) for t, v in marks.items()}}
             for i, (fk, pk) in enumerate(zip(f[keep], p[keep], strict=True))]
-    emit(rows, fmt, title=f"one-sided PSD of {file.name} ({red.provenance['unit']}^2/Hz)")
+    emit(rows, fmt,
+         title=f"one-sided PSD of {file.name} ({unit_squared(red.provenance['unit'])}/Hz)")
     if plot is not None:
         for path in red.plot(plot):
             print(f"wrote {path}", file=sys.stderr)

@@ -18,6 +18,7 @@ from accelcal.cli.input_options import (
     input_options,
 )
 from accelcal.errors import AccelcalError
+from accelcal.formatting import unit_squared
 
 app = typer.Typer(
     help=("Accelerometer triads on static positions (Tedaldi 2014, Ferraris 1995): static "
@@ -102,7 +103,7 @@ def detect(
             typer.echo(f"wrote {p}", err=True)
     emit(found.rows(), fmt,
          title=f"{file}: {len(found)} static intervals (threshold {found.threshold:.4g} "
-               f"{prov['unit']}^2 = {factor:g} x the first {init_static:g} s)")
+               f"{unit_squared(prov['unit'])} = {factor:g} x the first {init_static:g} s)")
 
 
 def _gravity(gravity: float | None, latitude: float | None, height: float | None, rec) -> float:
