@@ -8,7 +8,7 @@ The package:
 :mod:`~accelcal.methods.noise.fit`
     :func:`fit`, :func:`fit_deviation`: the IEEE 952 coefficients Q, N, B,
     K, R by weighted non-negative least squares on the Allan variance, with
-    uncertainties (family ``"noise"``, method ``"ieee952-fit"``);
+    uncertainties (family ``"noise"``, method ``"noise/ieee952-fit"``);
     :func:`coefficients`, :func:`navigation_units`.
 :mod:`~accelcal.methods.noise.covariance`
     :func:`avar_covariance`: the covariance of Allan variances across taus.

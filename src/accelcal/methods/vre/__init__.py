@@ -15,7 +15,7 @@ while vibrating minus the mean at rest, in g. The package:
 :mod:`~accelcal.methods.vre.identify`
     :func:`identify`: the coefficients from measured VRE, as a
     :class:`~accelcal.results.Reduction` (family ``"vre"``, method
-    ``"vre-identify"``).
+    ``"vre/identify"``).
 :mod:`~accelcal.methods.vre.mc`
     :func:`vre_uncertainty`: Monte Carlo (GUM-S1) uncertainty of an
     identification.
