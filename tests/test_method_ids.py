@@ -109,3 +109,13 @@ def test_records_history_accepts_an_old_id_on_the_command_line(tmp_path, capsys)
         out, err = capsys.readouterr()
         assert info.value.code == 0, err
         assert {r["method"] for r in json.loads(out)} == {"thermal/wls"}
+
+
+def test_the_module_examples_hold():
+    import doctest
+
+    import accelcal.method_ids
+
+    result = doctest.testmod(accelcal.method_ids)
+    assert result.attempted >= 2
+    assert result.failed == 0
