@@ -125,8 +125,8 @@ def fit(
     """
     import json
 
+    from accelcal.methods import noise
     from accelcal.methods.noise.fit import check_terms, coefficients
-    from accelcal.methods.noise.stream import stream_fit
 
     if fmt not in ("table", "json"):
         raise AccelcalError(f"--format {fmt!r} is not one of table, json")
@@ -134,7 +134,8 @@ def fit(
     opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter)
     info = _lab(record_out, file, serial, operator)
     with _progress(f"fit of {file.name}") as progress:
-        red = stream_fit(file, opts, terms=names, taus=_taus(taus), progress=progress)
+        red = noise.reduce(file, options=opts, terms=names, taus=_taus(taus),
+                           progress=progress)
     if info is not None:
         from accelcal.calibration import save_records
 
