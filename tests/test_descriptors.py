@@ -78,7 +78,7 @@ def test_a_descriptor_refuses_an_unknown_verb_and_unpaired_formats():
 
     head = METHODS[0]
     with pytest.raises(ValueError, match="entry point"):
-        dataclasses.replace(head, entry_points=(("fit", "x.y"),))
+        dataclasses.replace(head, verbs=("fit",))
     with pytest.raises(ValueError, match="one format module per record kind"):
         dataclasses.replace(head, formats=())
 
@@ -199,6 +199,8 @@ def test_package_has_what_the_generic_paths_call(name):
     for verb, path in m.entry_points:
         assert verb in VERBS
         assert callable(resolve(path)), path
+    assert not {v for v in VERBS if v not in m.verbs and hasattr(package, v)}, \
+        "a verb the package defines is missing from its descriptor"
     assert m.entry("reduce"), "every method reduces"
     importlib.import_module(m.rig)
     group = importlib.import_module(m.cli).app

@@ -61,9 +61,9 @@ class Method:
     cli_help : str
         The group's help, as ``accelcal --help`` lists it (equal to the
         group's own).
-    entry_points : tuple of (str, str)
-        ``(verb, dotted path)`` for each verb of :data:`VERBS` it has today;
-        a verb may appear twice (two reductions).
+    verbs : tuple of str
+        The verbs of :data:`VERBS` its package defines (every method has
+        ``simulate`` and ``reduce``); :attr:`entry_points` names them.
     report : str
         Dotted path of ``report_text(reduction)``, its report section's
         title and summary.
@@ -92,7 +92,7 @@ class Method:
     rig: str
     cli: str
     cli_help: str
-    entry_points: tuple[tuple[str, str], ...]
+    verbs: tuple[str, ...]
     report: str
     docs: str
     paper: str
@@ -105,14 +105,19 @@ class Method:
     def __post_init__(self) -> None:
         if len(self.kinds) != len(self.formats):
             raise ValueError(f"{self.name}: one format module per record kind")
-        for verb, _ in self.entry_points:
+        for verb in self.verbs:
             if verb not in VERBS:
                 raise ValueError(f"{self.name}: entry point {verb!r} is not one of {VERBS}")
         if self.demo and self.demo_sensors not in DEMO_SENSORS:
             raise ValueError(f"{self.name}: demo_sensors must be one of {DEMO_SENSORS}")
 
+    @property
+    def entry_points(self) -> tuple[tuple[str, str], ...]:
+        """``(verb, dotted path)`` of each verb: the package's function of that name."""
+        return tuple((verb, f"{self.package}.{verb}") for verb in self.verbs)
+
     def entry(self, verb: str) -> tuple[str, ...]:
-        """The dotted paths of ``verb`` (empty when the method has none)."""
+        """The dotted path of ``verb`` (empty when the method has none)."""
         return tuple(path for v, path in self.entry_points if v == verb)
 
 
@@ -128,9 +133,7 @@ METHODS: tuple[Method, ...] = (
         cli_help=("Vibration rectification error (VRE) with asymmetry under overload + "
                   "vibration (vibrafuge): predict, simulate records, reduce them, identify "
                   "coefficients."),
-        entry_points=(("simulate", "accelcal.rigs.vibrafuge.simulate"),
-                      ("reduce", "accelcal.methods.vre.identify"),
-                      ("uncertainty", "accelcal.methods.vre.vre_uncertainty")),
+        verbs=("simulate", "reduce", "uncertainty"),
         report="accelcal.methods.vre.report_text", docs="docs/vre.md", paper="Guan2021",
         demo="accelcal.methods.vre.demo", demo_order=3, demo_sensors="one",
         demo_test="vibrafuge grid"),
@@ -141,9 +144,7 @@ METHODS: tuple[Method, ...] = (
         cli_help=("Transverse sensitivity of an accelerometer vibrated in its transverse plane "
                   "on a shaker (GuanTang, after ISO 16063-31): sweep, simulate records, "
                   "analyze, fit."),
-        entry_points=(("simulate", "accelcal.rigs.shaker.ShakerRig.simulate"),
-                      ("reduce", "accelcal.methods.transverse.identify"),
-                      ("uncertainty", "accelcal.methods.transverse.transverse_uncertainty")),
+        verbs=("simulate", "reduce", "uncertainty"),
         report="accelcal.methods.transverse.report_text", docs="docs/transverse.md",
         paper="GuanTang", demo="accelcal.methods.transverse.demo", demo_order=2,
         demo_sensors="one", demo_test="shaker transverse sweep"),
@@ -155,10 +156,7 @@ METHODS: tuple[Method, ...] = (
         cli_help=("Accelerometers on an indexing (dividing) head: simulate records, reduce "
                   "them (single-sensor, four-sensor separation, joint least squares, IEEE "
                   "tumble), and compare the methods by Monte Carlo (Dong2014, corrected)."),
-        entry_points=(("simulate", "accelcal.rigs.dividing_head.simulate"),
-                      ("reduce", "accelcal.methods.dividing_head.reduce"),
-                      ("uncertainty", "accelcal.methods.dividing_head.head_uncertainty"),
-                      ("plan", "accelcal.methods.dividing_head.identifiability")),
+        verbs=("simulate", "reduce", "uncertainty"),
         report="accelcal.methods.dividing_head.report_text", docs="docs/dividing-head.md",
         paper="Dong2014", demo="accelcal.methods.dividing_head.demo", demo_order=1,
         demo_sensors="four", demo_test="indexing head"),
@@ -168,9 +166,7 @@ METHODS: tuple[Method, ...] = (
         cli="accelcal.cli.tumble",
         cli_help=("Multipoint tumble (IEEE 1293 style): what a position set identifies, "
                   "simulated records, and the Fourier / least-squares reduction."),
-        entry_points=(("simulate", "accelcal.rigs.tumble.simulate"),
-                      ("reduce", "accelcal.methods.tumble.reduce_tumble"),
-                      ("plan", "accelcal.methods.tumble.identifiability")),
+        verbs=("simulate", "reduce", "plan"),
         report="accelcal.methods.tumble.report_text", docs="docs/tumble.md", paper="IEEE1293"),
     Method(
         name="triad", family="triad", title="accelerometer triad", package=_m("triad"),
@@ -179,11 +175,7 @@ METHODS: tuple[Method, ...] = (
         cli_help=("Accelerometer triads on static positions (Tedaldi 2014, Ferraris 1995): "
                   "static intervals, calibration with uncertainty (known or unknown "
                   "orientations), applying a calibration to a recording, simulated triads."),
-        entry_points=(("simulate", "accelcal.rigs.triad.simulate"),
-                      ("reduce", "accelcal.methods.triad.calibrate_known"),
-                      ("reduce", "accelcal.methods.triad.calibrate_unknown"),
-                      ("uncertainty", "accelcal.methods.triad.triad_uncertainty"),
-                      ("plan", "accelcal.methods.triad.plan")),
+        verbs=("simulate", "reduce", "uncertainty", "plan"),
         report="accelcal.methods.triad.report_text", docs="docs/triad.md", paper="Tedaldi2014",
         demo="accelcal.methods.triad.demo", demo_order=7, demo_sensors="triad",
         demo_test="triad on static positions"),
@@ -193,8 +185,7 @@ METHODS: tuple[Method, ...] = (
         cli="accelcal.cli.noise",
         cli_help=("Noise and stability of still recordings: Allan deviations with confidence "
                   "intervals, IEEE 952 coefficients (Q, N, B, K, R), PSD, simulated records."),
-        entry_points=(("simulate", "accelcal.rigs.noise.simulate"),
-                      ("reduce", "accelcal.methods.noise.fit")),
+        verbs=("simulate", "reduce"),
         report="accelcal.methods.noise.report_text", docs="docs/noise.md", paper="IEEE952",
         demo="accelcal.methods.noise.demo", demo_order=4, demo_sensors="one",
         demo_test="still recording"),
@@ -205,8 +196,7 @@ METHODS: tuple[Method, ...] = (
         cli_help=("Thermal-chamber tests (IEEE 1293 style): a multipoint tumble at each "
                   "temperature plateau, temperature coefficients with uncertainty, hysteresis, "
                   "warm-up, and temperature compensation of recordings."),
-        entry_points=(("simulate", "accelcal.rigs.thermal.simulate"),
-                      ("reduce", "accelcal.methods.thermal.reduce_thermal")),
+        verbs=("simulate", "reduce"),
         report="accelcal.methods.thermal.report_text", docs="docs/thermal.md", paper="IEEE1293",
         demo="accelcal.methods.thermal.demo", demo_order=5, demo_sensors="one",
         demo_test="thermal chamber"),
@@ -217,10 +207,7 @@ METHODS: tuple[Method, ...] = (
         cli_help=("Precision centrifuge tests (IEEE 836): simulated records with the rig's "
                   "errors, reduction of K2, K3, K4 and the cross-coupling (alone or jointly "
                   "with a 1 g record), and test planning without data."),
-        entry_points=(("simulate", "accelcal.rigs.centrifuge.simulate"),
-                      ("reduce", "accelcal.methods.centrifuge.reduce_centrifuge"),
-                      ("reduce", "accelcal.methods.centrifuge.reduce_joint"),
-                      ("plan", "accelcal.methods.centrifuge.plan")),
+        verbs=("simulate", "reduce", "plan"),
         report="accelcal.methods.centrifuge.report_text", docs="docs/centrifuge.md",
         paper="IEEE836", demo="accelcal.methods.centrifuge.demo", demo_order=6,
         demo_sensors="one", demo_test="centrifuge"),
