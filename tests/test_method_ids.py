@@ -97,6 +97,30 @@ def test_a_store_written_with_old_ids_shows_new_ids_and_filters_by_either(tmp_pa
     assert len(store.history("SN-1")) == 6
 
 
+def test_a_record_stored_under_its_old_id_is_not_added_twice(tmp_path):
+    import hashlib
+
+    import sqlalchemy as sa
+
+    from accelcal.errors import AccelcalError
+
+    record = _record("noise/ieee952-fit")
+    store = Store(str(tmp_path / "records.sqlite"))
+    store.add(record)
+    # as an older accelcal stored it: the old id in the JSON and in the uid hashed from it
+    old_text = record.to_json().replace('"method": "noise/ieee952-fit"', '"method": "ieee952-fit"')
+    assert old_text != record.to_json()
+    with store.engine.begin() as conn:
+        conn.execute(sa.text("UPDATE calibrations SET method = 'ieee952-fit', uid = :uid, "
+                             "record_json = :text"),
+                     {"uid": hashlib.sha256(old_text.encode()).hexdigest(), "text": old_text})
+    old_file = tmp_path / "old.json"
+    old_file.write_text(old_text)
+    with pytest.raises(AccelcalError, match="already in the store"):
+        store.add(CalibrationRecord.load(old_file))
+    assert len(store.calibrations("SN-1")) == 1
+
+
 def test_records_history_accepts_an_old_id_on_the_command_line(tmp_path, capsys):
     from accelcal.cli import main
 

@@ -42,7 +42,14 @@ from accelcal.store.location import (
     store_exists,
     store_url,
 )
-from accelcal.store.rows import calibration_row, coefficient_rows, labels, none_added, what
+from accelcal.store.rows import (
+    calibration_row,
+    coefficient_rows,
+    former_uids,
+    labels,
+    none_added,
+    what,
+)
 from accelcal.store.schema import SCHEMA_VERSION, migrate, stored_version
 from accelcal.store.schema import sqlite_on_begin as _sqlite_on_begin
 from accelcal.store.schema import sqlite_on_connect as _sqlite_on_connect
@@ -277,11 +284,13 @@ class Store:
         import sqlalchemy as sa
 
         uid = self._tables["calibrations"].c.uid
+        known = [(row["uid"], *former_uids(row)) for row in rows]
+        every = [u for uids in known for u in uids]
         stored = set()
-        for k in range(0, len(rows), _CHUNK):
-            chunk = [row["uid"] for row in rows[k:k + _CHUNK]]
+        for k in range(0, len(every), _CHUNK):
+            chunk = every[k:k + _CHUNK]
             stored.update(conn.execute(sa.select(uid).where(uid.in_(chunk))).scalars())
-        return next((i for i, row in enumerate(rows) if row["uid"] in stored), None)
+        return next((i for i, uids in enumerate(known) if stored.intersection(uids)), None)
 
     def calibrations(self, serial: str | None = None) -> list[dict]:
         """Stored calibrations, oldest first: id, serial, method, date, software, simulated."""
