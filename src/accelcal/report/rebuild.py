@@ -188,9 +188,11 @@ and of the method's command by default. The noise fit takes the record's terms."
 def find_inputs(record, source: Path, search=()) -> tuple[list[Path], list[str]]:
     """The record's input files, found by name and checked by SHA-256.
 
-    Looked for next to the record file ``source``, in the working directory
-    and in each directory of ``search`` (and up to :data:`SEARCH_DEPTH`
-    levels below it).
+    Looked for next to the record file ``source``, in the working directory,
+    in the campaign's ``data`` directory beside the record's directory (the
+    layout :func:`accelcal.pipeline.run_campaign` writes: ``records/`` and
+    ``data/``) and in each directory of ``search``; below the last two up to
+    :data:`SEARCH_DEPTH` levels.
 
     Returns
     -------
@@ -199,8 +201,9 @@ def find_inputs(record, source: Path, search=()) -> tuple[list[Path], list[str]]
     missing : list of str
         Names not found with the recorded hash.
     """
-    dirs = [Path(source).parent, Path()]
-    for root in map(Path, search):
+    here = Path(source).parent
+    dirs = [here, Path()]
+    for root in [here.parent / "data", *map(Path, search)]:
         dirs += [root, *(d for k in range(1, SEARCH_DEPTH + 1) for d in sorted(root.glob("*/" * k))
                          if d.is_dir())]
     dirs = list(dict.fromkeys(dirs))
@@ -308,7 +311,7 @@ def rebuild(records, sources, search=()) -> Rebuilt:
         return _alone(records, "the record names no input files")
     files, missing = find_inputs(records[0], Path(sources[0]), search)
     if missing:
-        where = ", ".join(["next to the record", "in the working directory",
+        where = ", ".join(["next to the record", "in the working directory", "in ../data",
                            *(f"in {shown_path(d)}" for d in search)])
         return _alone(records, f"input file(s) {', '.join(missing)} with the recorded SHA-256 "
                                f"not found ({where}); give their directory with --data")
