@@ -117,7 +117,9 @@ def report_sections(paths, *, search=()) -> list[Section]:
     items = [(Path(p), read_input(p)) for p in paths]
     for d in search:
         if not Path(d).is_dir():
-            raise AccelcalError(f"--data {shown_path(d)}: not a directory", parameter="data")
+            raise AccelcalError(f"--data {shown_path(d)}: not a directory; "
+                                "give the directory holding the records' input files",
+                                parameter="data")
     groups: dict = {}
     for path, item in items:
         key = (("triad", str(path)) if isinstance(item, TriadCalibration) else
