@@ -111,7 +111,7 @@ def report_sections(paths, *, search=()) -> list[Section]:
         Every file is read and validated before any figure is drawn.
     """
     from accelcal.methods.triad.model import TriadCalibration
-    from accelcal.report.rebuild import rebuild
+    from accelcal.report.rebuild import family_of, rebuild
     from accelcal.report.sections import reduction_sections
 
     items = [(Path(p), read_input(p)) for p in paths]
@@ -132,6 +132,9 @@ def report_sections(paths, *, search=()) -> list[Section]:
         path, item = members[0]
         if isinstance(item, TriadCalibration):
             sections.append(triad_calibration_section(item, path.name))
+            continue
+        if family_of(item.method) is None:  # a method accelcal does not know: the records
+            sections += [Section(f"{r.serial}: {r.method}", r) for _, r in members]
             continue
         built = rebuild([r for _, r in members], [p for p, _ in members], search)
         sections += reduction_sections(built.reduction, built.records,

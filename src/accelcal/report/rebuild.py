@@ -209,7 +209,8 @@ def find_inputs(record, source: Path, search=()) -> tuple[list[Path], list[str]]
     dirs = list(dict.fromkeys(dirs))
     found, missing = [], []
     for name, digest in record.inputs.items():
-        path = next((d / name for d in dirs if _hash_of(d / name) == digest), None)
+        plain = name == Path(name).name and name not in ("", ".", "..")  # as records write it
+        path = next((d / name for d in dirs if plain and _hash_of(d / name) == digest), None)
         if path is None:
             missing.append(name)
         else:
