@@ -151,9 +151,9 @@ def _centrifuge(files, record):
     if record.method != "centrifuge/joint" or len(files) != 2:
         return []
     rec, one_g = centrifuge.read(files[0]), read_one_g(files[1])
-    # the demo's rig estimate, then the command's default
-    return [(reduce_joint(rec, one_g, estimate=estimate), {})
-            for estimate in (("radius_error", "arm_stretch"), ("radius_error",))]
+    # the demo's rig estimate, then the command's default (tried only if the first does not fit)
+    return ((reduce_joint(rec, one_g, estimate=estimate), {})
+            for estimate in (("radius_error", "arm_stretch"), ("radius_error",)))
 
 
 def _triad(files, record):
@@ -177,7 +177,7 @@ REDUCERS: dict[str, Callable] = {
     "dividing-head": _head, "transverse": _shaker, "vre": _vibrafuge, "noise": _noise,
     "thermal": _thermal, "centrifuge": _centrifuge, "triad": _triad,
 }
-"""Family -> ``reducer(files, record) -> [(reduction, context), ...]``: candidate
+"""Family -> ``reducer(files, record)``: an iterable of ``(reduction, context)``, candidate
 reductions of a record's input files (in the record's order) with the settings the record
 and the files determine (its route, the file's first harmonic, autocollimator
 readings, positions, gravity) and otherwise the settings of ``accelcal demo``
@@ -316,20 +316,21 @@ def rebuild(records, sources, search=()) -> Rebuilt:
                            *(f"in {shown_path(d)}" for d in search)])
         return _alone(records, f"input file(s) {', '.join(missing)} with the recorded SHA-256 "
                                f"not found ({where}); give their directory with --data")
+    tried = 0
     try:
-        candidates = reducer(files, records[0])
-    except (AccelcalError, ValueError, KeyError, OSError) as exc:
+        for reduction, context in reducer(files, records[0]):  # lazily: the first that fits
+            tried += 1
+            order = _sensor_order(reduction, records)
+            if order is not None:
+                given = [None] * reduction.n_sensors
+                for rec, k in zip(records, order, strict=True):
+                    given[k] = rec
+                return Rebuilt(with_record_numbers(reduction, records, order), given,
+                               {k: v for k, v in context.items() if v is not None})
+    except (AccelcalError, ValueError, KeyError, IndexError, TypeError, OSError) as exc:
         return _alone(records, f"reducing the input files again failed ({exc})")
-    if not candidates:
+    if not tried:
         return _alone(records, f"figures are not rebuilt for method {method!r}")
-    for reduction, context in candidates:
-        order = _sensor_order(reduction, records)
-        if order is not None:
-            given = [None] * reduction.n_sensors
-            for rec, k in zip(records, order, strict=True):
-                given[k] = rec
-            return Rebuilt(with_record_numbers(reduction, records, order), given,
-                           {k: v for k, v in context.items() if v is not None})
     return _alone(records, "the input files, reduced again with the settings the record and "
                            "the files determine, do not give the record's estimates (the "
                            "record was made with other options)")
