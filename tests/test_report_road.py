@@ -135,6 +135,10 @@ def test_triad_calibration_file_gets_its_section(campaign, capsys, tmp_path):
                            angles=(1e-3, -2e-3, 5e-4), input_unit="counts")
     path = tmp_path / "cal.json"
     cal.save(path)
+    imucal = tmp_path / "imucal.json"
+    imucal.write_text(json.dumps(cal.to_imucal()), encoding="utf-8")
+    refused(["report", imucal, "--out", tmp_path / "r.html"], capsys,
+            "imucal.json is a triad calibration in imucal's layout", "--out")
     (section,) = report_sections([path])
     assert section.title == "cal.json: triad calibration"
     values = {r["parameter"]: r["value"] for r in section.rows}

@@ -7,9 +7,9 @@ sensors of an indexing head) are reported together, through the reduction
 rebuilt from them (:func:`accelcal.report.rebuild.rebuild`) and the same
 section builder as the demo's
 (:func:`accelcal.report.sections.reduction_sections`). Any other file
-accelcal writes (thermal compensation, error model, a reduction's JSON
-output, a record file of data) is named in a one-line error saying what to
-give instead.
+accelcal writes (thermal compensation, error model, a triad calibration in
+imucal's layout, a reduction's JSON output, a record file of data) is
+named in a one-line error saying what to give instead.
 
 References
 ----------
@@ -73,6 +73,9 @@ def read_input(path):
     kind = data.get("kind")
     if isinstance(kind, str) and kind in OTHER_KINDS:
         raise AccelcalError(f"{name} is {OTHER_KINDS[kind]}; {TAKES}")
+    if kind != KIND and {"K_a", "R_a", "b_a"} <= set(data):
+        raise AccelcalError(f"{name} is a triad calibration in imucal's layout (accelcal triad "
+                            f"calibrate --imucal-out); give the one of --out instead; {TAKES}")
     if kind != KIND and {"family", "method", "sensors"} <= set(data):
         raise AccelcalError(f"{name} is a reduction's JSON output (--format json); {TAKES}")
     if kind != KIND:
