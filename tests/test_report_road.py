@@ -76,6 +76,8 @@ def test_inputs_next_to_the_record_or_given_with_data(campaign, tmp_path):
     (missing,) = report_sections(copies[:1])
     assert missing.notes[0].startswith("No figures: input file(s) indexing_head.csv")
     assert not missing.figures
+    assert missing.summary.startswith("Reported from the calibration record(s) alone")
+    assert missing.title == f"{SERIALS[0]}: Indexing head (dividing-head/joint)"
     assert "--data" in missing.notes[0]
     found = report_sections(copies, search=[campaign.out / "data"])
     demo = reduction_sections(campaign.outcomes[0].reduction, campaign.outcomes[0].records,

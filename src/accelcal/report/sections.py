@@ -68,29 +68,44 @@ def reduction_sections(reduction, records, *, unavailable: str = "", **context
         return [Section(title=f"{records[0].serial}: {text.title}", record=records[0],
                         summary=text.summary, rows=overview.rows, notes=overview.notes,
                         errata=errata, figures=figures)]
-    per_sensor = [
-        Section(title=f"{rec.serial}: {text.title} ({name})", record=rec,
-                summary=f"Sensor column {name}. {text.sensor_summary}".strip())
-        for name, rec in zip(reduction.sensor_names, records, strict=True) if rec is not None
-    ]
+    per_sensor = [_sensor_section(name, rec, text)
+                  for name, rec in zip(reduction.sensor_names, records, strict=True)
+                  if rec is not None]
     return [overview, *per_sensor]
 
 
-def _report_text(reduction, *, rebuilt_from_records: bool):
-    """The method's title and summary; a plain one for a reduction the method cannot describe.
+def _sensor_section(name: str, record, text) -> Section:
+    """One sensor's section of a several-sensor reduction."""
+    column = name != record.serial  # a reduction rebuilt from records names sensors by serial
+    return Section(title=f"{record.serial}: {text.title}" + (f" ({name})" if column else ""),
+                   record=record,
+                   summary=((f"Sensor column {name}. " if column else "")
+                            + text.sensor_summary).strip())
 
-    A reduction rebuilt from records alone has no observations or assumptions,
-    which some methods' text is built from.
+
+def _report_text(reduction, *, rebuilt_from_records: bool):
+    """The method's title and summary, or a plain one for a reduction rebuilt from records.
+
+    A method's summary describes the set-up from the reduction's observations
+    and assumptions (positions, plateaus, rate), which records do not hold:
+    a reduction rebuilt from them alone gets the method's name and paper
+    (:mod:`accelcal.catalog`) and says where its numbers come from.
     """
     from accelcal.methods import ReportText, report_text_of
 
-    try:
+    if not rebuilt_from_records:
         return report_text_of(reduction)
-    except (KeyError, AttributeError, IndexError, TypeError, ValueError):
-        if not rebuilt_from_records:
-            raise
-    return ReportText(title=f"calibration by {reduction.method}",
-                      summary=f"Calibration by {reduction.method}, reported from its record(s).")
+    from accelcal.catalog import method
+
+    try:
+        found = method(reduction.family)
+    except KeyError:
+        return ReportText(title=f"calibration by {reduction.method}", summary="")
+    return ReportText(
+        title=f"{found.title[:1].upper()}{found.title[1:]} ({reduction.method})",
+        summary=("Reported from the calibration record(s) alone: the description of the "
+                 "set-up and the figures need the test's input files (see the first note)."),
+        paper=found.paper)
 
 
 def overview_rows(reduction, records) -> list[dict]:
