@@ -152,3 +152,37 @@ def test_triad_calibration_file_gets_its_section(campaign, capsys, tmp_path):
     html = out.read_text(encoding="utf-8")
     assert "cal.json: triad calibration" in html
     assert "IMU-0001" in html
+
+
+def test_the_records_numbers_are_reported_bit_for_bit(campaign, tmp_path):
+    # a record whose estimate differs from the re-reduced one by rounding (another BLAS)
+    src = next(p for p in campaign.records if p.name.endswith("-vibrafuge.json"))
+    data = json.loads(src.read_text(encoding="utf-8"))
+    value = data["coefficients"][0]["estimate"] * (1 + 1e-12)
+    data["coefficients"][0]["estimate"] = value
+    moved = tmp_path / "records" / src.name
+    moved.parent.mkdir()
+    moved.write_text(json.dumps(data), encoding="utf-8")
+    from accelcal.io.calibration_record import CalibrationRecord
+    from accelcal.report.rebuild import rebuild
+
+    record = CalibrationRecord.load(moved)
+    built = rebuild([record], [moved], [campaign.out / "data"])
+    assert not built.unavailable  # the files reproduce the record to rounding
+    name = data["coefficients"][0]["name"]
+    again = next(o for o in campaign.outcomes if o.tag == "vibrafuge").reduction
+    assert again.value(name) != value
+    assert built.reduction.value(name) == value  # the record's number, not the re-reduced one
+    np.testing.assert_array_equal(built.reduction.sensors[0].covariance, record.covariance)
+
+
+def test_every_demo_method_has_a_rebuild():
+    from accelcal.catalog import demo_methods
+    from accelcal.methods import REGISTRY
+    from accelcal.report.rebuild import REDUCERS, family_of
+
+    assert {m.family for m in demo_methods()} <= set(REDUCERS) <= set(REGISTRY)
+    assert family_of("ieee952-fit") == "noise"
+    assert family_of("dividing-head/joint") == "dividing-head"
+    assert family_of("transverse-2w") == "transverse"
+    assert family_of("made-up/x") is None
