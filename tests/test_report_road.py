@@ -186,3 +186,16 @@ def test_every_demo_method_has_a_rebuild():
     assert family_of("dividing-head/joint") == "dividing-head"
     assert family_of("transverse-2w") == "transverse"
     assert family_of("made-up/x") is None
+
+
+def test_records_of_the_commands_defaults_get_their_figures(capsys, tmp_path, monkeypatch):
+    # the gravity-norm route as `triad calibrate` runs it: the factor chosen by the residual
+    monkeypatch.chdir(tmp_path)
+    for args in (["triad", "simulate", "--out", "t.csv", "--positions", "18"],
+                 ["triad", "calibrate", "t.csv", "--orientations", "unknown", "--out", "c.json",
+                  "--record", "norm.json", "--serial", "T1"]):
+        code, _, err = run_cli(args, capsys)
+        assert code == 0, err
+    (section,) = report_sections(["norm.json"])
+    assert not section.notes[0].startswith("No figures"), section.notes[0]
+    assert section.figures

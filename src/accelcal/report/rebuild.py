@@ -159,18 +159,29 @@ def _centrifuge(files, record):
 def _triad(files, record):
     from accelcal.io.formats import triad
     from accelcal.methods.triad import calibrate_known, calibrate_unknown
+    from accelcal.methods.triad.threshold import choose_factor
     from accelcal.signal.static import detect_static
 
     rec = triad.read(files[0])
-    g = rec.metadata["gravity"]
+    g = rec.metadata.get("local_gravity", rec.metadata.get("gravity"))
+    rate = rec.metadata["rate"]
     if record.method == "triad/known-orientations":
         means, counts = rec.interval_means()
         return [(calibrate_known(means, rec.up, g, input_unit=rec.input_unit, labels=rec.labels,
                                  counts=counts), {})]
-    found = detect_static(rec.acc, rec.metadata["rate"], init_static=30.0)
-    red = calibrate_unknown(found.means, g, input_unit=rec.input_unit, counts=found.counts,
-                            labels=[f"I{k + 1}" for k in range(len(found))])
-    return [(red, {"intervals": found, "values": rec.acc, "time": rec.t})]
+
+    def context(found):
+        return {"intervals": found, "values": rec.acc, "time": rec.t}
+
+    def candidates():  # the demo's detection, then the command's (the factor by the residual)
+        found = detect_static(rec.acc, rate, init_static=30.0)
+        yield (calibrate_unknown(found.means, g, input_unit=rec.input_unit, counts=found.counts,
+                                 labels=[f"I{k + 1}" for k in range(len(found))]),
+               context(found))
+        choice = choose_factor(rec.acc, rate, g, input_unit=rec.input_unit, time=rec.t)
+        yield choice.reduction, context(choice.intervals)
+
+    return candidates()
 
 
 REDUCERS: dict[str, Callable] = {
