@@ -199,3 +199,11 @@ def test_records_of_the_commands_defaults_get_their_figures(capsys, tmp_path, mo
     (section,) = report_sections(["norm.json"])
     assert not section.notes[0].startswith("No figures"), section.notes[0]
     assert section.figures
+
+
+def test_a_record_given_twice_is_reported_once(campaign, tmp_path):
+    src = next(p for p in campaign.records if p.name.endswith("-vibrafuge.json"))
+    copy = tmp_path / "copy.json"
+    shutil.copy(src, copy)
+    (section,) = report_sections([src, copy, src])
+    assert section.figures

@@ -127,8 +127,9 @@ def report_sections(paths, *, search=()) -> list[Section]:
     for path, item in items:
         key = (("triad", str(path)) if isinstance(item, TriadCalibration) else
                (item.method, item.date, tuple(item.inputs.items())))
-        members = groups.setdefault(key, {})
-        members.setdefault(path.resolve(), (path, item))  # a file given twice is reported once
+        same = (str(path.resolve()) if isinstance(item, TriadCalibration) else
+                (item.serial, item.names, item.estimates.tobytes()))
+        groups.setdefault(key, {}).setdefault(same, (path, item))  # a record given twice: once
     sections = []
     for group in groups.values():
         members = list(group.values())
