@@ -67,33 +67,32 @@ class Rebuilt:
 
 
 # ------------------------------------------------------------------ families
-ALIASES = {"ieee952": "noise"}
-"""Method-id prefixes that are not their family's name."""
-
-
 def family_of(method: str) -> str | None:
     """The method family (a key of :data:`accelcal.methods.REGISTRY`) of a record's method id.
 
-    ``dividing-head/joint`` -> ``dividing-head``, ``transverse-2w`` ->
-    ``transverse``, ``ieee952-fit`` -> ``noise``; None when unknown.
+    Ids are ``<family>/<route>`` (older ids are read through
+    :func:`accelcal.method_ids.canonical`): ``dividing-head/joint`` ->
+    ``dividing-head``, ``ieee952-fit`` -> ``noise``; None when unknown.
     """
+    from accelcal.method_ids import canonical
     from accelcal.methods import REGISTRY
 
-    for family in sorted([*REGISTRY, *ALIASES], key=len, reverse=True):
-        if method == family or method.startswith((f"{family}/", f"{family}-")):
-            return ALIASES.get(family, family)
-    return None
+    family = canonical(method).split("/", 1)[0]
+    return family if family in REGISTRY else None
 
 
-def _route(method: str, family: str) -> str:
-    return method[len(family) + 1:]
+def _route(method: str) -> str:
+    """The route of a method id (``dividing-head/joint`` -> ``joint``)."""
+    from accelcal.method_ids import canonical
+
+    return canonical(method).partition("/")[2]
 
 
 def _head(files, record):
     from accelcal.io.formats.dividing_head import read_head_record
     from accelcal.methods.dividing_head import HeadData, options_from_record, reduce
 
-    route = _route(record.method, "dividing-head")
+    route = _route(record.method)
     rec = read_head_record(files[0])
     red = reduce(HeadData.from_record(rec), route, **options_from_record(rec, route))
     truth = None
@@ -109,7 +108,7 @@ def _shaker(files, record):
     directory = files[0].parent
     names = {f.name for f in files}
     groups = shaker_files(directory)
-    return [(identify(rec, route=_route(record.method, "transverse")), {})
+    return [(identify(rec, route=_route(record.method)), {})
             for rec in read_records(directory)
             if {f.name for f in groups.get(rec.amplitude, ())} == names]
 
@@ -129,7 +128,7 @@ def _noise(files, record):
     from accelcal.methods.noise.fit import POWERS
     from accelcal.methods.noise.stream import stream_fit
 
-    if record.method != "ieee952-fit":
+    if _route(record.method) != "ieee952-fit":
         return []
     red = stream_fit(files[0], terms=tuple(n for n in record.names if n in POWERS))
     true = read_metadata(files[0]).get("true")
@@ -148,7 +147,7 @@ def _centrifuge(files, record):
     from accelcal.io.formats import centrifuge
     from accelcal.methods.centrifuge import read_one_g, reduce_joint
 
-    if record.method != "centrifuge/joint" or len(files) != 2:
+    if _route(record.method) != "joint" or len(files) != 2:
         return []
     rec, one_g = centrifuge.read(files[0]), read_one_g(files[1])
     # the demo's rig estimate, then the command's default (tried only if the first does not fit)
@@ -159,27 +158,28 @@ def _centrifuge(files, record):
 def _triad(files, record):
     from accelcal.io.formats import triad
     from accelcal.methods.triad import calibrate_known, calibrate_unknown
-    from accelcal.methods.triad.threshold import choose_factor
+    from accelcal.methods.triad.lab import run
     from accelcal.signal.static import detect_static
 
-    rec = triad.read(files[0])
-    g = rec.metadata.get("local_gravity", rec.metadata.get("gravity"))
-    rate = rec.metadata["rate"]
-    if record.method == "triad/known-orientations":
-        means, counts = rec.interval_means()
-        return [(calibrate_known(means, rec.up, g, input_unit=rec.input_unit, labels=rec.labels,
-                                 counts=counts), {})]
+    known = _route(record.method) == "known-orientations"
 
-    def context(found):
-        return {"intervals": found, "values": rec.acc, "time": rec.t}
-
-    def candidates():  # the demo's detection, then the command's (the factor by the residual)
-        found = detect_static(rec.acc, rate, init_static=30.0)
-        yield (calibrate_unknown(found.means, g, input_unit=rec.input_unit, counts=found.counts,
-                                 labels=[f"I{k + 1}" for k in range(len(found))]),
-               context(found))
-        choice = choose_factor(rec.acc, rate, g, input_unit=rec.input_unit, time=rec.t)
-        yield choice.reduction, context(choice.intervals)
+    def candidates():  # the demo's reduction of a triad record, then the command's path
+        rec = triad.read(files[0])
+        g = rec.metadata["gravity"]
+        if known:
+            means, counts = rec.interval_means()
+            yield calibrate_known(means, rec.up, g, input_unit=rec.input_unit,
+                                  labels=rec.labels, counts=counts), {}
+        else:
+            found = detect_static(rec.acc, rec.metadata["rate"], init_static=30.0)
+            yield (calibrate_unknown(found.means, g, input_unit=rec.input_unit,
+                                     counts=found.counts,
+                                     labels=[f"I{k + 1}" for k in range(len(found))]),
+                   {"intervals": found, "values": rec.acc, "time": rec.t})
+        lab = run(files[0], orientations="known" if known else "unknown")
+        yield lab.reduction, ({} if lab.intervals is None else {
+            "intervals": lab.intervals, "values": lab.recording.values,
+            "time": lab.recording.time})
 
     return candidates()
 
