@@ -25,7 +25,6 @@ References
 """
 
 import dataclasses
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -79,120 +78,6 @@ def family_of(method: str) -> str | None:
 
     family = canonical(method).split("/", 1)[0]
     return family if family in REGISTRY else None
-
-
-def _route(method: str) -> str:
-    """The route of a method id (``dividing-head/joint`` -> ``joint``)."""
-    from accelcal.method_ids import canonical
-
-    return canonical(method).partition("/")[2]
-
-
-def _head(files, record):
-    from accelcal.io.formats.dividing_head import read_head_record
-    from accelcal.methods.dividing_head import HeadData, options_from_record, reduce
-
-    route = _route(record.method)
-    rec = read_head_record(files[0])
-    red = reduce(HeadData.from_record(rec), route, **options_from_record(rec, route))
-    truth = None
-    if rec.simulation and "angle_error_rad" in rec.simulation:
-        truth = np.asarray(rec.simulation["angle_error_rad"], dtype=float)
-    return [(red, {"truth": truth})]
-
-
-def _shaker(files, record):
-    from accelcal.io.formats.shaker import read_records, shaker_files
-    from accelcal.methods.transverse import identify
-
-    directory = files[0].parent
-    names = {f.name for f in files}
-    groups = shaker_files(directory)
-    return [(identify(rec, route=_route(record.method)), {})
-            for rec in read_records(directory)
-            if {f.name for f in groups.get(rec.amplitude, ())} == names]
-
-
-def _vibrafuge(files, record):
-    from accelcal.io.formats.vibrafuge import read_vibrafuge
-    from accelcal.methods.vre import PAPER_TERMS, identify, reduce_run
-
-    meas = reduce_run(read_vibrafuge(files[0]))
-    return [(identify(meas.overload, meas.amplitude, meas.vre, meas.uncertainty,
-                      direction=meas.direction, terms=PAPER_TERMS,
-                      assumptions=meas.assumptions()), {})]
-
-
-def _noise(files, record):
-    from accelcal.io.lab_metadata import read_metadata
-    from accelcal.methods.noise.fit import POWERS
-    from accelcal.methods.noise.stream import stream_fit
-
-    if _route(record.method) != "ieee952-fit":
-        return []
-    red = stream_fit(files[0], terms=tuple(n for n in record.names if n in POWERS))
-    true = read_metadata(files[0]).get("true")
-    truth = {k: v for k, v in true.items() if k in POWERS} if isinstance(true, dict) else None
-    return [(red, {"truth": truth})]
-
-
-def _thermal(files, record):
-    from accelcal.io.formats import thermal
-    from accelcal.methods.thermal import reduce_thermal
-
-    return [(reduce_thermal(thermal.read(files[0])), {})]
-
-
-def _centrifuge(files, record):
-    from accelcal.io.formats import centrifuge
-    from accelcal.methods.centrifuge import read_one_g, reduce_joint
-
-    if _route(record.method) != "joint" or len(files) != 2:
-        return []
-    rec, one_g = centrifuge.read(files[0]), read_one_g(files[1])
-    # the demo's rig estimate, then the command's default (tried only if the first does not fit)
-    return ((reduce_joint(rec, one_g, estimate=estimate), {})
-            for estimate in (("radius_error", "arm_stretch"), ("radius_error",)))
-
-
-def _triad(files, record):
-    from accelcal.io.formats import triad
-    from accelcal.methods.triad import calibrate_known, calibrate_unknown
-    from accelcal.methods.triad.lab import run
-    from accelcal.signal.static import detect_static
-
-    known = _route(record.method) == "known-orientations"
-
-    def candidates():  # the demo's reduction of a triad record, then the command's path
-        rec = triad.read(files[0])
-        g = rec.metadata["gravity"]
-        if known:
-            means, counts = rec.interval_means()
-            yield calibrate_known(means, rec.up, g, input_unit=rec.input_unit,
-                                  labels=rec.labels, counts=counts), {}
-        else:
-            found = detect_static(rec.acc, rec.metadata["rate"], init_static=30.0)
-            yield (calibrate_unknown(found.means, g, input_unit=rec.input_unit,
-                                     counts=found.counts,
-                                     labels=[f"I{k + 1}" for k in range(len(found))]),
-                   {"intervals": found, "values": rec.acc, "time": rec.t})
-        lab = run(files[0], orientations="known" if known else "unknown")
-        yield lab.reduction, ({} if lab.intervals is None else {
-            "intervals": lab.intervals, "values": lab.recording.values,
-            "time": lab.recording.time})
-
-    return candidates()
-
-
-REDUCERS: dict[str, Callable] = {
-    "dividing-head": _head, "transverse": _shaker, "vre": _vibrafuge, "noise": _noise,
-    "thermal": _thermal, "centrifuge": _centrifuge, "triad": _triad,
-}
-"""Family -> ``reducer(files, record)``: an iterable of ``(reduction, context)``, candidate
-reductions of a record's input files (in the record's order) with the settings the record
-and the files determine (its route, the file's first harmonic, autocollimator
-readings, positions, gravity) and otherwise the settings of ``accelcal demo``
-and of the method's command by default. The noise fit takes the record's terms."""
 
 
 # -------------------------------------------------------------------- files
@@ -316,7 +201,9 @@ def rebuild(records, sources, search=()) -> Rebuilt:
     """
     method = records[0].method
     family = family_of(method)
-    reducer = REDUCERS.get(family)
+    from accelcal.methods import package
+
+    reducer = getattr(package(family), "from_inputs", None)
     if reducer is None:
         return _alone(records, f"figures are not rebuilt for method {method!r}")
     if not records[0].inputs:
