@@ -13,7 +13,8 @@ filter of white noise in discrete time, ``d_k = sum_j g_j w_{k s + j}`` with
 
 with no approximation:
 
-* white PM (alpha = 2, ``y_i = u_{i+1} - u_i``): ``g`` is the first difference of the term's weights;
+* white PM (alpha = 2, ``y_i = u_{i+1} - u_i``): ``g`` is the first difference of
+  the term's weights;
 * white FM (alpha = 0): ``g`` is the term's weights on the samples;
 * random-walk FM (alpha = -2, ``y = cumsum(v)``): ``g`` is the reversed cumulative sum of the
   weights (finite because the weights of a difference sum to zero);
