@@ -419,7 +419,7 @@ def interval_coverage(kind: str, alpha: int, trials: int = 1000, samples: int = 
     from accelcal.signal.allan.kernels import phase, variance_sums
     from test_noise_deviations import _powerlaw
 
-    rng = np.random.default_rng(seed + 10 * alpha)
+    rng = np.random.default_rng(seed + 10 * (alpha + 4))
     m = 2 ** np.arange(int(np.log2(samples // 4)) + 1)
     series = [_powerlaw(alpha, samples, rng) for _ in range(trials)]
     var = []
