@@ -152,6 +152,11 @@ def fit(
         None, "--record", help="Write the calibration record (JSON) of the coefficients."),
     serial: str | None = record_options.SERIAL,
     operator: str | None = record_options.OPERATOR,
+    export: str | None = typer.Option(
+        None, "--export", help="Also write the IMU noise YAML of N and K: kalibr (Kalibr's "
+        "imu.yaml) or ros (the same under imu0:); needs --export-out."),
+    export_out: Path | None = typer.Option(None, "--export-out",
+                                           help="The YAML file --export writes."),
 ) -> None:
     """IEEE 952 coefficients by weighted non-negative least squares on the Allan variance.
 
@@ -166,6 +171,7 @@ def fit(
     if fmt not in ("table", "json"):
         raise AccelcalError(f"--format {fmt!r} is not one of table, json")
     names = check_terms(terms)
+    _check_export(export, export_out, names)
     opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter)
     info = _lab(record_out, file, serial, operator)
     with _progress(f"fit of {file.name}") as progress:
@@ -178,6 +184,11 @@ def fit(
     if plot is not None:
         for p in red.plot(plot):
             print(f"wrote {p}", file=sys.stderr)
+    if export is not None:
+        from accelcal.methods.noise.export import noise_yaml
+
+        export_out.write_text(noise_yaml(red, export), encoding="utf-8")
+        print(f"wrote {export_out}", file=sys.stderr)
     if fmt == "json":
         sys.stdout.write(json.dumps(coefficients(red), indent=2, allow_nan=False) + "\n")
         return
@@ -195,6 +206,21 @@ def fit(
           + (f"; at the bound 0: {', '.join(doc['at_bound'])}" if doc["at_bound"] else ""))
     for note in red.notes:
         print(f"note: {note}")
+
+
+def _check_export(export, export_out, names) -> None:
+    """Refuse an export that cannot be written, before the record is read."""
+    from accelcal.methods.noise.export import FORMATS
+
+    if export is None and export_out is None:
+        return
+    if export not in FORMATS:
+        raise AccelcalError(f"{export!r} is not one of {', '.join(FORMATS)}",
+                            parameter="export")
+    if export_out is None:
+        raise AccelcalError("give the YAML file --export writes", parameter="export_out")
+    if not {"N", "K"} <= set(names):
+        raise AccelcalError("--export needs N and K among the terms fitted", parameter="terms")
 
 
 def _lab(record_out, file, serial, operator):
