@@ -425,7 +425,8 @@ def interval_coverage(kind: str, alpha: int, trials: int = 1000, samples: int = 
     var = []
     for y in series:
         sums, counts = variance_sums(phase(y), m, kind)
-        var.append(sums / (DIVISOR[kind] * counts) / m.astype(float) ** 2)
+        scale = m.astype(float) ** (4 if kind == "mdev" else 2)  # MDEV: m^2 in the deviation
+        var.append(sums / (DIVISOR[kind] * counts) / scale)
     truth = np.sqrt(np.mean(var, axis=0))
     low, high = alpha_range(kind)
     hits, right = np.zeros(m.size), np.zeros(m.size)
