@@ -262,14 +262,14 @@ def _noise_all_terms():
     """``accelcal noise fit --terms Q,N,B,K,R`` (the default before N,K): every IEEE 952 term
     fitted, on the contract's still recordings (N and K only: Q, B and R are zero, at their
     bound). The CLI default, N,K, is the contract itself."""
-    from accelcal.methods.noise.fit import fit, fit_deviation
+    from accelcal.methods.noise.fit import TERMS, fit, fit_deviation
     from test_noise_contract import RATE, TestContract
 
     class NoiseAllTerms(TestContract):
         def reduce(self, data):
             if isinstance(data, np.ndarray):
-                return fit(data, RATE, unit="g")
-            return fit_deviation(data)
+                return fit(data, RATE, terms=TERMS, unit="g")
+            return fit_deviation(data, terms=TERMS)
 
     return NoiseAllTerms()
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from accelcal.methods.noise import fit, report_text
-from accelcal.methods.noise.fit import coefficients, goodness_of_fit
+from accelcal.methods.noise.fit import CLI_TERMS, TERMS, coefficients, goodness_of_fit
 from accelcal.rigs.noise import simulate
 from cli_helpers import run_cli
 
@@ -59,6 +59,7 @@ def test_cli_default_is_n_k_and_prints_the_goodness_of_fit(tmp_path, capsys):
     doc = json.loads(out)
     assert {"N", "K", "chi2", "chi2_dof", "birge_ratio", "model_fits"} <= set(doc)
     assert "B" not in doc
+    assert [t for t in TERMS if t in doc] == list(CLI_TERMS)
     assert "Q" not in doc
     code, out, err = run_cli(["noise", "fit", still, "--terms", "Q,N,B,K,R"], capsys)
     assert code == 0, err
