@@ -83,3 +83,17 @@ def test_intervals_hold_at_every_printed_tau(kind, alpha):
         assert np.all(cover <= 0.76), shown
     else:
         assert np.all(np.abs(cover - 0.683)[dof >= 5] <= 0.05), shown
+
+
+def test_noise_adev_notes_the_taus_whose_intervals_rest_on_an_assumption(tmp_path, capsys):
+    from cli_helpers import run_cli
+
+    still = str(tmp_path / "still.parquet")
+    code, _, err = run_cli(["noise", "simulate", "--N", "2e-5", "--rate", "10", "--duration",
+                            "409.6", "--seed", "2", "--out", still], capsys)
+    assert code == 0, err
+    code, out, err = run_cli(["noise", "adev", still, "--format", "csv"], capsys)
+    assert code == 0, err
+    assert "alpha is carried from the longest identified taus" in err
+    assert "equivalent degrees of freedom" in err
+    assert out.splitlines()[0] == "tau_s,n,alpha,dev,dev_low,dev_high"
