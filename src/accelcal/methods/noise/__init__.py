@@ -18,6 +18,8 @@ The package:
     :func:`stream_deviation`, :func:`stream_fit`: long records in bounded memory.
 :mod:`~accelcal.methods.noise.stability`
     :func:`run_to_run`: turn-on to turn-on repeatability beside in-run stability.
+:mod:`~accelcal.methods.noise.export`
+    :func:`noise_yaml`: N and K as Kalibr's imu.yaml (``noise fit --export``).
 :mod:`~accelcal.methods.noise.figures`
     :func:`figures`: deviation plot with bars and fitted terms, PSD plot.
 
