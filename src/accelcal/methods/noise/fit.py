@@ -29,6 +29,13 @@ diagonal only). Coefficients by the delta method: ``X = sqrt(C)``,
 as 0 with the standard uncertainty ``sqrt(u(C))`` of the unconstrained fit
 (the size of the term the data cannot tell from zero), and a note says so.
 
+Goodness of fit (:func:`goodness_of_fit`): ``chi^2 = r' S^-1 r`` of the
+residual Allan variances against the same ``S``, on taus less free terms;
+when its p-value is below 0.05 the model does not describe the record, every
+uncertainty is multiplied by the Birge ratio ``sqrt(chi^2 / dof)``
+[Birge1932]_ and a note says so. The command line fits :data:`CLI_TERMS`
+(N, K) by default; :func:`fit` keeps every term unless told.
+
 The Reduction (family ``"noise"``, method ``"ieee952-fit"``) has one sensor
 (the channel) with the terms fitted, in the record's unit: N unit*sqrt(s),
 B unit, K unit/sqrt(s), Q unit*s, R unit/s; ``dof = 0`` (the covariance is
@@ -53,6 +60,8 @@ References
 .. [ElSheimy2008] El-Sheimy N., Hou H., Niu X., Analysis and modeling of
    inertial sensors using Allan variance, IEEE Trans. Instrum. Meas. 57(1),
    2008, 140-149.
+.. [Birge1932] Birge R. T., The calculation of errors by the method of least
+   squares, Phys. Rev. 40, 1932, 207-227.
 """
 
 import math
