@@ -285,11 +285,6 @@ def goodness_of_fit(residual, sigma, free: int) -> dict:
         :data:`GOF_LEVEL`) and ``scale``: the Birge ratio when the model does
         not fit (the uncertainties are multiplied by it: the scatter the
         model does not explain is spread over the terms [Birge1932]_), else 1.
-
-    References
-    ----------
-    .. [Birge1932] Birge R. T., The calculation of errors by the method of least
-       squares, Phys. Rev. 40, 1932, 207-227.
     """
     from scipy.stats import chi2 as chi2_dist
 
