@@ -29,13 +29,6 @@ diagonal only). Coefficients by the delta method: ``X = sqrt(C)``,
 as 0 with the standard uncertainty ``sqrt(u(C))`` of the unconstrained fit
 (the size of the term the data cannot tell from zero), and a note says so.
 
-Goodness of fit (:func:`goodness_of_fit`): ``chi^2 = r' S^-1 r`` of the
-residual Allan variances against the same ``S``, on taus less free terms;
-when its p-value is below 0.05 the model does not describe the record, every
-uncertainty is multiplied by the Birge ratio ``sqrt(chi^2 / dof)``
-[Birge1932]_ and a note says so. The command line fits :data:`CLI_TERMS`
-(N, K) by default; :func:`fit` keeps every term unless told.
-
 The Reduction (family ``"noise"``, method ``"ieee952-fit"``) has one sensor
 (the channel) with the terms fitted, in the record's unit: N unit*sqrt(s),
 B unit, K unit/sqrt(s), Q unit*s, R unit/s; ``dof = 0`` (the covariance is
@@ -49,6 +42,13 @@ dof of the misfit against the covariance ``S``), ``birge_ratio``,
 ``model_fits`` (p >= 0.05), ``uncertainty_scale`` (the Birge ratio when the
 model does not fit: every uncertainty is multiplied by it) and
 ``alpha_source`` (per tau, :class:`~accelcal.signal.allan.deviations.Deviation`).
+
+Goodness of fit (:func:`goodness_of_fit`): ``chi^2 = r' S^-1 r`` of the
+residual Allan variances against the same ``S``, on taus less free terms;
+when its p-value is below 0.05 the model does not describe the record, every
+uncertainty is multiplied by the Birge ratio ``sqrt(chi^2 / dof)``
+[Birge1932]_ and a note says so. The command line fits :data:`CLI_TERMS`
+(N, K) by default; :func:`fit` keeps every term unless told.
 
 References
 ----------
