@@ -259,16 +259,17 @@ def _vre_cli(sampling: str):
 
 
 def _noise_all_terms():
-    """``accelcal noise fit`` by default: every IEEE 952 term (Q, N, B, K, R) fitted, on the
-    contract's still recordings (N and K only: Q, B and R are zero, at their bound)."""
-    from accelcal.methods.noise.fit import fit, fit_deviation
+    """``accelcal noise fit --terms Q,N,B,K,R`` (the default before N,K): every IEEE 952 term
+    fitted, on the contract's still recordings (N and K only: Q, B and R are zero, at their
+    bound). The CLI default, N,K, is the contract itself."""
+    from accelcal.methods.noise.fit import TERMS, fit, fit_deviation
     from test_noise_contract import RATE, TestContract
 
     class NoiseAllTerms(TestContract):
         def reduce(self, data):
             if isinstance(data, np.ndarray):
-                return fit(data, RATE, unit="g")
-            return fit_deviation(data)
+                return fit(data, RATE, terms=TERMS, unit="g")
+            return fit_deviation(data, terms=TERMS)
 
     return NoiseAllTerms()
 
@@ -320,7 +321,7 @@ EXTRA_CASES: dict[str, Callable[[], ReductionContract]] = {
     "tumble fourier OA, 8 positions (1 dof)": _tumble_few_dof,
     "vre identify, CLI defaults, integrating": lambda: _vre_cli("integrating"),
     "vre identify, CLI defaults, point sampling": lambda: _vre_cli("point"),
-    "noise fit, CLI default terms Q,N,B,K,R": _noise_all_terms,
+    "noise fit, every term (--terms Q,N,B,K,R)": _noise_all_terms,
     "thermal reduce, CLI default order auto": _thermal_auto_order,
     "triad gravity norm, 18 positions (9 dof)": _triad_unknown_eighteen,
     "triad calibrate, CLI defaults (detected intervals)": _triad_cli_default,
@@ -390,3 +391,47 @@ def verdict_of(c: CoefficientCoverage) -> str:
         lo, hi = coverage_band(c.experiments)
         misses.append("coverage" + ("" if lo <= c.coverage <= hi else " (beyond test band)"))
     return "ok" if not misses else "misses " + ", ".join(misses)
+
+
+INTERVAL_NOISES = {2: "white PM", 1: "flicker PM", 0: "white FM", -1: "flicker FM",
+                   -2: "random walk FM"}
+"""Power-law noises of the deviation-interval coverage (alpha -> name)."""
+
+
+def interval_coverage(kind: str, alpha: int, trials: int = 1000, samples: int = 4096,
+                      seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Coverage of the 68.3 % intervals of :func:`accelcal.signal.allan.deviation` per tau.
+
+    ``trials`` series of ``samples`` samples of the power-law noise ``alpha``
+    (Kasdin's filter for flicker), octave taus up to ``samples / 4``; the
+    truth at each tau is the root mean of the series' variances (unbiased
+    estimators: exact in the limit, ~1/sqrt(trials x edf) off at the longest
+    tau).
+
+    Returns
+    -------
+    m, coverage, right : numpy.ndarray
+        Averaging factors, share of intervals holding the truth, share of
+        series whose alpha at that tau was the true one.
+    """
+    from accelcal.signal.allan.deviations import DIVISOR, deviation
+    from accelcal.signal.allan.identify import alpha_range
+    from accelcal.signal.allan.kernels import phase, variance_sums
+    from test_noise_deviations import _powerlaw
+
+    rng = np.random.default_rng(seed + 10 * (alpha + 4))
+    m = 2 ** np.arange(int(np.log2(samples // 4)) + 1)
+    series = [_powerlaw(alpha, samples, rng) for _ in range(trials)]
+    var = []
+    for y in series:
+        sums, counts = variance_sums(phase(y), m, kind)
+        scale = m.astype(float) ** (4 if kind == "mdev" else 2)  # MDEV: m^2 in the deviation
+        var.append(sums / (DIVISOR[kind] * counts) / scale)
+    truth = np.sqrt(np.mean(var, axis=0))
+    low, high = alpha_range(kind)
+    hits, right = np.zeros(m.size), np.zeros(m.size)
+    for y in series:
+        res = deviation(y, 1.0, kind=kind, taus=m.astype(float))
+        hits += (res.lo <= truth) & (truth <= res.hi)
+        right += res.alpha == min(max(alpha, low), high)
+    return m, hits / trials, right / trials

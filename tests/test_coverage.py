@@ -20,7 +20,7 @@ from accelcal.results import Estimate, Reduction
 from contract import ReductionContract
 
 KNOWN_MISSES: dict[tuple[str, str], str] = {
-    ("noise fit, CLI default terms Q,N,B,K,R", "K"):
+    ("noise fit, every term (--terms Q,N,B,K,R)", "K"):
         "B and R at their bound distort K's interval (0.89 coverage); the fit's notes say so",
     ("thermal reduce, CLI default order auto", "*"):
         "intervals conditional on the F-test's choice of order; the output says so and "

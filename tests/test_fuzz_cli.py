@@ -457,7 +457,8 @@ def _fill(tmp: Path) -> dict:
         still, fit = tmp / f"still{seed}.csv", tmp / f"noise{seed}.json"
         runs += [["noise", "simulate", "--N", "2e-5", "--B", "3e-6", "--rate", "50",
                   "--duration", "20", "--seed", seed, "--out", str(still)],
-                 ["noise", "fit", str(still), "--record", str(fit), "--serial", "ACC-0001"],
+                 ["noise", "fit", str(still), "--terms", "N,B,K", "--record", str(fit),
+                  "--serial", "ACC-0001"],
                  ["records", "add", str(fit), "--db", str(store)]]
     for args in runs:
         with pytest.raises(SystemExit) as info:
