@@ -8,14 +8,13 @@ rate as update_rate, the inflation advice in a comment (issue 28, item 4).
 import json
 
 import pytest
+import yaml
 
 from accelcal.methods.noise import fit
 from accelcal.methods.noise.export import noise_yaml
 from accelcal.rigs.noise import simulate
 from accelcal.units import STANDARD_GRAVITY
 from cli_helpers import run_cli
-
-yaml = pytest.importorskip("yaml")
 
 
 @pytest.fixture
