@@ -10,6 +10,7 @@ import dataclasses
 import json
 import math
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -203,6 +204,17 @@ def test_records_keep_the_re_im_rows_of_the_determined_coefficients():
     (record,) = Reduction("frequency-response", "fr", (est,), dof=40).to_records(INFO)
     assert record.names == NAMES[1:]
     np.testing.assert_array_equal(record.covariance, _covariance()[2:, 2:])
+
+
+def test_version_2_fixture_reads():
+    path = Path(__file__).parent / "fixtures" / "calibration_record_v2.json"
+    record = CalibrationRecord.load(path)
+    doc = json.loads(path.read_text())
+    np.testing.assert_array_equal(record.estimates, VALUES)
+    np.testing.assert_allclose(record.covariance, _covariance(), rtol=1e-15)
+    assert record.std == pytest.approx([c["std"] for c in doc["coefficients"]], rel=1e-12)
+    assert np.degrees(record.polar().phase_std) == pytest.approx(
+        [c["phase_std_deg"] for c in doc["coefficients"]], rel=1e-12)
 
 
 def _real_record() -> CalibrationRecord:
