@@ -31,17 +31,19 @@ from accelcal.identifiability import Combination, Identifiability
 
 def _frozen(a) -> np.ndarray:
     """A read-only float copy, or complex where ``a`` is complex."""
-    arr = np.array(a, dtype=complex if np.iscomplexobj(a) else float)
+    arr = np.array(a)
+    arr = arr.astype(complex if arr.dtype.kind == "c" else float, copy=False)
     arr.setflags(write=False)
     return arr
 
 
 def _frozen_real(a, what: str) -> np.ndarray:
     """A read-only float copy of a covariance (never complex: see :mod:`accelcal.polar`)."""
-    if np.iscomplexobj(a):
+    arr = np.array(a)
+    if arr.dtype.kind == "c":
         raise ValueError(f"{what} must be real: a complex estimate's covariance is that of "
                          "[Re x1, Im x1, Re x2, ...] (accelcal.polar)")
-    arr = np.array(a, dtype=float)
+    arr = arr.astype(float, copy=False)
     arr.setflags(write=False)
     return arr
 
@@ -140,7 +142,7 @@ class Estimate:
     def __getitem__(self, name: str) -> float | complex:
         """The estimate of parameter ``name`` (a ``complex`` for complex values)."""
         value = self.values[self.names.index(name)]
-        return complex(value) if self.is_complex else float(value)
+        return complex(value) if isinstance(value, np.complexfloating) else float(value)
 
     def std_of(self, name: str) -> float:
         """The standard uncertainty of parameter ``name`` (of its magnitude, if complex)."""
