@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import sqlalchemy as sa
 
+from accelcal.cli import main
 from accelcal.errors import AccelcalError
 from accelcal.formatting import format_std, pm_polar
 from accelcal.io.calibration_record import CalibrationRecord
@@ -322,3 +323,23 @@ def test_report_shows_magnitude_and_phase_with_uncertainties():
     assert f"<td>{format_std(math.degrees(records[0].polar().phase_std[1]))}</td>" in html
     assert "<th>Re(S_20Hz)</th><th>Im(S_20Hz)</th>" in html
     assert "<td>0.800</td>" in html  # the Re-Im correlation of S_20Hz
+
+
+def _run(*args) -> int:
+    with pytest.raises(SystemExit) as info:
+        main(list(args))
+    return info.value.code
+
+
+def test_command_line_stores_and_reports_a_complex_record(capsys, tmp_path):
+    fixture = str(Path(__file__).parent / "fixtures" / "calibration_record_v2.json")
+    db, html = str(tmp_path / "s.sqlite"), tmp_path / "r.html"
+    assert _run("records", "add", fixture, "--db", db) == 0
+    capsys.readouterr()
+    assert _run("records", "history", "SN-FR", "--db", db, "--format", "json") == 0
+    history = json.loads(capsys.readouterr().out)
+    assert [h["estimate"] for h in history] == pytest.approx(np.abs(VALUES), rel=1e-15)
+    assert _run("report", fixture, "--out", str(html), "--history", "--db", db) == 0
+    text = html.read_text()
+    assert "S_320Hz (phase)" in text
+    assert f"{math.degrees(np.angle(VALUES[2])):.2f}" in text
