@@ -77,6 +77,7 @@ from accelcal.io.limits import (
     shown,
     shown_name,
 )
+from accelcal.method_ids import canonical
 from accelcal.model import ErrorModel
 from accelcal.polar import Polar, polar, real_names
 
@@ -119,7 +120,9 @@ class CalibrationRecord:
     serial : str
         Serial number of the accelerometer.
     method : str
-        Test method and reduction, e.g. ``"dividing-head/joint"``.
+        Test method and reduction, e.g. ``"dividing-head/joint"``; an id of
+        the older pattern (``"tumble-fourier"``) is read as its id today
+        (:func:`accelcal.method_ids.canonical`).
     names : tuple of str
         Coefficient names.
     estimates : numpy.ndarray
@@ -174,6 +177,7 @@ class CalibrationRecord:
                 check_label(getattr(self, name), what, file_name=name == "serial", limit=limit)
             except AccelcalError as exc:
                 raise AccelcalError(f"calibration record: {exc}") from None
+        object.__setattr__(self, "method", canonical(self.method))
         for name in self.names:
             check_label(name, "calibration record: coefficient name", limit=_NAME_LENGTH)
             check_label(self.units.get(name, ""), f"calibration record: unit of {name}",

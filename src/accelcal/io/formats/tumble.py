@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
 from accelcal.io.limits import shown
 from accelcal.io.records import read_record, write_record
@@ -38,6 +39,9 @@ from accelcal.units import OUTPUT_UNITS
 
 KIND = "tumble"
 """Record-file kind of tumble records."""
+
+IMPORT = ImportLayout()
+"""How ``accelcal import`` makes this kind from a recording."""
 
 AXES = ("OA", "PA")
 """Rotation axes a tumble record may give."""
