@@ -23,6 +23,7 @@ from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.io.lab_metadata import LabInfo
 from accelcal.polar import polar
 from accelcal.report import Section, render_report
+from accelcal.report.rebuild import with_record_numbers
 from accelcal.report.sections import overview_rows
 from accelcal.results import Estimate, Reduction
 from accelcal.store import SCHEMA_VERSION, Store
@@ -343,3 +344,13 @@ def test_command_line_stores_and_reports_a_complex_record(capsys, tmp_path):
     text = html.read_text()
     assert "S_320Hz (phase)" in text
     assert f"{math.degrees(np.angle(VALUES[2])):.2f}" in text
+
+
+def test_a_rebuilt_reduction_takes_a_complex_records_numbers():
+    red = _reduction()
+    (record,) = red.to_records(INFO)
+    shifted = dataclasses.replace(record, estimates=record.estimates * (1 + 1e-12),
+                                  covariance=record.covariance * 1.5)
+    rebuilt = with_record_numbers(red, [shifted], [0])
+    np.testing.assert_array_equal(rebuilt.estimate.values, shifted.estimates)
+    np.testing.assert_array_equal(rebuilt.estimate.covariance, 1.5 * _covariance())
