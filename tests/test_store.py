@@ -76,7 +76,7 @@ def test_version_1_fixture_still_reads():
     ("change", "message"),
     [
         ({"extra": 1}, "unknown key\\(s\\) 'extra'"),
-        ({"format_version": 2}, "format_version 2 is not supported"),
+        ({"format_version": 3}, "format_version 3 is not supported"),
         ({"kind": "x"}, "kind is 'x'"),
         ({"serial": ""}, "serial must be a non-empty string"),
         ({"date": "yesterday"}, "date 'yesterday' is not ISO 8601"),

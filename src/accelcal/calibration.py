@@ -36,6 +36,7 @@ from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.io.lab_metadata import LabInfo, read_lab_metadata
 from accelcal.io.limits import file_type, shown, shown_path
+from accelcal.polar import stacked_index
 from accelcal.results import Estimate
 
 
@@ -202,9 +203,10 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
                 f"the {reduction.method} reduction determined no coefficient of sensor {name}; "
                 "there is nothing to record"
             )
+        rows = stacked_index(keep) if est.is_complex else keep  # complex: (Re, Im) rows
         sub = Estimate(
             tuple(est.names[j] for j in keep), est.values[keep],
-            est.covariance[np.ix_(keep, keep)],
+            est.covariance[np.ix_(rows, rows)],
             {est.names[j]: est.units.get(est.names[j], "") for j in keep},
             reduction.method, residuals=est.residuals, dof=est.dof,
         )
