@@ -25,10 +25,10 @@ from accelcal.io.lab_metadata import read_metadata
 from accelcal.io.records import read_record, write_record
 from accelcal.model import ErrorModel
 from accelcal.store import Store
-from test_hardening_files import assert_one_line_error, leftovers, run
-from test_store import FIXTURES, make_record
+from helpers.cli import assert_one_line_error, leftovers, run
+from helpers.paths import EXAMPLES, FIXTURES
+from helpers.records import make_record
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
 HEAD = EXAMPLES / "indexing_head.csv"
 
 

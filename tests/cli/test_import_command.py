@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 from accelcal.units import STANDARD_GRAVITY
-from cli_helpers import refused, run_cli
-from daq_files import RATE, signals, write_hdf5, write_mat5, write_mat73, write_tdms
+from helpers.cli import refused, run_cli
+from helpers.daq_files import RATE, signals, write_hdf5, write_mat5, write_mat73, write_tdms
+from helpers.paths import EXAMPLES
 
 XYZ = "acc_x=Accel/X,acc_y=Accel/Y,acc_z=Accel/Z"
 
@@ -239,9 +240,8 @@ def test_dividing_head_import_reduces_as_the_record_it_came_from(tmp_path, capsy
     # The example indexing-head record's table, as a DAQ would write it (no accelcal header),
     # imported with a mapping file: the reduction of the import equals that of the original
     # (the values pass through unchanged: one factor of 1 for V and deg)
-    from pathlib import Path
 
-    examples = Path(__file__).resolve().parents[1] / "examples" / "data"
+    examples = EXAMPLES
     lines = (examples / "indexing_head.csv").read_text().splitlines()
     daq = tmp_path / "head_daq.csv"
     daq.write_text("\n".join(lines[2:]) + "\n")

@@ -36,7 +36,8 @@ from pathlib import Path
 
 import pytest
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
+from helpers.cli import unstated_uncertainty
+from helpers.paths import EXAMPLES, TESTS
 
 TIME_LIMIT = 20.0
 """Seconds one run may take."""
@@ -353,7 +354,9 @@ def run_cases(todo: list[dict], tmp: Path) -> dict[int, dict]:
         cases_file.write_text(json.dumps(remaining))
         results_file.write_text("")
         env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
-               "MKL_NUM_THREADS": "1", "COLUMNS": "200"}
+               "MKL_NUM_THREADS": "1", "COLUMNS": "200",
+               "PYTHONPATH": os.pathsep.join(filter(None, [str(TESTS),
+                                                           os.environ.get("PYTHONPATH")]))}
         errors = tmp / f"worker{round_}.stderr"
         with open(errors, "w") as err_fh:
             proc = subprocess.Popen(
@@ -431,8 +434,6 @@ def judge(case: dict, res: dict) -> str | None:
         if token in res["stdout"]:
             i = res["stdout"].index(token)
             return f"exit 0 with {token} in the output: ...{res['stdout'][max(0, i - 80):i + 20]!r}"
-    from test_fuzz_readers import unstated_uncertainty
-
     return unstated_uncertainty(res["stdout"])
 
 

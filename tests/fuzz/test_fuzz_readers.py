@@ -36,9 +36,8 @@ import numpy as np
 import pytest
 
 from accelcal.errors import AccelcalError
-
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
-FIXTURES = Path(__file__).resolve().parent / "fixtures"
+from helpers.cli import unstated_uncertainty
+from helpers.paths import EXAMPLES, FIXTURES, REAL_IMUCAL
 
 TIME_LIMIT = 5.0
 """Seconds one read may take (the CLI stage: :data:`COMMAND_TIME_LIMIT`)."""
@@ -231,7 +230,7 @@ def _imucal_seed(tmp: Path):
     """The real imucal session's first 1,500 rows, labelled in a ``part`` column."""
     import pandas as pd
 
-    real = Path(__file__).resolve().parent / "fixtures" / "real" / "imucal"
+    real = REAL_IMUCAL
     df = pd.read_csv(real / "example_ferraris_session.csv", nrows=1500)
     df["part"] = np.where(np.arange(len(df)) < 800, "x_p", "x_a")
     path = tmp / "session.csv"
@@ -289,10 +288,10 @@ def _triad_read(path):
 
 
 def _daq_binary_seed(fmt: str):
-    """A DAQ file written by its own library (tests/daq_files.py): TDMS, HDF5, MAT v5, v7.3."""
+    """A DAQ file written by its own library (helpers/daq_files.py): TDMS, HDF5, MAT v5, v7.3."""
 
     def make(tmp: Path):
-        import daq_files
+        from helpers import daq_files
 
         acc, temp = daq_files.signals(n=600)
         writer, name = {"tdms": (daq_files.write_tdms, "run.tdms"),
@@ -810,26 +809,6 @@ def run_command(reader: Reader, target: Path, out: Path, capsys) -> str | None:
         return ("exit 0 with a non-finite number in the output: "
                 f"...{stdout[max(0, i - 80):i + 20]!r}")
     return unstated_uncertainty(stdout)
-
-
-def unstated_uncertainty(stdout: str) -> str | None:
-    """A JSON output's fitted coefficient whose uncertainty is missing (JSON writes a
-    non-finite number as null: an infinite or NaN std would pass as "no value")."""
-    try:
-        doc = json.loads(stdout)
-    except ValueError:
-        return None
-    stack = [doc]
-    while stack:
-        node = stack.pop()
-        if isinstance(node, list):
-            stack.extend(node)
-        elif isinstance(node, dict):
-            if node.get("status") == "fitted" and "std" in node and node["std"] is None:
-                return (f"exit 0 with fitted {node.get('coefficient')} = {node.get('estimate')} "
-                        "and no finite std (null in JSON)")
-            stack.extend(v for v in node.values() if isinstance(v, list | dict))
-    return None
 
 
 def fuzz(reader_name: str, tmp_path: Path, capsys, select: Callable[[str], bool]) -> list[str]:

@@ -25,32 +25,29 @@ method's settings as its contract runs them) and reports, per coefficient
     1.96 (target 0.93-0.97).
 
 :func:`cases` lists what the standing check runs: every contract subclass of
-``tests/test_*_contract.py`` (found by import, so a method added later joins
+``tests/methods/*/test_*_contract.py`` (found by import, so a method added later joins
 by writing its contract) plus :data:`EXTRA_CASES`, settings a user reaches
 that the contracts do not run (the library's default where a contract
 chooses an option, designs with few degrees of freedom, ...): one line each.
 
-Used by ``tests/test_coverage.py`` (slow tests, targets asserted) and
+Used by ``tests/uncertainty/test_coverage.py`` (slow tests, targets asserted) and
 ``benchmarks/coverage.py`` (the table of docs/coverage.md).
 """
 
-import importlib
+import importlib.util
 import inspect
 import math
 import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
+from types import ModuleType
 from typing import ClassVar
 
 import numpy as np
 
-TESTS = Path(__file__).resolve().parent
-if str(TESTS) not in sys.path:  # benchmarks/coverage.py imports this file from outside pytest
-    sys.path.insert(0, str(TESTS))
-
-from contract import ReductionContract  # noqa: E402
+from helpers.contract import ReductionContract
+from helpers.paths import TESTS
 
 SD_RATIO_TARGET = (0.9, 1.1)
 """Target of empirical SD / mean stated SD (issue 11)."""
@@ -196,14 +193,36 @@ def coverage(contract: ReductionContract, n: int | None = None, *,
 
 
 # ------------------------------------------------------------------------------- the cases
+def contract_modules() -> list[ModuleType]:
+    """Every contract test module, ``tests/methods/*/test_*_contract.py``, by import."""
+    return [contract_module(path.stem)
+            for path in sorted(TESTS.glob("methods/*/test_*_contract.py"))]
+
+
+def contract_module(stem: str) -> ModuleType:
+    """The contract test module ``tests/methods/*/<stem>.py``, imported once as ``stem``.
+
+    Imported under its file name (as pytest imported the flat tests/ before its
+    folders), so that case names stay ``test_vre_contract.TestContract`` and so
+    on whether the harness runs in pytest or from benchmarks/coverage.py.
+    """
+    if stem in sys.modules:
+        return sys.modules[stem]
+    (path,) = TESTS.glob(f"methods/*/{stem}.py")
+    spec = importlib.util.spec_from_file_location(stem, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[stem] = module
+    spec.loader.exec_module(module)
+    return module
+
+
 def contract_classes() -> list[type]:
-    """Every concrete ReductionContract subclass of ``tests/test_*_contract.py``, by import.
+    """Every concrete ReductionContract subclass of the contract test modules.
 
     Concrete: collected by pytest (class name ``Test*``), defined in that module.
     """
     found = []
-    for path in sorted(TESTS.glob("test_*_contract.py")):
-        module = importlib.import_module(path.stem)
+    for module in contract_modules():
         for obj_name, obj in vars(module).items():
             if (inspect.isclass(obj) and issubclass(obj, ReductionContract)
                     and obj_name.startswith("Test") and obj.__module__ == module.__name__):
@@ -214,7 +233,8 @@ def contract_classes() -> list[type]:
 def _four_default():
     """The four-sensor reduction as ``reduce(data, "four")`` runs it: the library's default
     covariance (the contract chooses ``covariance="propagated"``)."""
-    from test_dividing_head_contract import TestFourContract
+    contracts = contract_module("test_dividing_head_contract")
+    TestFourContract = contracts.TestFourContract
 
     class FourDefault(TestFourContract):
         OPTIONS: ClassVar[dict] = {}
@@ -227,8 +247,10 @@ def _tumble_few_dof():
     the residuals: 1 degree of freedom (OA, 7 terms). The start stays at 0: from a random
     start the 4th harmonic of 8 positions vanishes near 4 start = 90 deg and K0, K2, K4 are
     then barely identifiable (stated SDs of every size, correctly, but no SD ratio)."""
+    contracts = contract_module("test_tumble_contract")
+    TestContractFourierOA = contracts.TestContractFourierOA
+
     from accelcal.rigs.tumble import uniform_positions
-    from test_tumble_contract import TestContractFourierOA
 
     class TumbleEight(TestContractFourierOA):
         # one degree of freedom: a stated variance scatters by sqrt(2) of itself, so the SD
@@ -245,9 +267,13 @@ def _vre_cli(sampling: str):
     """VRE identification as ``accelcal vre simulate`` then ``vre fit`` run it by default
     (18 points b = 1, 2, 4 g x A = 5..10 g, 50 Hz, 5000 Hz for 1 s, phase 0, noise the
     default model's sigma, 1e-6 g), with ``--sampling`` ``sampling``."""
+    contracts = contract_module("test_vre_contract")
+    PAPER_A = contracts.PAPER_A
+    PAPER_B = contracts.PAPER_B
+    TestContract = contracts.TestContract
+
     from accelcal import ErrorModel
     from accelcal.rigs.vibrafuge import simulate
-    from test_vre_contract import PAPER_A, PAPER_B, TestContract
 
     class VreCli(TestContract):
         def simulate(self, truth, rng, noisy):
@@ -261,8 +287,11 @@ def _vre_cli(sampling: str):
 def _noise_all_terms():
     """``accelcal noise fit`` by default: every IEEE 952 term (Q, N, B, K, R) fitted, on the
     contract's still recordings (N and K only: Q, B and R are zero, at their bound)."""
+    contracts = contract_module("test_noise_contract")
+    RATE = contracts.RATE
+    TestContract = contracts.TestContract
+
     from accelcal.methods.noise.fit import fit, fit_deviation
-    from test_noise_contract import RATE, TestContract
 
     class NoiseAllTerms(TestContract):
         def reduce(self, data):
@@ -275,7 +304,8 @@ def _noise_all_terms():
 
 def _thermal_auto_order():
     """``accelcal thermal reduce`` by default: the polynomial order chosen by the F-test."""
-    from test_thermal_contract import AutoOrder
+    contracts = contract_module("test_thermal_contract")
+    AutoOrder = contracts.AutoOrder
 
     return AutoOrder()
 
@@ -283,8 +313,10 @@ def _thermal_auto_order():
 def _triad_unknown_eighteen():
     """The gravity norm on the demo's design (the six axis directions and 12 random ones,
     counts): 9 degrees of freedom, the Student-t coverage factor at work."""
+    contracts = contract_module("test_triad_contract")
+    TestContractGravityNorm = contracts.TestContractGravityNorm
+
     from accelcal.rigs.triad import random_directions, six_positions
-    from test_triad_contract import TestContractGravityNorm
 
     class TriadEighteen(TestContractGravityNorm):
         def directions(self, rng):
@@ -298,9 +330,12 @@ def _triad_cli_default():
     static intervals detected (30 s still period, 1 s window, 2 s shortest), the threshold
     factor chosen by the calibration residual, the gravity norm with the intervals' own
     noise (counts, 100 Hz, 5 s per position, 2 s motions)."""
+    contracts = contract_module("test_triad_contract")
+    G = contracts.G
+    TestContractGravityNorm = contracts.TestContractGravityNorm
+
     from accelcal.methods.triad.threshold import choose_factor
     from accelcal.rigs.triad import random_directions, simulate
-    from test_triad_contract import G, TestContractGravityNorm
 
     class TriadCli(TestContractGravityNorm):
         def simulate(self, truth, rng, noisy):

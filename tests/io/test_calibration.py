@@ -33,9 +33,8 @@ from accelcal.rigs.dividing_head import (
 )
 from accelcal.rigs.shaker import ShakerRig
 from accelcal.units import ARCSEC
+from helpers.paths import EXAMPLES
 
-ROOT = Path(__file__).resolve().parents[1]
-EXAMPLES = ROOT / "examples" / "data"
 LAB = {"operator": "J. Smith", "date": "2026-11-20T09:30:00+00:00", "local_gravity": 9.80122}
 SERIALS = ["SN-1", "SN-2", "SN-3", "SN-4"]
 # Files store angles in degrees: the rad -> deg -> rad trip changes an angle by

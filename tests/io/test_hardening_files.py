@@ -10,38 +10,18 @@ import numpy as np
 import pytest
 
 from accelcal import AccelcalError, default_model
-from accelcal.cli import main
 from accelcal.io import limits
 from accelcal.io.atomic import atomic_path, write_text_atomic
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata, read_metadata
 from accelcal.io.records import read_record, write_record
 from accelcal.model import ErrorModel
-from test_store import FIXTURES, make_record
+from helpers.cli import assert_one_line_error, leftovers, run
+from helpers.paths import FIXTURES
+from helpers.records import make_record
 
 DEEP = "[" * 100_000
 UNITS = {"t": "s", "u": "V"}
-
-
-def run(capsys, *args):
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return info.value.code, out, err
-
-
-def assert_one_line_error(code, err, *needles):
-    assert code == 2
-    assert err.startswith("accelcal: error: ")
-    assert err.count("\n") == 1
-    assert "Traceback" not in err
-    assert len(err) < 600
-    for needle in needles:
-        assert needle in err
-
-
-def leftovers(directory: Path) -> list[str]:
-    return sorted(p.name for p in directory.iterdir() if p.name.endswith(".tmp"))
 
 
 def record_file(tmp_path, meta_json: str, name="r.csv") -> Path:

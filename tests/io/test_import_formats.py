@@ -16,7 +16,7 @@ import pytest
 from accelcal.errors import AccelcalError
 from accelcal.io.recordings import InputOptions, describe, iter_blocks, read_recording
 from accelcal.units import STANDARD_GRAVITY
-from daq_files import RATE, signals, write_hdf5, write_mat5, write_mat73, write_tdms
+from helpers.daq_files import RATE, signals, write_hdf5, write_mat5, write_mat73, write_tdms
 
 XYZ = {"tdms": ("Accel/X", "Accel/Y", "Accel/Z"),
        "hdf5": ("daq/acc[0]", "daq/acc[1]", "daq/acc[2]"),
@@ -104,7 +104,7 @@ def test_v73_vector_orientation(tmp_path):
     with h5py.File(path, "w", userblock_size=512) as h5:
         h5.create_dataset("col", data=col[None, :]).attrs["MATLAB_class"] = np.bytes_("double")
         h5.create_dataset("row", data=row[:, None]).attrs["MATLAB_class"] = np.bytes_("double")
-    from daq_files import MAT73_HEADER
+    from helpers.daq_files import MAT73_HEADER
 
     with open(path, "r+b") as fh:
         fh.write(MAT73_HEADER)

@@ -8,7 +8,6 @@ column or row and the parameter to fix.
 
 import hashlib
 import json
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -18,8 +17,9 @@ from accelcal.errors import AccelcalError
 from accelcal.io.recordings import InputOptions, describe, iter_blocks, read_recording
 from accelcal.io.records import write_record
 from accelcal.units import STANDARD_GRAVITY
+from helpers.paths import REAL_IMUCAL
 
-REAL = Path(__file__).resolve().parent / "fixtures" / "real" / "imucal"
+REAL = REAL_IMUCAL
 SESSION = REAL / "example_ferraris_session.csv"
 REGIONS = REAL / "example_ferraris_session_list.json"
 

@@ -4,7 +4,6 @@ import importlib.util
 import json
 import re
 import shlex
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,8 +16,8 @@ from accelcal.io.formats.shaker import read_records
 from accelcal.io.formats.vibrafuge import read_vibrafuge
 from accelcal.io.records import read_record
 from accelcal.model import ErrorModel
+from helpers.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "examples" / "data"
 
 

@@ -1,8 +1,6 @@
 """The end-to-end demo: simulate, reduce, record, store and report; the report in Chromium."""
 
 import re
-import shutil
-import subprocess
 import time
 
 import numpy as np
@@ -123,18 +121,10 @@ def test_demo_command_prints_where_everything_is(tmp_path, capsys):
     assert "writing the report" in out.err  # the progress bar's last stage, on stderr
 
 
-@pytest.mark.skipif(shutil.which("chromium") is None, reason="Debian's chromium is not installed")
-def test_demo_report_renders_in_headless_chromium(tmp_path):
+def test_demo_report_renders_in_headless_chromium(tmp_path, chromium):
     result = run(tmp_path / "demo", db=str(tmp_path / "s.sqlite"), seed=5, progress=False)
     shot = tmp_path / "report.png"
-    proc = subprocess.run(
-        ["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-         "--no-first-run", "--disable-background-networking", "--disable-component-update",
-         "--disable-sync", f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1200,1800",
-         "--hide-scrollbars", "--enable-logging=stderr", "--v=0", f"--screenshot={shot}",
-         result.report.resolve().as_uri()],
-        capture_output=True, text=True, timeout=120, check=False,
-    )
+    proc = chromium(result.report.resolve().as_uri(), shot, "1200,1800", "--hide-scrollbars")
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert [line for line in proc.stderr.splitlines() if "CONSOLE" in line] == []

@@ -1,8 +1,6 @@
 """HTML reports: content, escaping, atomic writing, and a look in headless Chromium."""
 
 import re
-import shutil
-import subprocess
 
 import numpy as np
 import pytest
@@ -10,7 +8,7 @@ import pytest
 from accelcal.cli import main
 from accelcal.plotting import new_figure
 from accelcal.report import Figure, Section, figure_svg, format_std, format_value, render_report
-from test_store import make_record
+from helpers.records import make_record
 
 
 @pytest.mark.parametrize(
@@ -81,18 +79,11 @@ def test_report_command_writes_atomically(capsys, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.json", "r.json", "report.html"]
 
 
-@pytest.mark.skipif(shutil.which("chromium") is None, reason="Debian's chromium is not installed")
-def test_report_renders_in_headless_chromium(tmp_path):
+def test_report_renders_in_headless_chromium(tmp_path, chromium):
     page = tmp_path / "report.html"
     page.write_text(_report_html(), encoding="utf-8")
     shot = tmp_path / "report.png"
-    proc = subprocess.run(
-        ["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-         "--no-first-run", "--disable-background-networking", "--disable-component-update",
-         "--disable-sync", f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1100,1400",
-         "--enable-logging=stderr", "--v=0", f"--screenshot={shot}", page.as_uri()],
-        capture_output=True, text=True, timeout=120, check=False,
-    )
+    proc = chromium(page.as_uri(), shot, "1100,1400")
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert shot.stat().st_size > 20_000  # a rendered page, not a blank one

@@ -5,7 +5,7 @@ import json
 import pytest
 
 from accelcal.cli import main
-from test_store import make_record
+from helpers.records import make_record
 
 
 def run(capsys, *args):
@@ -61,7 +61,7 @@ def test_history_and_list_output_is_the_rows_rendered(capsys, tmp_path, fmt):
     from accelcal.cli.common import render
     from accelcal.io.calibration_record import CalibrationRecord
     from accelcal.store import Store
-    from test_store import FIXTURES
+    from helpers.paths import FIXTURES
 
     db = str(tmp_path / "store.sqlite")
     with Store(db) as store:

@@ -13,8 +13,8 @@ import pytest
 from accelcal import AccelcalError
 from accelcal.montecarlo import run as run_study
 from accelcal.store import Store
-from test_hardening_files import assert_one_line_error, run
-from test_store import make_record
+from helpers.cli import assert_one_line_error, run
+from helpers.records import make_record
 
 
 def test_a_file_that_is_not_a_database_exits_2(capsys, tmp_path):

@@ -15,7 +15,7 @@ from accelcal.report import render_report
 from accelcal.report.sections import reduction_sections
 from accelcal.results import Estimate, Reduction
 from accelcal.store import SCHEMA_VERSION, Store
-from test_store import db, make_record  # noqa: F401 (the fixture is used by name)
+from helpers.records import make_record
 
 
 @pytest.mark.parametrize(("dof", "k"), [(1, 13.97), (2, 4.53), (5, 2.65), (10, 2.28),
@@ -94,7 +94,7 @@ def test_records_written_before_dof_and_simulated_still_load():
             CalibrationRecord.from_json(json.dumps({**data, **bad}))
 
 
-def test_schema_1_store_migrates_to_the_simulated_column(db):  # noqa: F811
+def test_schema_1_store_migrates_to_the_simulated_column(db):
     # Build a schema-1 store as an older accelcal left it: no simulated column.
     engine = sa.create_engine(db if "://" in db else f"sqlite:///{db}")
     meta = sa.MetaData()

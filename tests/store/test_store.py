@@ -1,48 +1,18 @@
 """Calibration records and the records store (SQLite always; PostgreSQL when a server is given)."""
 
 import json
-import os
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from accelcal import AccelcalError, default_model
 from accelcal.io.calibration_record import CalibrationRecord
-from accelcal.results import Estimate
 from accelcal.store import SCHEMA_VERSION, Store
-
-FIXTURES = Path(__file__).parent / "fixtures"
-PG_URL = os.environ.get("ACCELCAL_TEST_POSTGRES_URL")
-
-
-def make_record(serial="SN-1", date="2026-01-01T00:00:00+00:00", shift=0.0,
-                method="dividing-head/joint", **kwargs):
-    est = Estimate(
-        ("K_F", "K_I", "K_O"), np.array([-8.3e-4, 1.2993698, -1.2e-5]) + shift,
-        np.diag([1.0e-12, 4.0e-12, 9.0e-12]), {"K_F": "V", "K_I": "V/g", "K_O": "V"},
-        method, notes=("first harmonic known",),
-    )
-    return CalibrationRecord.from_estimate(est, serial=serial, date=date, **kwargs)
-
-
-@pytest.fixture(params=["sqlite", "postgresql"])
-def db(request, tmp_path):
-    if request.param == "sqlite":
-        return str(tmp_path / "records.sqlite")
-    if not PG_URL:
-        pytest.skip("no PostgreSQL: set ACCELCAL_TEST_POSTGRES_URL (.ci/postgres starts a server)")
-    import sqlalchemy as sa
-
-    engine = sa.create_engine(PG_URL)
-    with engine.begin() as conn:
-        for table in ("coefficients", "calibrations", "schema_info"):
-            conn.execute(sa.text(f"DROP TABLE IF EXISTS {table} CASCADE"))
-    engine.dispose()
-    return PG_URL
+from helpers.paths import FIXTURES, TESTS
+from helpers.records import make_record
 
 
 def test_record_round_trip_and_expanded_uncertainty(tmp_path):
@@ -204,7 +174,7 @@ _WRITER = textwrap.dedent(
     """
     import sys
     sys.path.insert(0, {tests!r})
-    from test_store import make_record
+    from helpers.records import make_record
     from accelcal.store import Store
     store = Store({db!r})
     for i in range({n}):
@@ -218,7 +188,7 @@ def test_concurrent_writers_lose_nothing(db):
     writers, per_writer = 4, 15
     procs = [
         subprocess.Popen([sys.executable, "-c", _WRITER.format(
-            tests=str(Path(__file__).parent), db=db, n=per_writer, w=w)])
+            tests=str(TESTS), db=db, n=per_writer, w=w)])
         for w in range(writers)
     ]
     assert [p.wait(timeout=120) for p in procs] == [0] * writers
@@ -248,7 +218,7 @@ def test_killed_writer_leaves_store_consistent(db):
     store = Store(db)
     store.add(make_record())
     proc = subprocess.run([sys.executable, "-c", _KILLED.format(
-        tests=str(Path(__file__).parent), db=db)], check=False)
+        tests=str(TESTS), db=db)], check=False)
     assert proc.returncode == -9
     store = Store(db)
     assert [r["serial"] for r in store.calibrations()] == ["SN-1"]

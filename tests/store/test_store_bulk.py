@@ -1,7 +1,7 @@
 """The records store in bulk (issue 16): one transaction per batch, schema 3 and its indexes.
 
 SQLite always; PostgreSQL when ACCELCAL_TEST_POSTGRES_URL names a server (the
-``db`` fixture of test_store).
+``db`` fixture of tests/conftest.py).
 """
 
 import dataclasses
@@ -10,7 +10,6 @@ import math
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,21 +19,12 @@ import accelcal.store
 from accelcal import AccelcalError
 from accelcal.store import SCHEMA_VERSION, Store
 from accelcal.store.rows import calibration_row, coefficient_rows
-from cli_helpers import refused, run_cli
-from test_store import db, make_record  # noqa: F401  (db: the store fixture)
-
-TESTS = str(Path(__file__).parent)
-
-
-def records(n, serial="SN-1", start=0, methods=("dividing-head/joint",)):
-    """``n`` distinct records of ``serial``, a day apart from day ``start``."""
-    first = dt.datetime(2026, 1, 1, tzinfo=dt.UTC)
-    return [make_record(serial=serial, method=methods[i % len(methods)], shift=i * 1e-7,
-                        date=(first + dt.timedelta(days=start + i)).isoformat())
-            for i in range(n)]
+from helpers.cli import refused, run_cli
+from helpers.paths import TESTS
+from helpers.records import make_record, records
 
 
-def test_add_many_adds_all_in_order(db):  # noqa: F811
+def test_add_many_adds_all_in_order(db):
     store = Store(db)
     batch = records(5) + records(3, serial="SN-2")
     ids = store.add_many(batch)
@@ -49,7 +39,7 @@ def test_add_many_adds_all_in_order(db):  # noqa: F811
     assert store.add_many([]) == []
 
 
-def test_a_stored_record_among_new_ones_adds_none_and_is_named(db):  # noqa: F811
+def test_a_stored_record_among_new_ones_adds_none_and_is_named(db):
     store = Store(db)
     old = records(1, start=10)[0]
     store.add(old)
@@ -121,7 +111,7 @@ _BULK_WRITER = textwrap.dedent(
     """
     import sys
     sys.path.insert(0, {tests!r})
-    from test_store_bulk import records
+    from helpers.records import records
     from accelcal import AccelcalError
     from accelcal.store import Store
     try:
@@ -133,12 +123,12 @@ _BULK_WRITER = textwrap.dedent(
 )
 
 
-def test_concurrent_bulk_writers(db):  # noqa: F811
+def test_concurrent_bulk_writers(db):
     # Distinct batches all land; two writers of the same batch: one adds it whole, the
     # other is refused whole (SQLite writers queue; PostgreSQL's unique index decides).
     Store(db)
     procs = [subprocess.Popen(
-        [sys.executable, "-c", _BULK_WRITER.format(tests=TESTS, db=db, n=100, serial=serial)],
+        [sys.executable, "-c", _BULK_WRITER.format(tests=str(TESTS), db=db, n=100, serial=serial)],
         stdout=subprocess.PIPE, text=True) for serial in ("W0", "W1", "SAME", "SAME")]
     outs = [p.communicate(timeout=300)[0] for p in procs]
     codes = [p.returncode for p in procs]
@@ -198,7 +188,7 @@ def _everything(store):
             store.history("SN-1", "tumble/six"), store.stats("SN-1"), store.stats("SN-2"))
 
 
-def test_schema_2_store_migrates_to_3_keeping_every_record(db):  # noqa: F811
+def test_schema_2_store_migrates_to_3_keeping_every_record(db):
     batch = (records(7, methods=("dividing-head/joint", "tumble/six"))
              + records(2, serial="SN-2", start=3)
              + [dataclasses.replace(make_record(serial="SN-2", date="2026-03-01T08:00:00+08:00"),
@@ -279,7 +269,7 @@ def _reference_stats(batch):
     return out
 
 
-def test_stats_in_one_pass_match_an_independent_computation(db):  # noqa: F811
+def test_stats_in_one_pass_match_an_independent_computation(db):
     rng = np.random.default_rng(5)
     batch = []
     for i in range(60):

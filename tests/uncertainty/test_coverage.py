@@ -1,13 +1,13 @@
 """Standing check of the stated uncertainties of every method (issue 11).
 
-Every ReductionContract subclass of ``tests/test_*_contract.py`` (found by
+Every ReductionContract subclass of ``tests/methods/*/test_*_contract.py`` (found by
 import: a method that writes its contract joins) and every extra case of
-:data:`coverage_harness.EXTRA_CASES` runs 400 simulated experiments (more
+:data:`helpers.coverage.EXTRA_CASES` runs 400 simulated experiments (more
 where a case asks) in its settings; per coefficient the ratio of the
 empirical SD of the error to the stated SD must meet 0.9-1.1 and the
 coverage of the stated 95 % interval 0.93-0.97, each widened by its own
-sampling error (:func:`coverage_harness.sd_ratio_band`,
-:func:`coverage_harness.coverage_band`: an honest method fails with
+sampling error (:func:`helpers.coverage.sd_ratio_band`,
+:func:`helpers.coverage.coverage_band`: an honest method fails with
 probability ~1e-3 per coefficient). ``python benchmarks/coverage.py`` prints
 the exact numbers (docs/coverage.md).
 """
@@ -15,9 +15,9 @@ the exact numbers (docs/coverage.md).
 import numpy as np
 import pytest
 
-import coverage_harness as harness
 from accelcal.results import Estimate, Reduction
-from contract import ReductionContract
+from helpers import coverage as harness
+from helpers.contract import ReductionContract
 
 KNOWN_MISSES: dict[tuple[str, str], str] = {
     ("noise fit, CLI default terms Q,N,B,K,R", "K"):
@@ -32,7 +32,7 @@ cannot meet the targets there (one line each; "*" for every coefficient of a cas
 CASES = harness.cases()
 
 
-@pytest.mark.slow
+@pytest.mark.coverage
 @pytest.mark.parametrize("case", list(CASES))
 def test_stated_uncertainty_is_honest(case):
     res = harness.coverage(CASES[case](), name=case)
@@ -59,10 +59,9 @@ def test_known_misses_name_existing_cases():
 
 def test_every_contract_joins():
     # every Test* ReductionContract subclass of the contract modules is a case
-    import importlib
-
-    for path in harness.TESTS.glob("test_*_contract.py"):
-        module = importlib.import_module(path.stem)
+    modules = harness.contract_modules()
+    assert len(modules) >= 8  # one contract module per method folder at least
+    for module in modules:
         for name, obj in vars(module).items():
             if (isinstance(obj, type) and issubclass(obj, ReductionContract)
                     and name.startswith("Test") and obj.__module__ == module.__name__):

@@ -7,7 +7,7 @@ import pytest
 
 from accelcal.io.formats import centrifuge as fmt
 from accelcal.model import TERMS
-from cli_helpers import run_cli
+from helpers.cli import run_cli
 
 
 @pytest.fixture(scope="module")

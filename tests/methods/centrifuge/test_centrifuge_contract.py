@@ -3,7 +3,7 @@
 Two cases: the centrifuge alone with the radius from a survey (value with a
 standard uncertainty, propagated), and the joint reduction with a 1 g tumble
 of the same sensor, which estimates the radius error. Random sensors, rig
-errors and noise; the coverage harness (tests/coverage_harness.py) runs both.
+errors and noise; the coverage harness (tests/helpers/coverage.py) runs both.
 """
 
 import numpy as np
@@ -15,7 +15,7 @@ from accelcal.model import ErrorModel
 from accelcal.rigs.centrifuge import CentrifugeRig, simulate
 from accelcal.rigs.tumble import simulate as simulate_tumble
 from accelcal.rigs.tumble import uniform_positions
-from contract import ReductionContract
+from helpers.contract import ReductionContract
 
 POSITIONS = ("IA-in", "IA-out", "OA-in", "OA-out", "PA-in", "PA-out", "IA-tan")
 LEVELS = np.arange(5.0, 55.0, 5.0)

@@ -6,7 +6,7 @@ import pytest
 from accelcal.defaults import default_model
 from accelcal.io.formats import centrifuge as fmt
 from accelcal.rigs.centrifuge import simulate
-from cli_helpers import refused
+from helpers.cli import refused
 
 
 def _write(path, **changes):

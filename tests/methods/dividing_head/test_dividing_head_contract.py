@@ -1,4 +1,4 @@
-"""The reduction contract (tests/contract.py) for every indexing-head reduction."""
+"""The reduction contract (tests/helpers/contract.py) for every indexing-head reduction."""
 
 from typing import ClassVar
 
@@ -9,7 +9,7 @@ from accelcal.methods.dividing_head import COEFFICIENTS, HeadData, reduce
 from accelcal.model import ErrorModel
 from accelcal.rigs.dividing_head import AngleErrorProfile, DividingHeadRig, simulate
 from accelcal.units import ARCSEC
-from contract import ReductionContract
+from helpers.contract import ReductionContract
 
 NOISE = 2.8e-6  # V, Dong2014 Table 1 column U
 
@@ -77,7 +77,7 @@ class TestSingleContract(_HeadContract):
 class TestFourContract(_HeadContract):
     METHOD = "four"
     # the paper's covariance (Dong2014 eq. (31)) understates the scatter ~1.4x (documented,
-    # tests/test_dividing_head_methods.py); the propagated one is exact for the linear method
+    # test_dividing_head_methods.py); the propagated one is exact for the linear method
     OPTIONS: ClassVar[dict] = {"covariance": "propagated"}
 
     def test_shared_head_error_and_gauge(self):

@@ -469,7 +469,7 @@ def test_four_propagated_covariance_is_exact_for_the_linear_method():
 @pytest.mark.slow
 def test_four_propagated_sds_match_the_scatter():
     """Equal noise 2.8 uV (Dong2014 Table 1), variances estimated from each data set
-    (unbiased: tests/test_uncertainty_dividing_head.py). The propagated SDs are 0.93-1.05
+    (unbiased: test_uncertainty_dividing_head.py). The propagated SDs are 0.93-1.05
     of the scatter of 3000 reductions: an SD from an estimated variance averages a little
     low (sensor 1 carries the most contaminated residual, ~9 degrees of freedom:
     E[s]/sigma ~ 0.97), plus 4 standard errors (1.3 % each) of the scatter."""

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from accelcal.io.formats import noise as noise_format
-from cli_helpers import run_cli
+from helpers.cli import run_cli
 
 
 @pytest.fixture

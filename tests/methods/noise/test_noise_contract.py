@@ -1,4 +1,4 @@
-"""The IEEE 952 noise fit under the reduction contract (tests/contract.py) and coverage harness.
+"""The IEEE 952 noise fit under the reduction contract (helpers/contract.py) and coverage harness.
 
 A random still accelerometer: white noise N of 50-200 ug/sqrt(Hz) and an
 acceleration random walk K whose line crosses N's at tau_c = 2-5 s, 2^15
@@ -7,7 +7,7 @@ N and K fitted (terms N, K). Noise-free data are the model's own Allan
 deviation curve (no samples), which the fit must return to rounding.
 B is not in the contract: its standard uncertainty leaves out the
 correlation of the flicker floor between taus and is optimistic
-(``tests/test_noise_fit.py::test_b_uncertainty_is_documented_optimistic``,
+(``tests/methods/noise/test_noise_fit.py::test_b_uncertainty_is_documented_optimistic``,
 docs/noise.md).
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 
 from accelcal.methods.noise.fit import fit, fit_deviation, model_avar
 from accelcal.rigs.noise import simulate_blocks
-from contract import ReductionContract
+from helpers.contract import ReductionContract
 
 RATE = 100.0
 SAMPLES = 2**15

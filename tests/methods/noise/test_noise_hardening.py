@@ -8,7 +8,7 @@ a constant signal, a missing rate, bad options.
 import numpy as np
 import pytest
 
-from cli_helpers import refused
+from helpers.cli import refused
 
 
 def _csv(path, columns, header):

@@ -8,7 +8,7 @@ import pytest
 from accelcal import ErrorModel
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.methods.thermal import Compensation
-from cli_helpers import run_cli
+from helpers.cli import run_cli
 
 SMALL = ["--setpoints", "-30,0,30,60,15,-15", "--points", "12", "--dwell", "30",
          "--warmup", "1800"]

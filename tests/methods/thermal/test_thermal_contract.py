@@ -1,13 +1,13 @@
-"""The thermal reduction under the reduction contract (tests/contract.py).
+"""The thermal reduction under the reduction contract (tests/helpers/contract.py).
 
 Random temperature coefficients (bias, scale factor, K2 and misalignment
 up to second order), random hysteresis, a lagging sensor and noisy
 temperature readings -> the chamber rig (:mod:`accelcal.rigs.thermal`) ->
 :func:`accelcal.methods.thermal.reduce_thermal` with a fixed order 2 ->
 the truth within the stated uncertainty. The coverage harness
-(tests/coverage_harness.py) runs this class; the same with the order
+(tests/helpers/coverage.py) runs this class; the same with the order
 chosen by the F-test is :class:`AutoOrder` below, run by
-tests/test_thermal_coverage.py (not a ``Test`` class: its intervals are
+the coverage harness as an extra case (not a ``Test`` class: its intervals are
 conditional on the choice, see docs/thermal.md).
 """
 
@@ -18,7 +18,7 @@ from accelcal import ErrorModel
 from accelcal.methods.thermal import reduce_thermal
 from accelcal.rigs.thermal import Programme, simulate
 from accelcal.terms import TemperatureTerms
-from contract import ReductionContract
+from helpers.contract import ReductionContract
 
 PROGRAMME = Programme(setpoints=(-40.0, -25.0, -10.0, 5.0, 20.0, 35.0, 50.0, 70.0,
                                  60.0, 45.0, 30.0, 15.0, 0.0, -15.0, -30.0),

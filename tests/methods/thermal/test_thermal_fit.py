@@ -10,7 +10,7 @@ from accelcal import ErrorModel
 from accelcal.errors import AccelcalError, ModelFileError
 from accelcal.methods.thermal import Compensation, fit_polynomial, fit_warmup
 from accelcal.terms import TemperatureTerms
-from cli_helpers import run_cli
+from helpers.cli import run_cli
 
 DT = np.array([-65.0, -50.0, -35.0, -20.0, -5.0, 10.0, 25.0, 45.0, 35.0, 20.0, 0.0, -30.0])
 DIRS = np.array([-1, 1, 1, 1, 1, 1, 1, 1, -1, -1, -1, -1])

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from accelcal.io.formats import thermal as thermal_format
-from cli_helpers import refused, run_cli
+from helpers.cli import refused, run_cli
 
 BASE = ["--points", "8", "--dwell", "20", "--warmup", "0"]
 

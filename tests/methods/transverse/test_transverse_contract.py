@@ -10,7 +10,7 @@ import numpy as np
 from accelcal.methods.transverse import identify
 from accelcal.model import ErrorModel
 from accelcal.rigs.shaker import ShakerRig
-from contract import ReductionContract
+from helpers.contract import ReductionContract
 
 THETA = np.deg2rad(np.arange(0.0, 360.0, 30.0))
 NAMES = ("Ko", "Kp", "Koo", "Kpp", "Kop")

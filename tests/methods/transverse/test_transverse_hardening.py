@@ -11,7 +11,7 @@ from accelcal.defaults import default_model
 from accelcal.errors import AccelcalError
 from accelcal.methods.transverse import check_angles, identify
 from accelcal.rigs.shaker import ShakerRig
-from cli_helpers import refused, run_cli
+from helpers.cli import refused, run_cli
 
 
 @pytest.mark.parametrize("args", [

@@ -1,16 +1,16 @@
 """``accelcal triad`` (issue 12 item 5): detect, calibrate, apply, simulate."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from accelcal.io.formats import triad as triad_format
 from accelcal.methods.triad.model import TriadCalibration
-from cli_helpers import run_cli
+from helpers.cli import run_cli
+from helpers.paths import REAL_IMUCAL
 
-DATA = Path(__file__).resolve().parent / "fixtures" / "real" / "imucal"
+DATA = REAL_IMUCAL
 SESSION = DATA / "example_ferraris_session.csv"
 REGIONS = DATA / "example_ferraris_session_list.json"
 TRUTH = TriadCalibration([0.05, -0.08, 0.12], [1.01, 0.995, 1.02], [1e-3, -2e-3, 1.5e-3])

@@ -10,7 +10,7 @@ the rig's known sample ranges, and calibrated by both routes:
 - gravity norm, 30 random orientations (dof 21);
 - gravity norm with quadratic terms, 40 random orientations.
 
-The coverage harness (tests/coverage_harness.py) runs every class here.
+The coverage harness (tests/helpers/coverage.py) runs every class here.
 """
 
 import numpy as np
@@ -23,7 +23,7 @@ from accelcal.methods.triad import (
     calibrate_unknown,
 )
 from accelcal.rigs.triad import random_directions, simulate, six_positions
-from contract import ReductionContract
+from helpers.contract import ReductionContract
 
 G = 9.80665
 

@@ -8,7 +8,7 @@ import pytest
 from accelcal.io.formats import triad as triad_format
 from accelcal.methods.triad.model import TriadCalibration
 from accelcal.rigs.triad import simulate, six_positions
-from cli_helpers import refused
+from helpers.cli import refused
 
 TRUTH = TriadCalibration([0.05, -0.08, 0.12], [1.01, 0.995, 1.02], [1e-3, -2e-3, 1.5e-3])
 

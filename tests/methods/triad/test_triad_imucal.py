@@ -26,7 +26,6 @@ How close the two must be (derivation, checked below):
 """
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -42,10 +41,11 @@ from accelcal.methods.triad.imucal import (
 )
 from accelcal.methods.triad.known import calibrate_known
 from accelcal.methods.triad.model import TriadCalibration
+from helpers.paths import REAL_IMUCAL
 
 imucal = pytest.importorskip("imucal")
 
-DATA = Path(__file__).resolve().parent / "fixtures" / "real" / "imucal"
+DATA = REAL_IMUCAL
 SESSION = DATA / "example_ferraris_session.csv"
 REGIONS = DATA / "example_ferraris_session_list.json"
 RATE = 102.4

@@ -1,6 +1,6 @@
 """The tumble reduction under the reduction contract, the tumble rig and the record format.
 
-The contract (tests/contract.py) runs random models through the rig
+The contract (tests/helpers/contract.py) runs random models through the rig
 (:mod:`accelcal.rigs.tumble`) and :func:`accelcal.methods.tumble.reduce_tumble`
 by both routes; the rig is checked against the error model directly; the
 format (:mod:`accelcal.io.formats.tumble`) by round trips and by a file
@@ -20,7 +20,7 @@ from accelcal.io.formats import tumble as tumble_format
 from accelcal.io.records import write_record
 from accelcal.methods.tumble import DEFAULT_TERMS, reduce_tumble
 from accelcal.rigs.tumble import simulate, uniform_positions
-from contract import ReductionContract
+from helpers.contract import ReductionContract
 
 REL, ABS = 1e-12, 1e-13
 """As in test_tumble.py: rounding of ~K1 outputs through sums of <= 24 terms with

@@ -12,7 +12,7 @@ from accelcal.errors import AccelcalError
 from accelcal.io.formats import tumble as tumble_format
 from accelcal.methods.tumble import identifiability, reduce_tumble
 from accelcal.rigs.tumble import simulate, uniform_positions
-from cli_helpers import refused, run_cli
+from helpers.cli import refused, run_cli
 
 
 # ------------------------------------------------------------------ sizes

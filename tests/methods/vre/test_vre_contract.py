@@ -9,7 +9,7 @@ import pytest
 from accelcal import ErrorModel
 from accelcal.methods.vre import along_ia, identify, reduce_run, vector_vre
 from accelcal.rigs.vibrafuge import simulate
-from contract import ReductionContract
+from helpers.contract import ReductionContract
 
 PAPER_B = np.repeat([1.0, 2.0, 4.0], 6)
 PAPER_A = np.tile(np.arange(5.0, 11.0), 3)
@@ -42,7 +42,7 @@ class TestContract(ReductionContract):
 
     def noise_free_tolerance(self, name: str, value: float) -> float:
         # Noise-free integrating records reduce to the closed-form VRE within
-        # ~1e-15 g (tests/test_vre_records.py); the fit maps a VRE error e to
+        # ~1e-15 g (tests/methods/vre/test_vre_records.py); the fit maps a VRE error e to
         # coefficient errors up to e / (smallest column sensitivity): K0' enters
         # with s0 = phi / pi >= 0.1 g/g on this grid, so 1e-13 g absolute plus
         # 1e-9 relative covers the rounding with a factor 10 to spare.

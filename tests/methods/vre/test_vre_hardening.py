@@ -13,7 +13,7 @@ from accelcal.defaults import default_model
 from accelcal.errors import AccelcalError
 from accelcal.methods.vre import identify, reduce_run
 from accelcal.rigs.vibrafuge import simulate
-from cli_helpers import refused, run_cli
+from helpers.cli import refused, run_cli
 
 PAPER_B = np.repeat([1.0, 2.0, 4.0], 6)
 PAPER_A = np.tile(np.arange(5.0, 11.0), 3)
