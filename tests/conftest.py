@@ -17,6 +17,32 @@ POSTGRES_URL = os.environ.get("ACCELCAL_TEST_POSTGRES_URL")
 """A PostgreSQL server for the store tests (``.ci/postgres`` starts one), or None."""
 
 
+@pytest.fixture(scope="session")
+def postgres_url():
+    """The PostgreSQL database of this test process (skipped where no server is given).
+
+    Under pytest-xdist each worker has its own database (``accelcal_test_gw0``, ...,
+    created on the server named by ``ACCELCAL_TEST_POSTGRES_URL``), since the ``db``
+    fixture empties it before every test.
+    """
+    if not POSTGRES_URL:
+        pytest.skip("no PostgreSQL: set ACCELCAL_TEST_POSTGRES_URL (.ci/postgres starts a server)")
+    worker = os.environ.get("PYTEST_XDIST_WORKER")
+    if not worker:
+        return POSTGRES_URL
+    import sqlalchemy as sa
+
+    url = sa.engine.make_url(POSTGRES_URL)
+    name = f"{url.database}_{worker}"
+    engine = sa.create_engine(url, isolation_level="AUTOCOMMIT")
+    with engine.connect() as conn:
+        query = sa.text("SELECT 1 FROM pg_database WHERE datname = :name")
+        if conn.execute(query, {"name": name}).scalar() is None:
+            conn.execute(sa.text(f'CREATE DATABASE "{name}"'))
+    engine.dispose()
+    return url.set(database=name).render_as_string(hide_password=False)
+
+
 @pytest.fixture(params=["sqlite", "postgresql"])
 def db(request, tmp_path):
     """A records store address: a new SQLite file; then PostgreSQL, emptied, where one is given.
@@ -25,16 +51,15 @@ def db(request, tmp_path):
     """
     if request.param == "sqlite":
         return str(tmp_path / "records.sqlite")
-    if not POSTGRES_URL:
-        pytest.skip("no PostgreSQL: set ACCELCAL_TEST_POSTGRES_URL (.ci/postgres starts a server)")
+    url = request.getfixturevalue("postgres_url")
     import sqlalchemy as sa
 
-    engine = sa.create_engine(POSTGRES_URL)
+    engine = sa.create_engine(url)
     with engine.begin() as conn:
         for table in ("coefficients", "calibrations", "schema_info"):
             conn.execute(sa.text(f"DROP TABLE IF EXISTS {table} CASCADE"))
     engine.dispose()
-    return POSTGRES_URL
+    return url
 
 
 @pytest.fixture
