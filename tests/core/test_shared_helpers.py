@@ -185,6 +185,7 @@ def test_parquet_record_errors(tmp_path):
         read_record(junk, "demo")
 
 
+@pytest.mark.fuzz
 @settings(max_examples=150, deadline=None)
 @given(data=st.binary(max_size=400), cut=st.integers(0, 400), text=st.text(max_size=60))
 def test_fuzzed_csv_records_fail_only_with_the_documented_error(tmp_path_factory, data, cut, text):

@@ -39,6 +39,8 @@ import pytest
 from helpers.cli import unstated_uncertainty
 from helpers.paths import EXAMPLES, TESTS
 
+pytestmark = pytest.mark.fuzz  # the whole module: the fuzz tier (docs/testing.md)
+
 TIME_LIMIT = 20.0
 """Seconds one run may take."""
 

@@ -25,6 +25,7 @@ import random
 import re
 import shutil
 import signal
+import sys
 import time
 import traceback
 import warnings
@@ -38,6 +39,8 @@ import pytest
 from accelcal.errors import AccelcalError
 from helpers.cli import unstated_uncertainty
 from helpers.paths import EXAMPLES, FIXTURES, REAL_IMUCAL
+
+pytestmark = pytest.mark.fuzz  # the whole module: the fuzz tier (docs/testing.md)
 
 TIME_LIMIT = 5.0
 """Seconds one read may take (the CLI stage: :data:`COMMAND_TIME_LIMIT`)."""
@@ -893,7 +896,7 @@ def test_the_checks_catch_what_they_should(tmp_path, monkeypatch):
     def long_message(path):
         raise AccelcalError("x" * 5000)
 
-    monkeypatch.setattr(__import__(__name__), "TIME_LIMIT", 0.2)
+    monkeypatch.setattr(sys.modules[__name__], "TIME_LIMIT", 0.2)
     for read, expected in ((writes, "wrote or changed"), (wrong_error, "ValueError"),
                            (hangs, "no answer"), (warns, "RuntimeWarning"),
                            (long_message, "5000 characters")):

@@ -44,6 +44,7 @@ def _z(replicas, exact):
     return (replicas.mean(axis=0) - exact) / se
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("h1_sd", [0.0, 5e-7])
 def test_monte_carlo_converges_to_exact_gaussian_inputs(h1_sd):
     """No uniform head error (d = the first harmonic, fixed): every input Gaussian, so the
@@ -63,6 +64,7 @@ def test_monte_carlo_converges_to_exact_gaussian_inputs(h1_sd):
     np.testing.assert_allclose(sd.mean(axis=0), exact.mean_formal_sd, rtol=0.015)
 
 
+@pytest.mark.slow
 def test_monte_carlo_converges_to_exact_uniform_head_error():
     """Dong2014's 2 arcsec uniform head error: the RMS errors depend on its variance only
     (exact), within 5 SEs as above. The formal SDs take the uniform errors as Gaussian of
@@ -88,6 +90,7 @@ def test_mean_sqrt_of_chi_square_matches_the_gamma_formula(dof):
     assert form.mean_sqrt() == pytest.approx(expect, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_mean_sqrt_of_a_general_form_matches_sampling():
     """A non-central form with unequal weights and a slightly negative weight (as four's
     unbiased variances): E|Q|^(1/2) against 2e6 direct samples (SE ~ 0.03 %; tolerance 0.2 %)."""

@@ -68,6 +68,7 @@ def _data(n, k=4, seed=1, noise=2.8e-6):
 
 
 # ------------------------------------------------------------ linear in the rows
+@pytest.mark.slow
 def test_reduce_of_200000_rows_is_linear_in_time_and_memory(tmp_path, capsys):
     """50,000 positions x 4 sensors = 2e5 readings, every method from the command line.
 
@@ -340,6 +341,7 @@ def test_four_defaults_to_the_propagated_covariance_everywhere(tmp_path, capsys)
     assert {r["coefficient"] for r in rows} == set(COEFFICIENTS)
 
 
+@pytest.mark.slow
 def test_monte_carlo_uncertainty_of_a_huge_file_is_refused_before_allocating(tmp_path, capsys):
     rig, run, _ = _data(50_000)
     path = tmp_path / "big.csv"

@@ -37,6 +37,7 @@ def _avars(y, m):
     return s / (2 * c) / m**2
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("coefs", [{"N": 1.0}, {"K": 0.01}, {"Q": 1.0}, {"N": 1.0, "R": 0.002}])
 def test_covariance_matches_simulation(coefs):
     # 1500 records of 2048 samples: the empirical variances scatter by sqrt(2/1500) = 3.7 %,
@@ -153,6 +154,7 @@ def _z_scores(coefs, terms, reps, naive=False):
     return {t: np.asarray(v) for t, v in z.items()}
 
 
+@pytest.mark.slow
 def test_sandwich_is_honest_where_the_naive_wls_is_not():
     # 120 records: the SD of 120 z-scores scatters by 6.5 %; the naive (A'WA)^-1 treats the
     # taus as independent and understates N and K by 1.4-1.9x (measured on 300 records)
@@ -164,6 +166,7 @@ def test_sandwich_is_honest_where_the_naive_wls_is_not():
         assert np.std(naive[t]) > 1.2, (t, np.std(naive[t]))
 
 
+@pytest.mark.slow
 def test_b_uncertainty_is_documented_optimistic():
     # B's std leaves out the inter-tau correlation of the flicker floor: the z-scores of B
     # scatter more than 1 (documented in the notes and docs/noise.md); N stays honest

@@ -116,13 +116,18 @@ def test_known_model_jacobian_matches_finite_differences():
                                atol=1e-7 * scale[12:].max())
 
 
-def test_known_covariance_three_ways():
-    """RQ-propagated covariance = Gauss-Newton covariance of the readings model = simulation."""
+def _known_design():
+    """Twelve known orientations of a random triad: its clean readings and the SD (counts)."""
     rng = np.random.default_rng(4)
     cal = truth(rng)
     up = np.vstack([six_positions(), random_directions(6, rng)])
-    clean = cal.readings(G * up)
-    sd = 2.0  # counts, SD of an interval mean
+    return rng, up, cal.readings(G * up), 2.0  # counts, SD of an interval mean
+
+
+def test_known_covariance_two_ways():
+    """RQ-propagated covariance = Gauss-Newton covariance of the readings model (the
+    simulation, the third way, is the slow test below)."""
+    _, up, clean, sd = _known_design()
     red = calibrate_known(clean, up, G, input_unit="counts", noise_sd=sd)
     assert red.dof == 0
     x = np.concatenate([red.estimate.values, np.zeros(3)])
@@ -131,6 +136,13 @@ def test_known_covariance_three_ways():
     gn = np.linalg.inv(jw.T @ jw)
     np.testing.assert_allclose(red.covariance, gn, rtol=1e-6,
                                atol=1e-9 * np.sqrt(np.outer(np.diag(gn), np.diag(gn))).max())
+
+
+@pytest.mark.slow
+def test_known_covariance_matches_simulation():
+    """The propagated SDs against the scatter of 3000 simulated calibrations."""
+    rng, up, clean, sd = _known_design()
+    red = calibrate_known(clean, up, G, input_unit="counts", noise_sd=sd)
     m = 3000
     est = np.array([calibrate_known(clean + sd * rng.standard_normal(clean.shape), up, G,
                                     input_unit="counts", noise_sd=sd).estimate.values
