@@ -233,8 +233,7 @@ def contract_classes() -> list[type]:
 def _four_default():
     """The four-sensor reduction as ``reduce(data, "four")`` runs it: the library's default
     covariance (the contract chooses ``covariance="propagated"``)."""
-    contracts = contract_module("test_dividing_head_contract")
-    TestFourContract = contracts.TestFourContract
+    TestFourContract = contract_module("test_dividing_head_contract").TestFourContract
 
     class FourDefault(TestFourContract):
         OPTIONS: ClassVar[dict] = {}
@@ -247,8 +246,7 @@ def _tumble_few_dof():
     the residuals: 1 degree of freedom (OA, 7 terms). The start stays at 0: from a random
     start the 4th harmonic of 8 positions vanishes near 4 start = 90 deg and K0, K2, K4 are
     then barely identifiable (stated SDs of every size, correctly, but no SD ratio)."""
-    contracts = contract_module("test_tumble_contract")
-    TestContractFourierOA = contracts.TestContractFourierOA
+    TestContractFourierOA = contract_module("test_tumble_contract").TestContractFourierOA
 
     from accelcal.rigs.tumble import uniform_positions
 
@@ -304,8 +302,7 @@ def _noise_all_terms():
 
 def _thermal_auto_order():
     """``accelcal thermal reduce`` by default: the polynomial order chosen by the F-test."""
-    contracts = contract_module("test_thermal_contract")
-    AutoOrder = contracts.AutoOrder
+    AutoOrder = contract_module("test_thermal_contract").AutoOrder
 
     return AutoOrder()
 
@@ -313,8 +310,7 @@ def _thermal_auto_order():
 def _triad_unknown_eighteen():
     """The gravity norm on the demo's design (the six axis directions and 12 random ones,
     counts): 9 degrees of freedom, the Student-t coverage factor at work."""
-    contracts = contract_module("test_triad_contract")
-    TestContractGravityNorm = contracts.TestContractGravityNorm
+    TestContractGravityNorm = contract_module("test_triad_contract").TestContractGravityNorm
 
     from accelcal.rigs.triad import random_directions, six_positions
 
