@@ -194,13 +194,17 @@ def coverage(contract: ReductionContract, n: int | None = None, *,
 
 # ------------------------------------------------------------------------------- the cases
 def contract_modules() -> list[ModuleType]:
-    """Every contract test module, ``tests/methods/*/test_*_contract.py``, by import."""
+    """Every contract test module, ``tests/**/test_*_contract.py``, by import.
+
+    They live in ``tests/methods/<method>/``; any folder of tests/ is searched, so a
+    contract written elsewhere joins too.
+    """
     return [contract_module(path.stem)
-            for path in sorted(TESTS.glob("methods/*/test_*_contract.py"))]
+            for path in sorted(TESTS.rglob("test_*_contract.py"), key=lambda p: p.name)]
 
 
 def contract_module(stem: str) -> ModuleType:
-    """The contract test module ``tests/methods/*/<stem>.py``, imported once as ``stem``.
+    """The contract test module ``tests/**/<stem>.py``, imported once as ``stem``.
 
     Imported under its file name (as pytest imported the flat tests/ before its
     folders), so that case names stay ``test_vre_contract.TestContract`` and so
@@ -208,7 +212,7 @@ def contract_module(stem: str) -> ModuleType:
     """
     if stem in sys.modules:
         return sys.modules[stem]
-    (path,) = TESTS.glob(f"methods/*/{stem}.py")
+    (path,) = TESTS.rglob(f"{stem}.py")
     spec = importlib.util.spec_from_file_location(stem, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[stem] = module
