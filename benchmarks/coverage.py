@@ -8,13 +8,13 @@ Run from the repository root::
     python benchmarks/coverage.py --markdown table.md
     python benchmarks/coverage.py --update-docs       # the table of docs/coverage.md
 
-For each case (every ReductionContract subclass of tests/test_*_contract.py
-and the extra cases of tests/coverage_harness.py) it runs N simulated
+For each case (every ReductionContract subclass of tests/methods/*/test_*_contract.py
+and the extra cases of tests/helpers/coverage.py) it runs N simulated
 experiments (seeds 0..N-1) and prints, per coefficient, the ratio of the
 empirical SD of (estimate - truth) to the mean stated SD (target 0.9-1.1)
 and the coverage of the stated 95 % interval (target 0.93-0.97; k from
 Student's t of the reduction's dof). The verdict compares with the exact
-targets; tests/test_coverage.py asserts the same numbers against bands
+targets; tests/uncertainty/test_coverage.py asserts the same numbers against bands
 widened by their sampling error.
 """
 
@@ -29,9 +29,9 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs" / "coverage.md"
 MARKER = "<!-- coverage-table -->"
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "tests"))  # the test helpers (tests/helpers), not installed
 
-import coverage_harness as harness  # noqa: E402
+from helpers import coverage as harness  # noqa: E402
 
 
 def main(argv=None) -> int:

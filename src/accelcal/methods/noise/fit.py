@@ -20,7 +20,7 @@ Uncertainties: the taus of one record share its samples, so their Allan
 variances are correlated (0.3 to 0.9 between neighbouring octaves); the
 WLS covariance ``(A'WA)^-1``, which treats them as independent, understates
 the SD of N by 1.4x and of K by 1.9x (measured in
-``tests/test_noise_fit.py``). The covariance of ``C`` is therefore the
+``tests/methods/noise/test_noise_fit.py``). The covariance of ``C`` is therefore the
 sandwich ``J S J'``, ``J = (A'WA)^-1 A'W``, with ``S`` the covariance of the
 Allan variances under the fitted model (:mod:`~accelcal.methods.noise.covariance`:
 exact for the Q, N, K, R terms of Gaussian noise; the B floor's share on the
