@@ -12,6 +12,7 @@ from accelcal.cli.input_options import (
     INPUT_FORMAT,
     RATE,
     REGIONS,
+    SCALE,
     TIME,
     TIME_UNIT,
     UNIT,
@@ -51,7 +52,7 @@ def detect(
     *,
     input_format: str = INPUT_FORMAT, columns: str | None = COLUMNS, time: str | None = TIME,
     time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
-    delimiter: str | None = DELIMITER,
+    scale: float | None = SCALE, delimiter: str | None = DELIMITER,
     init_static: float = INIT_STATIC, window: float = WINDOW,
     factor: float = typer.Option(
         2.0, "--factor", help="Threshold: this many times the initial period's variance "
@@ -74,7 +75,8 @@ def detect(
     check_settings(init_static=init_static, window=window, factor=factor,
                    min_length=min_length)
     opts = input_options(input_format=input_format, columns=columns, time=time,
-                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter)
+                         time_unit=time_unit, rate=rate, unit=unit, scale=scale,
+                         delimiter=delimiter)
     prov, sample_rate = describe(file, opts, channels=3, what="triad recording", digest=False)
     blocks = iter_blocks(file, opts, channels=3, what="triad recording")
     with DelayedProgress(f"static intervals of {file.name}") as progress:
@@ -99,7 +101,7 @@ def calibrate(
     *,
     input_format: str = INPUT_FORMAT, columns: str | None = COLUMNS, time: str | None = TIME,
     time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
-    delimiter: str | None = DELIMITER, regions: Path | None = REGIONS,
+    scale: float | None = SCALE, delimiter: str | None = DELIMITER, regions: Path | None = REGIONS,
     orientations: str | None = typer.Option(
         None, "--orientations",
         help="known (imucal labels or --regions, a triad record's positions, or --positions) "
@@ -153,7 +155,8 @@ def calibrate(
     for path in (out, imucal_out, record_out):
         check_writable(path)
     opts = input_options(input_format=input_format, columns=columns, time=time,
-                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
+                         time_unit=time_unit, rate=rate, unit=unit, scale=scale,
+                         delimiter=delimiter,
                          regions=regions)
     lab = run(file, options=opts, orientations=orientations, positions=positions,
               gravity=gravity, latitude=latitude, height=height, quadratic=quadratic,
@@ -224,7 +227,7 @@ def apply(
     unit: str | None = typer.Option(
         None, "--unit", help="Unit of the values (default: the calibration's input unit; an "
                              "acceleration unit is converted to it)."),
-    delimiter: str | None = DELIMITER,
+    scale: float | None = SCALE, delimiter: str | None = DELIMITER,
     output_unit: str = typer.Option("m/s^2", "--output-unit", help="m/s^2 or g (g_n)."),
     out: Path = typer.Option(..., "--out", help="CSV file to write."),
 ) -> None:
@@ -248,7 +251,8 @@ def apply(
     if unit is None and source.input_format in ("csv", "parquet", "imu_tk"):
         unit = cal.input_unit
     opts = input_options(input_format=input_format, columns=columns, time=time,
-                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter)
+                         time_unit=time_unit, rate=rate, unit=unit, scale=scale,
+                         delimiter=delimiter)
     prov, _ = describe(file, opts, channels=3, need_rate=False, what="triad recording",
                        digest=False)
     factor = 1.0
@@ -257,12 +261,12 @@ def apply(
             raise AccelcalError(f"the calibration maps {cal.input_unit}, the recording is in "
                                 f"{prov['unit']}; give --unit {cal.input_unit} if it is")
         factor = ACCELERATION_UNITS[prov["unit"]] / ACCELERATION_UNITS[cal.input_unit]
-    scale = 1.0 / ACCELERATION_UNITS[output_unit]
+    out_scale = 1.0 / ACCELERATION_UNITS[output_unit]
     channels = prov["columns"]
     frame = "reference" if cal.rotation is not None else "body"
     blocks = iter_blocks(file, opts, channels=3, need_rate=False, what="triad recording")
     apply_stream(blocks, source, channels, out,
-                 lambda u: cal.apply(u * factor, frame=frame) * scale)
+                 lambda u: cal.apply(u * factor, frame=frame) * out_scale)
     typer.echo(f"wrote {out}", err=True)
 
 

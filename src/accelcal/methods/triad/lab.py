@@ -137,6 +137,7 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
                    factor=2.0 if factor is None else factor)
     rec = read(source, options)
     g = local_gravity(rec, gravity=gravity, latitude=latitude, height=height)
+    check_magnitude(rec, g)
     detect = (init_static, window, 2.0 if factor is None else factor, min_length)
     known, found = (None, None) if orientations == "unknown" else _known(rec, positions, detect)
     if orientations == "known" and known is None:
@@ -171,6 +172,35 @@ def read(source, options=None):
     from accelcal.io.recordings import read_recording
 
     return read_recording(source, options, channels=3, what="triad recording")
+
+
+PLAUSIBLE_RATIO = 2.0
+"""The median magnitude of a recording in an acceleration unit must lie within this
+factor of the local gravity: a still or slowly turned triad reads about 1 g, raw ADC
+counts read as m/s^2 (imucal's raw sessions: some 2,000 per g) thousands."""
+
+
+def check_magnitude(rec, gravity: float) -> None:
+    """Refuse values in an acceleration unit whose median magnitude is not about ``gravity``.
+
+    A raw output taken for an acceleration (counts read as m/s^2) would
+    otherwise calibrate to a scale factor near -100 % and biases of
+    thousands of g; a raw unit (counts, V, mV) is not checked: the
+    calibration finds its scale.
+    """
+    from accelcal.io.recordings.options import ACCELERATION_UNITS
+
+    if rec.unit not in ACCELERATION_UNITS or not len(rec.values):
+        return
+    step = max(1, len(rec.values) // 100_000)
+    norm = np.linalg.norm(rec.values[::step], axis=1)
+    median = float(np.median(norm)) * ACCELERATION_UNITS[rec.unit]
+    if not gravity / PLAUSIBLE_RATIO <= median <= gravity * PLAUSIBLE_RATIO:
+        raise AccelcalError(
+            f"the recording's median magnitude is {median:.6g} m/s^2 as {rec.unit}, not about "
+            f"the local gravity {gravity:.6g} m/s^2: the values are not in {rec.unit}; give "
+            "their unit (counts, V or mV for a raw output, e.g. an imucal raw session in ADC "
+            "counts; scale for a known conversion)", parameter="unit")
 
 
 def detect_intervals(rec, init_static: float, window: float, factor: float, min_length: float):
