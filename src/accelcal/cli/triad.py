@@ -116,6 +116,16 @@ def calibrate(
         None, "--latitude", help="Geodetic latitude, deg (WGS84 normal gravity)."),
     height: float | None = typer.Option(None, "--height", help="Height, m (with --latitude)."),
     quadratic: bool = typer.Option(False, "--quadratic", help="Fit per-axis quadratic terms."),
+    estimator: str | None = typer.Option(
+        None, "--estimator",
+        help="Known orientations: pairs (Ferraris's per-axis pairs, as imucal: a tilted "
+             "fixture moves the biases only at second order) or least-squares (all positions); "
+             "default pairs on the six-position design, else least-squares."),
+    fixture_tilt: str | None = typer.Option(
+        None, "--fixture-tilt",
+        help="Known orientations: standard uncertainty of each position's tilt (Type B), "
+             "with its unit, e.g. 5mrad, 0.3deg, 60arcsec; the interval means' noise is then "
+             "their samples' SD / sqrt(n)."),
     init_static: float = INIT_STATIC, window: float = WINDOW,
     factor: float | None = typer.Option(
         None, "--factor",
@@ -152,6 +162,7 @@ def calibrate(
         raise AccelcalError("--imucal-out: imucal's layout has no quadratic terms; drop "
                             "--quadratic")
     monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
+    tilt = None if fixture_tilt is None else parse_angle(fixture_tilt, "--fixture-tilt")
     for path in (out, imucal_out, record_out):
         check_writable(path)
     opts = input_options(input_format=input_format, columns=columns, time=time,
@@ -160,7 +171,8 @@ def calibrate(
                          regions=regions)
     lab = run(file, options=opts, orientations=orientations, positions=positions,
               gravity=gravity, latitude=latitude, height=height, quadratic=quadratic,
-              init_static=init_static, window=window, factor=factor, min_length=min_length)
+              init_static=init_static, window=window, factor=factor, min_length=min_length,
+              estimator=estimator, fixture_tilt=tilt)
     red, rec, found = lab.reduction, lab.recording, lab.intervals
     files = [file] if rec.provenance.get("input_format") == "record" else []
     info = record_options.lab_info_for(record_out, files, serial=serial, operator=None)
@@ -190,6 +202,23 @@ def calibrate(
         for p in save_records(red.to_records(info, input_files=[file]), record_out):
             typer.echo(f"wrote {p}", err=True)
     _print_calibration(lab, rows, fmt=fmt, file=file)
+
+
+ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "µrad": 1e-6, "deg": 0.017453292519943295,
+               "arcmin": 2.908882086657216e-4, "arcsec": 4.84813681109536e-6}
+"""Units of an angle given on the command line, in rad."""
+
+
+def parse_angle(text: str, option: str) -> float:
+    """An angle with its unit (``5mrad``, ``0.3 deg``), in rad."""
+    import re
+
+    match = re.fullmatch(r"\s*([0-9.eE+-]+)\s*([a-zµ]+)\s*", text)
+    try:
+        return float(match.group(1)) * ANGLE_UNITS[match.group(2)]
+    except (AttributeError, KeyError, ValueError):
+        raise AccelcalError(f"{option} {text[:40]!r} is not an angle with its unit (e.g. 5mrad, "
+                            "0.3deg; units " + ", ".join(ANGLE_UNITS) + ")") from None
 
 
 def _print_calibration(lab, rows, *, fmt: str, file: Path) -> None:

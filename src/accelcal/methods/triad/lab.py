@@ -84,7 +84,8 @@ class TriadRun:
 def run(source, *, options=None, orientations: str | None = None, positions=None,
         gravity: float | None = None, latitude: float | None = None,
         height: float | None = None, quadratic: bool = False, init_static: float = 30.0,
-        window: float = 1.0, factor: float | None = None, min_length: float = 2.0) -> TriadRun:
+        window: float = 1.0, factor: float | None = None, min_length: float = 2.0,
+        estimator: str | None = None, fixture_tilt: float | None = None) -> TriadRun:
     """Calibrate a triad from a recording, as ``accelcal triad calibrate`` does.
 
     Parameters
@@ -115,6 +116,15 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         Threshold factor of the detection; default: with unknown orientations
         the one of 2..10 whose calibration leaves the smallest norm residual
         [Tedaldi2014]_, else 2.
+    estimator : {"pairs", "least-squares"}, optional
+        Known orientations: the linear estimator; default per-axis pairs
+        [Ferraris1995]_ on the six-position design (robust to a tilted
+        fixture), else least squares (:mod:`accelcal.methods.triad.pairs`).
+    fixture_tilt : float, optional
+        Known orientations: standard uncertainty of each position's
+        orientation about each horizontal axis, rad (Type B). The noise of
+        each interval mean is then its samples' SD over the square root of
+        their number (white noise), and the tilt's covariance is added.
 
     Returns
     -------
@@ -133,6 +143,10 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
     if positions is not None and orientations == "unknown":
         raise AccelcalError("a positions file gives known orientations; drop orientations "
                             "unknown", parameter="positions")
+    for name, value in (("estimator", estimator), ("fixture_tilt", fixture_tilt)):
+        if value is not None and orientations == "unknown":
+            raise AccelcalError("applies to known orientations (the gravity norm does not "
+                                "use them)", parameter=name)
     check_settings(init_static=init_static, window=window, min_length=min_length,
                    factor=2.0 if factor is None else factor)
     rec = read(source, options)
@@ -147,9 +161,16 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
     if known is not None:
         from accelcal.methods.triad.known import calibrate_known
 
+        noise = (None if fixture_tilt is None
+                 else known.noise_sd / np.sqrt(known.counts)[:, None])
         red = calibrate_known(known.means, known.up, g, input_unit=rec.unit, quadratic=quadratic,
-                              labels=known.labels, counts=known.counts)
+                              labels=known.labels, counts=known.counts, noise_sd=noise,
+                              estimator=estimator, fixture_tilt=fixture_tilt)
         return TriadRun(red, rec, found)
+    if estimator is not None or fixture_tilt is not None:
+        raise AccelcalError("applies to known orientations; the recording gives none (imucal "
+                            "labels or regions, a triad record's positions, or a positions "
+                            "file)", parameter="estimator" if estimator else "fixture_tilt")
     from accelcal.methods.triad.unknown import calibrate_unknown
 
     if factor is None:
