@@ -118,9 +118,10 @@ def calibrate(
     quadratic: bool = typer.Option(False, "--quadratic", help="Fit per-axis quadratic terms."),
     estimator: str | None = typer.Option(
         None, "--estimator",
-        help="Known orientations: pairs (Ferraris's per-axis pairs, as imucal: a tilted "
-             "fixture moves the biases only at second order) or least-squares (all positions); "
-             "default pairs on the six-position design, else least-squares."),
+        help="Known orientations: least-squares (all positions), pairs (Ferraris's per-axis "
+             "pairs on six positions, as imucal: a tilted fixture moves the biases only at "
+             "second order) or gls (weighs each reading by the noise and --fixture-tilt); "
+             "default gls with --fixture-tilt, else least-squares."),
     fixture_tilt: str | None = typer.Option(
         None, "--fixture-tilt",
         help="Known orientations: standard uncertainty of each position's tilt (Type B), "

@@ -54,6 +54,7 @@ from accelcal.methods.triad.gravity import check_gravity
 from accelcal.methods.triad.pairs import (
     check_tilt,
     choose_estimator,
+    design_matrix,
     linear_operator,
     tilt_blocks,
     tilt_covariance,
@@ -127,14 +128,13 @@ def calibrate_known(means, up, gravity, *, input_unit="m/s^2", quadratic=False, 
         SD of an interval mean (scalar, per axis (3,), per position (n,) or
         (n, 3)), input unit: the covariance then uses it (dof 0) instead of
         the residuals.
-    estimator : {"pairs", "least-squares"}, optional
+    estimator : {"least-squares", "pairs", "gls"}, optional
         The linear estimator (:mod:`accelcal.methods.triad.pairs`); default
-        pairs for the six-position design without quadratic terms, else
-        least squares.
+        gls with a fixture tilt, else least squares.
     fixture_tilt : float, optional
         Standard uncertainty of each position's orientation about each
-        horizontal axis, rad (Type B): its covariance is added (linear
-        model only).
+        horizontal axis, rad (Type B; linear model only, with ``noise_sd``):
+        its covariance is added, and gls weighs the readings by it.
 
     Returns
     -------
@@ -163,9 +163,11 @@ def calibrate_known(means, up, gravity, *, input_unit="m/s^2", quadratic=False, 
     names_labels = check_labels(labels, n)
     noise = check_noise(noise_sd, n)
     tilt = check_tilt(fixture_tilt)
-    if tilt is not None and quadratic:
-        raise AccelcalError("the fixture tilt is propagated for the linear model; drop the "
-                            "quadratic terms or the tilt", parameter="fixture_tilt")
+    if tilt is not None and (quadratic or noise is None):
+        raise AccelcalError("the fixture tilt is weighed against the noise of the means in "
+                            "the linear model: " + ("drop the quadratic terms" if quadratic
+                                                    else "give noise_sd"),
+                            parameter="fixture_tilt")
     sigma = noise if noise is not None else np.repeat(relative_sd(n, counts)[:, None], 3, 1)
     f = g * upv
     p_model = 12 if quadratic else 9
@@ -176,9 +178,9 @@ def calibrate_known(means, up, gravity, *, input_unit="m/s^2", quadratic=False, 
     design = analyse(np.column_stack([f, np.ones(n)]), ("f_x", "f_y", "f_z", "1"))
     if not design.full_rank:
         _refuse(n, max(need, 4), "with gravity directions not all in one plane", upv)
-    kind = choose_estimator(estimator, upv, quadratic)
-    lin = linear_operator(kind, f, sigma, upv, g)
-    a, values, rot = estimate_known(u, f, sigma, quadratic, upv, estimator=kind)
+    kind = choose_estimator(estimator, upv, quadratic, tilt)
+    lin = linear_operator(kind, f, sigma, upv, g, u=u, tilt=tilt)
+    a, values, rot = estimate_known(u, f, sigma, quadratic, upv, estimator=kind, tilt=tilt)
     pred, jac = known_model(values, rot, f, quadratic)
     jw = (jac / sigma[:, :, None]).reshape(3 * n, -1)
     names = _names(quadratic)
@@ -214,15 +216,18 @@ def calibrate_known(means, up, gravity, *, input_unit="m/s^2", quadratic=False, 
     return dataclasses.replace(red, provenance=prov, notes=notes)
 
 
-def estimate_known(u, f, sigma, quadratic: bool, upv=None, *, estimator="least-squares"):
+def estimate_known(u, f, sigma, quadratic: bool, upv=None, *, estimator="least-squares",
+                   tilt=None):
     """The estimates alone (no checks): A, values, rotation.
 
     ``values`` are b, s, angles (, q), omega = 0; ``rotation`` the
     fixture-to-body Q; ``estimator`` one of
     :data:`~accelcal.methods.triad.pairs.ESTIMATORS` (``upv`` is needed for
-    pairs). Used by :func:`calibrate_known` and the Monte Carlo.
+    pairs and gls; ``tilt`` for gls). Used by :func:`calibrate_known` and the
+    Monte Carlo.
     """
-    coef = linear_operator(estimator, f, sigma, upv, float(np.linalg.norm(f[0]))) @ u.ravel()
+    lin = linear_operator(estimator, f, sigma, upv, float(np.linalg.norm(f[0])), u=u, tilt=tilt)
+    coef = lin @ u.ravel()
     a, b = coef[:9].reshape(3, 3), coef[9:]
     scale, angles, rot, _ = rq_split(a)
     values = np.concatenate([b, scale, angles, np.zeros(3) if quadratic else [], np.zeros(3)])
@@ -234,9 +239,12 @@ def estimate_known(u, f, sigma, quadratic: bool, upv=None, *, estimator="least-s
 def _estimator_assumptions(kind: str, tilt) -> list:
     from accelcal.results import Assumption
 
-    out = [Assumption("estimator", kind, "", "per-axis pairs (Ferraris): a fixture tilt enters "
-                      "the biases at second order" if kind == "pairs" else
-                      "weighted least squares on all positions")]
+    text = {"pairs": "per-axis pairs (Ferraris): a fixture tilt enters the biases at second "
+                     "order",
+            "gls": "generalised least squares weighing each reading by the noise and the "
+                   "fixture tilt",
+            "least-squares": "weighted least squares on all positions"}[kind]
+    out = [Assumption("estimator", kind, "", text)]
     if tilt is not None:
         out.append(Assumption("fixture_tilt", tilt, "rad", "Type B standard uncertainty of each "
                               "position's orientation about each horizontal axis, independent "
@@ -253,10 +261,7 @@ def _tilt_note(resid, lin, f, sd, tilt_map, *, tilt: float) -> str:
     block diagonal): computed in O(n) as ``tr C - 2 tr(D L C) + tr(L C L' D'D)``.
     """
     n = len(f)
-    design = np.zeros((3 * n, 12))
-    for i in range(3):
-        design[i::3, 3 * i:3 * i + 3] = f
-        design[i::3, 9 + i] = 1.0
+    design = design_matrix(f)
     blocks = np.zeros((n, 3, 3))
     blocks[:, range(3), range(3)] = sd**2
     blocks += np.einsum("kij,klj->kil", tilt_map, tilt_map)

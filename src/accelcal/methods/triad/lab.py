@@ -116,10 +116,13 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         Threshold factor of the detection; default: with unknown orientations
         the one of 2..10 whose calibration leaves the smallest norm residual
         [Tedaldi2014]_, else 2.
-    estimator : {"pairs", "least-squares"}, optional
-        Known orientations: the linear estimator; default per-axis pairs
-        [Ferraris1995]_ on the six-position design (robust to a tilted
-        fixture), else least squares (:mod:`accelcal.methods.triad.pairs`).
+    estimator : {"least-squares", "pairs", "gls"}, optional
+        Known orientations: the linear estimator
+        (:mod:`accelcal.methods.triad.pairs`): least squares, per-axis pairs
+        [Ferraris1995]_ (six positions; robust to a tilted fixture) or
+        generalised least squares weighing each reading by the noise and
+        the fixture tilt; default gls with ``fixture_tilt``, else least
+        squares.
     fixture_tilt : float, optional
         Known orientations: standard uncertainty of each position's
         orientation about each horizontal axis, rad (Type B). The noise of

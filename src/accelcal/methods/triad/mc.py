@@ -68,6 +68,8 @@ class TriadSampler:
     tilt : numpy.ndarray or None
         ``(n, 3, 3)`` maps of a standard normal 3-vector to each position's
         reading error from the fixture tilt (None: no tilt stated).
+    tilt_sd : float or None
+        The stated fixture tilt, rad (the gls estimator weighs with it).
 
     Calling ``sampler(rng, t)`` returns the errors ``(t, p)``.
     """
@@ -85,6 +87,7 @@ class TriadSampler:
     estimator: str = "least-squares"
     up: np.ndarray | None = None
     tilt: np.ndarray | None = None
+    tilt_sd: float | None = None
 
     def __call__(self, rng: np.random.Generator, t: int) -> np.ndarray:
         """Errors of ``t`` re-reduced synthetic sets, shape ``(t, p)``."""
@@ -100,7 +103,7 @@ class TriadSampler:
             u = self.clean + noise[r]
             if self.route == "known":
                 x = estimate_known(u, self.force, self.weights, self.quadratic, self.up,
-                                   estimator=self.estimator)[1]
+                                   estimator=self.estimator, tilt=self.tilt_sd)[1]
             else:
                 x = estimate_unknown(u, self.gravity, self.quadratic, self.weights,
                                      self.sd if self.given else None, x0=self.values)[0]
@@ -138,7 +141,8 @@ def sampler_of(reduction) -> TriadSampler:
                                prov["fixture_tilt"])
         return TriadSampler("known", clean, sd, values, weights, force, prov["gravity"],
                             quadratic, est.values.size, estimator=prov.get(
-                                "estimator", "least-squares"), up=obs["up"], tilt=tilt)
+                                "estimator", "least-squares"), up=obs["up"], tilt=tilt,
+                            tilt_sd=prov.get("fixture_tilt"))
     cal = TriadCalibration.from_vector(est.values, prov["input_unit"])
     a = cal.apply(means)
     clean = cal.readings(prov["gravity"] * a / np.linalg.norm(a, axis=1)[:, None])

@@ -10,7 +10,16 @@ covariance of the means propagates exactly, ``L Sigma L'``:
 - ``pairs``: Ferraris's per-axis pairs [Ferraris1995]_ (as imucal computes
   them), for the six-position design (every ``up`` one of ``+-e_j``, each
   of the six present, repeats averaged): ``A e_j = (u_j+ - u_j-) / (2 g)``,
-  ``b_j = (u_j+,j + u_j-,j) / 2``.
+  ``b_j = (u_j+,j + u_j-,j) / 2``;
+- ``gls``: generalised least squares [Aitken1935]_ with the readings'
+  covariance from the noise of each mean and a stated fixture tilt (below),
+  ``A`` in it from a first pass (pairs on six positions, else least
+  squares). It is the best linear unbiased estimator under that model, and
+  the tilt marginalised out of a joint fit of every position's small
+  orientation error with a Gaussian prior: with no tilt it is least
+  squares, with a tilt far above the noise it takes each bias from the
+  readings of its own axis, as pairs do, and between the two it weighs
+  them by what each reading knows.
 
 Why pairs: a fixture held a small angle ``theta_k`` off its nominal
 orientation feels ``f_k = g R(theta_k) up_k``. Axis ``j`` reads
@@ -32,8 +41,12 @@ change of the readings ``A g (omega_k x up_k)``; with ``omega_k`` isotropic
 its component across ``up_k`` has covariance ``sigma_t^2 P_k``, ``P_k = I -
 up_k up_k'``, so the readings' covariance gains the block ``g^2 sigma_t^2 A
 P_k A'`` and the coefficients ``L_k (g^2 sigma_t^2 A P_k A') L_k'`` summed
-over the positions (first order; the second-order ``g sigma_t^2 / 2`` on
-the readings along ``up``, 1.2e-4 m/s^2 at 5 mrad, is neglected).
+over the positions. At second order the force along ``up`` shortens by
+``g |omega|^2 / 2``: its spread (SD ``g sigma_t^2``, 2.5e-4 m/s^2 at
+5 mrad) is added along ``up`` as if Gaussian, ``g^2 sigma_t^4 A up_k
+up_k' A'``; its mean (``g sigma_t^2`` at every position) looks like a
+relative scale change of ``-sigma_t^2`` (25 ppm at 5 mrad) and is not
+corrected.
 
 References
 ----------
@@ -41,6 +54,8 @@ References
    effortless in-field calibration of three-axis rate gyros and
    accelerometers", Sensors and Materials 7(5), 1995, eqs. (19)-(23).
 .. [GVL] Golub G. H., Van Loan C. F., Matrix Computations, 4th ed., sec. 5.3.
+.. [Aitken1935] Aitken A. C., "On least squares and linear combination of
+   observations", Proc. R. Soc. Edinburgh 55, 1935, 42-48.
 .. [GUM] JCGM 100:2008, 4.3 (Type B evaluation), 5.1 (propagation).
 """
 
@@ -48,7 +63,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 
-ESTIMATORS = ("pairs", "least-squares")
+ESTIMATORS = ("least-squares", "pairs", "gls")
 """The linear estimators of the known-orientation route."""
 
 AXIS_TOL = 1e-6
@@ -81,15 +96,20 @@ def pair_sets(up) -> list[tuple[np.ndarray, np.ndarray]] | None:
     return sets
 
 
-def choose_estimator(estimator, up, quadratic: bool) -> str:
-    """The estimator to use: ``pairs`` for a linear six-position design, else least squares.
+def choose_estimator(estimator, up, quadratic: bool, tilt) -> str:
+    """The estimator to use: ``gls`` with a stated tilt, else least squares.
 
-    An AccelcalError for an unknown name, or ``pairs`` where it does not apply.
+    An AccelcalError for an unknown name, or one where it does not apply.
     """
     if estimator is not None and estimator not in ESTIMATORS:
         raise AccelcalError(f"{estimator!r} is not one of {', '.join(ESTIMATORS)}",
                             parameter="estimator")
     six = pair_sets(up) is not None
+    if estimator == "gls" and (quadratic or tilt is None):
+        raise AccelcalError("gls weighs the readings by the noise and a stated fixture tilt "
+                            "(linear model): give fixture_tilt"
+                            + (" and drop the quadratic terms" if quadratic else ""),
+                            parameter="estimator")
     if estimator == "pairs":
         if quadratic:
             raise AccelcalError("pairs estimates the linear model; the quadratic terms need "
@@ -99,16 +119,39 @@ def choose_estimator(estimator, up, quadratic: bool) -> str:
                                 "of +-x, +-y, +-z, each of the six present); use "
                                 "least-squares", parameter="estimator")
     if estimator is None:
-        return "pairs" if six and not quadratic else "least-squares"
+        return "gls" if tilt is not None else "least-squares"
     return estimator
 
 
-def linear_operator(estimator: str, f, sigma, up, gravity: float) -> np.ndarray:
+def design_matrix(f) -> np.ndarray:
+    """``D`` (3n, 12): ``vec(u) = D c`` for the coefficients ``c`` (``A`` by rows, ``b``)."""
+    n = len(f)
+    design = np.zeros((3 * n, 12))
+    for i in range(3):
+        design[i::3, 3 * i:3 * i + 3] = f
+        design[i::3, 9 + i] = 1.0
+    return design
+
+
+def linear_operator(estimator: str, f, sigma, up, gravity: float, *, u=None,
+                    tilt=None) -> np.ndarray:
     """``L`` (12, 3n): the coefficients (``A`` row by row, then ``b``) from ``vec(u)``.
 
-    ``sigma`` (n, 3) are the relative SDs of the means (weights).
+    ``sigma`` (n, 3) are the SDs of the means (relative: weights; absolute
+    for ``gls``, which also needs the means ``u`` for its first pass and the
+    ``tilt``, rad).
     """
     n = len(f)
+    if estimator == "gls":
+        first = "pairs" if pair_sets(up) is not None else "least-squares"
+        a0 = (linear_operator(first, f, sigma, up, gravity) @ np.ravel(u))[:9].reshape(3, 3)
+        blocks = tilt_blocks(a0, up, gravity, tilt)
+        cov = np.einsum("kij,klj->kil", blocks, blocks)
+        cov[:, range(3), range(3)] += sigma**2
+        d = design_matrix(f).reshape(n, 3, 12)
+        wd = np.linalg.solve(cov, d)  # W_k D_k
+        normal = np.einsum("kij,kil->jl", d, wd)
+        return np.linalg.solve(normal, wd.reshape(3 * n, 12).T)
     lin = np.zeros((12, 3 * n))
     w = 1.0 / sigma**2
     if estimator == "pairs":
@@ -148,10 +191,14 @@ def check_tilt(fixture_tilt) -> float | None:
 
 
 def tilt_blocks(a, up, gravity: float, tilt: float) -> np.ndarray:
-    """``B_k = g sigma_t A P_k`` (n, 3, 3): the readings' tilt error is ``B_k z``, z ~ N(0, I)."""
+    """``B_k = g A (sigma_t P_k + sigma_t^2 up_k up_k')`` (n, 3, 3).
+
+    The readings' tilt error is ``B_k z``, z ~ N(0, I) (module docs).
+    """
     upv = np.asarray(up, dtype=float)
-    proj = np.eye(3)[None] - upv[:, :, None] * upv[:, None, :]
-    return gravity * tilt * np.einsum("ij,kjl->kil", a, proj)
+    along = upv[:, :, None] * upv[:, None, :]
+    return gravity * np.einsum("ij,kjl->kil", a, tilt * (np.eye(3)[None] - along)
+                               + tilt**2 * along)
 
 
 def tilt_covariance(lin, blocks) -> np.ndarray:
