@@ -189,16 +189,26 @@ class InputOptions:
                                             for col, s in (self.scales or {}).items()} or None)
 
 
+SCALE_RANGE = (1e-15, 1e15)
+"""Smallest and largest magnitude of a scale: a 32-bit ADC's counts to g are ~1e-9; far
+beyond either end the scaled values leave the range where a fit's arithmetic holds
+(5e-324 makes every sample a subnormal number)."""
+
+
 def check_scale(value, parameter: str) -> float:
-    """Check a scale (finite, non-zero): the file's numbers times it are values in the unit."""
+    """Check a scale (finite, non-zero, magnitude within :data:`SCALE_RANGE`).
+
+    The file's numbers times it are values in the unit.
+    """
     try:
         scale = float(value)
     except (TypeError, ValueError, OverflowError):
         scale = math.nan
-    if isinstance(value, bool) or not (math.isfinite(scale) and scale != 0.0):
-        raise AccelcalError(f"scale {shown(value)} must be a finite non-zero number (the "
-                            "file's values times it are values in the unit)",
-                            parameter=parameter)
+    low, high = SCALE_RANGE
+    if isinstance(value, bool) or not (math.isfinite(scale) and low <= abs(scale) <= high):
+        raise AccelcalError(f"scale {shown(value)} must be a finite number of magnitude "
+                            f"{low:g} to {high:g} (the file's values times it are values in "
+                            "the unit)", parameter=parameter)
     return scale
 
 
