@@ -128,3 +128,21 @@ def test_detect_takes_the_scale(random_csv, capsys):
     two = json.loads(run_cli([*base, "--scale", "2"], capsys)[1])
     assert len(one) == len(two) >= 25
     assert two[0]["mean_x"] == pytest.approx(2 * one[0]["mean_x"], rel=1e-9)
+
+
+def test_apply_corrects_an_imucal_session_in_counts(imucal_counts, tmp_path, capsys):
+    cal, out = tmp_path / "cal.json", tmp_path / "out.csv"
+    code, _, err = run_cli(["triad", "calibrate", imucal_counts, "--input-format", "imucal",
+                            "--rate", "100", "--gravity", str(G), "--unit", "counts", "--out",
+                            cal], capsys)
+    assert code == 0, err
+    base = ["triad", "apply", imucal_counts, "--input-format", "imucal", "--calibration", cal,
+            "--out", out]
+    refused(base, capsys, "--unit counts")  # the session is taken as m/s^2 unless told
+    code, _, err = run_cli([*base, "--unit", "counts"], capsys)
+    assert code == 0, err
+    rows = np.genfromtxt(out, delimiter=",", names=True, dtype=None, encoding="utf-8")
+    still = rows["part"] == "z_p"
+    acc = np.column_stack([rows["acc_x"], rows["acc_y"], rows["acc_z"]])[still].mean(axis=0)
+    assert np.linalg.norm(acc) == pytest.approx(G, abs=0.01)
+    assert acc[2] == pytest.approx(G, abs=0.01)
