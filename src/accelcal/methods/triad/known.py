@@ -244,11 +244,11 @@ def _estimator_assumptions(kind: str, tilt) -> list:
             "gls": "generalised least squares weighing each reading by the noise and the "
                    "fixture tilt",
             "least-squares": "weighted least squares on all positions"}[kind]
-    out = [Assumption("estimator", kind, "", text)]
+    out = [Assumption("estimator", kind, "", f"estimator {kind}: {text}")]
     if tilt is not None:
-        out.append(Assumption("fixture_tilt", tilt, "rad", "Type B standard uncertainty of each "
-                              "position's orientation about each horizontal axis, independent "
-                              "between positions"))
+        out.append(Assumption("fixture_tilt", tilt, "rad", f"fixture tilt {tilt:.3g} rad: Type "
+                              "B standard uncertainty of each position's orientation about "
+                              "each horizontal axis, independent between positions"))
     return out
 
 
