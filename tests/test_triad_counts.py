@@ -20,7 +20,7 @@ from accelcal.methods.triad.lab import run
 from accelcal.methods.triad.model import TriadCalibration
 from accelcal.methods.triad.unknown import calibrate_unknown, distinct_orientations
 from accelcal.rigs.triad import simulate, six_positions
-from cli_helpers import refused, run_cli
+from helpers.cli import refused, run_cli
 
 G = 9.80665
 PER_G = 2000.0

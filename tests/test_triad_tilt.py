@@ -13,7 +13,6 @@ follows the better one in each case, and its stated uncertainty covers the error
 """
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,11 +24,11 @@ from accelcal.methods.triad.known import calibrate_known
 from accelcal.methods.triad.mc import triad_uncertainty
 from accelcal.methods.triad.model import TriadCalibration
 from accelcal.rigs.triad import random_directions, six_positions
-from cli_helpers import refused, run_cli
+from helpers.cli import refused, run_cli
+from helpers.paths import REAL_IMUCAL
 
-DATA = Path(__file__).resolve().parent / "fixtures" / "real" / "imucal"
-SESSION = DATA / "example_ferraris_session.csv"
-REGIONS = DATA / "example_ferraris_session_list.json"
+SESSION = REAL_IMUCAL / "example_ferraris_session.csv"
+REGIONS = REAL_IMUCAL / "example_ferraris_session_list.json"
 RATE = 102.4
 GRAV = 9.81  # imucal's default grav
 G = 9.80665
