@@ -27,8 +27,9 @@ from accelcal.units import STANDARD_GRAVITY
 
 INPUT_FORMATS = ("auto", "csv", "parquet", "imucal", "imu_tk", "record", "tdms", "hdf5", "mat")
 """Formats :func:`accelcal.io.recordings.read_recording` reads: ``csv`` and ``parquet``
-(any columns), ``imucal`` (imucal sessions: ``acc_x, acc_y, acc_z`` in m/s^2,
-labels in a ``part`` column or a regions JSON), ``imu_tk`` (whitespace-separated
+(any columns), ``imucal`` (imucal sessions: ``acc_x, acc_y, acc_z``, taken as
+m/s^2 unless a unit is given (raw sessions hold ADC counts), labels in a
+``part`` column or a regions JSON), ``imu_tk`` (whitespace-separated
 ``t x y z`` rows without a header), ``record`` (an accelcal record file),
 ``tdms`` (NI TDMS, channels ``group/channel``), ``hdf5`` (datasets by path,
 ``path[k]`` for column k of a 2-D dataset), ``mat`` (MATLAB v5 or v7.3
@@ -112,8 +113,8 @@ class InputOptions:
         ``wf_increment`` gives it; a rate given must agree with it).
     unit : str, optional
         Unit of the values, one of :data:`UNITS`; required for files that do not
-        carry it (csv, parquet, imu_tk, mat; imucal sessions are in m/s^2,
-        records say theirs).
+        carry it (csv, parquet, imu_tk, mat; records say theirs; imucal
+        sessions state none and are taken as m/s^2 unless it is given).
     delimiter : str, optional
         Field delimiter of a CSV file (one character; default ``,``).
     regions : path-like, optional
