@@ -35,8 +35,9 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.io.lab_metadata import LabInfo, read_lab_metadata
-from accelcal.io.limits import file_type, shown, shown_path
+from accelcal.io.limits import file_type
 from accelcal.results import Estimate
+from accelcal.validation import shown, shown_path
 
 
 def now() -> str:

@@ -34,7 +34,6 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io import model_file
-from accelcal.io.limits import shown
 from accelcal.terms import (
     TERMS,
     TemperatureTerms,
@@ -44,6 +43,7 @@ from accelcal.terms import (
     unknown_term_message,
 )
 from accelcal.units import OUTPUT_UNITS, OutputUnit
+from accelcal.validation import shown
 
 __all__ = ["TERMS", "ErrorModel", "TemperatureTerms", "Term", "term_unit",
            "unknown_term_message"]

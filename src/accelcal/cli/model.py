@@ -79,8 +79,8 @@ def new(
 ) -> None:
     """Write a new model file from NAME=VALUE settings."""
     from accelcal.cli.common import parse_number
-    from accelcal.io.limits import shown, shown_name
     from accelcal.model import ErrorModel
+    from accelcal.validation import shown, shown_name
 
     terms: dict[str, float] = {}
     for item in set_:

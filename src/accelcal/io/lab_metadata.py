@@ -2,7 +2,7 @@
 
 Four optional metadata fields say who and what was calibrated, and where
 (serial numbers and operators are checked by
-:func:`accelcal.io.limits.check_label`: at most 200 characters, no control
+:func:`accelcal.validation.check_label`: at most 200 characters, no control
 characters, and no path separator in a serial number, which becomes part of
 file names):
 
@@ -35,13 +35,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import (
-    check_label,
-    check_regular_file,
-    is_finite_number,
-    one_line,
-    shown,
-)
+from accelcal.io.limits import check_regular_file
+from accelcal.validation import check_label, is_finite_number, one_line, shown
 
 FIELDS = ("serial", "operator", "date", "local_gravity", "simulated")
 """Metadata field names this module validates."""

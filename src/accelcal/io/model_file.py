@@ -43,7 +43,7 @@ from pathlib import Path
 
 from accelcal.errors import AccelcalError, ModelFileError
 from accelcal.io.atomic import write_text_atomic
-from accelcal.io.limits import MAX_JSON_BYTES, is_finite_number, load_json, read_bounded, shown
+from accelcal.io.limits import MAX_JSON_BYTES, load_json, read_bounded
 from accelcal.terms import (
     TEMPERATURE_TERMS,
     TERMS,
@@ -52,6 +52,7 @@ from accelcal.terms import (
     unknown_term_message,
 )
 from accelcal.units import OUTPUT_UNITS
+from accelcal.validation import is_finite_number, shown
 
 __all__ = ["FORMAT_VERSION", "KIND", "TEMPERATURE_FORMAT_VERSION", "ModelFileError", "dumps",
            "loads", "model_to_dict", "read_text", "temperature_terms", "unknown_term", "validate",

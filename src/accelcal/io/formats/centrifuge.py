@@ -45,9 +45,9 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.lab_metadata import check_lab_metadata
-from accelcal.io.limits import check_label, is_finite_number, shown
 from accelcal.io.records import read_record, write_record
 from accelcal.units import OUTPUT_UNITS, STANDARD_GRAVITY
+from accelcal.validation import check_label, is_finite_number, shown
 
 KIND = "centrifuge"
 COLUMNS = ("step", "position", "level", "rate_rad_s", "output")

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import one_line, shown_name
+from accelcal.validation import one_line, shown_name
 
 MAX_PROPERTIES = 64
 """Most properties of one channel (or of the file) kept in the provenance."""

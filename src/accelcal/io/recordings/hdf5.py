@@ -34,7 +34,6 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown_name
 from accelcal.io.recordings.channels import (
     ChannelInfo,
     column_name,
@@ -42,6 +41,7 @@ from accelcal.io.recordings.channels import (
     library_errors,
     numeric,
 )
+from accelcal.validation import shown_name
 
 MAGIC = b"\x89HDF\r\n\x1a\n"
 """The HDF5 signature."""

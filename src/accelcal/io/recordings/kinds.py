@@ -28,8 +28,8 @@ import math
 from dataclasses import dataclass
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown, shown_name
 from accelcal.units import STANDARD_GRAVITY
+from accelcal.validation import shown, shown_name
 
 STREAM_KINDS = ("noise", "triad")
 """Kinds of long still or slowly turned recordings, one row per sample, in the recording's

@@ -27,7 +27,6 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown_name
 from accelcal.io.recordings.channels import (
     ChannelInfo,
     column_name,
@@ -35,6 +34,7 @@ from accelcal.io.recordings.channels import (
     library_errors,
     numeric,
 )
+from accelcal.validation import shown_name
 
 MAGIC_V5 = b"MATLAB 5.0 MAT-file"
 MAGIC_V73 = b"MATLAB 7.3 MAT-file"

@@ -22,8 +22,8 @@ import math
 from dataclasses import dataclass
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown, shown_name
 from accelcal.units import STANDARD_GRAVITY
+from accelcal.validation import shown, shown_name
 
 INPUT_FORMATS = ("auto", "csv", "parquet", "imucal", "imu_tk", "record", "tdms", "hdf5", "mat")
 """Formats :func:`accelcal.io.recordings.read_recording` reads: ``csv`` and ``parquet``

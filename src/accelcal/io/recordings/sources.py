@@ -29,13 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import (
-    MAX_LABEL_LENGTH,
-    check_regular_file,
-    one_line,
-    shown,
-    shown_name,
-)
+from accelcal.io.limits import check_regular_file
+from accelcal.validation import MAX_LABEL_LENGTH, one_line, shown, shown_name
 
 MARKER = "# accelcal record"
 PARQUET_MAGIC = b"PAR1"

@@ -28,7 +28,6 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import one_line, shown_name
 from accelcal.io.recordings.channels import (
     ChannelInfo,
     iso_time,
@@ -36,6 +35,7 @@ from accelcal.io.recordings.channels import (
     library_errors,
     numeric,
 )
+from accelcal.validation import one_line, shown_name
 
 MAGIC = b"TDSm"
 """First bytes of a TDMS file's lead-in (``TDSh`` starts an index file)."""

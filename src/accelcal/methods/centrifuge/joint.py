@@ -23,13 +23,13 @@ References
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown
 from accelcal.methods.centrifuge.core import Block
 from accelcal.methods.centrifuge.reduce import (
     centrifuge_block,
     rig_parameters,
     solve_and_reduce,
 )
+from accelcal.validation import shown
 
 METHOD = "centrifuge/joint"
 ONE_G_KINDS = ("tumble", "dividing-head")

@@ -30,7 +30,6 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.identifiability import analyse
 from accelcal.io.formats.centrifuge import MAX_OUTPUT, MIN_SD
-from accelcal.io.limits import shown
 from accelcal.methods.centrifuge.core import Block, solve
 from accelcal.methods.centrifuge.geometry import (
     ASYMMETRY_TERMS,
@@ -46,6 +45,7 @@ from accelcal.methods.centrifuge.identify import identifiability
 from accelcal.model import ErrorModel, term_unit
 from accelcal.results import Assumption, Estimate, Reduction
 from accelcal.units import STANDARD_GRAVITY
+from accelcal.validation import shown
 
 FAMILY = "centrifuge"
 METHOD = "centrifuge/lsq"

@@ -40,7 +40,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import MAX_JSON_BYTES, load_json, shown
+from accelcal.io.limits import MAX_JSON_BYTES, load_json
+from accelcal.validation import shown
 
 PARAMS = ("b_x", "b_y", "b_z", "s_x", "s_y", "s_z", "a_yz", "a_zy", "a_zx")
 """The nine parameters of the linear model, in the order of every vector and covariance."""
@@ -311,7 +312,8 @@ class TriadCalibration:
     @classmethod
     def load(cls, path) -> "TriadCalibration":
         """Read a calibration written by :meth:`save` (bounded read, one-line errors)."""
-        from accelcal.io.limits import read_bounded, shown_path
+        from accelcal.io.limits import read_bounded
+        from accelcal.validation import shown_path
 
         where = f"triad calibration {shown_path(path)}"
         try:
