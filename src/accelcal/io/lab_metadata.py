@@ -36,15 +36,11 @@ from pathlib import Path
 
 from accelcal.errors import AccelcalError
 from accelcal.io.limits import check_regular_file
+from accelcal.physics.gravity import GRAVITY_RANGE
 from accelcal.validation import check_label, is_finite_number, one_line, shown
 
 FIELDS = ("serial", "operator", "date", "local_gravity", "simulated")
 """Metadata field names this module validates."""
-
-GRAVITY_RANGE = (9.7, 9.9)
-"""Accepted local gravity, m/s^2: Earth's surface gravity lies within it
-(9.78 at the equator to 9.83 at the poles, less with altitude), and a value
-given in g (about 1) or in ft/s^2 (about 32) falls outside."""
 
 
 @dataclass(frozen=True)

@@ -76,7 +76,7 @@ def one_g_block(one_g, *, sensor: str | None = None) -> tuple[Block, str]:
     from accelcal.io.formats.tumble import TumbleRecord
 
     if isinstance(one_g, TumbleRecord):
-        from accelcal.methods.tumble.geometry import specific_force
+        from accelcal.physics.tumble import specific_force
 
         a = specific_force(one_g.angles_rad, one_g.rotation_axis)
         y = one_g.outputs.mean(axis=1)

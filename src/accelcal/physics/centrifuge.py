@@ -40,7 +40,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.model import TERMS
+from accelcal.terms import TERMS
 from accelcal.units import STANDARD_GRAVITY
 from accelcal.validation import shown
 
