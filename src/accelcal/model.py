@@ -33,13 +33,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io import model_file
 from accelcal.terms import (
     TERMS,
     TemperatureTerms,
     Term,
     check_temperature,
     term_unit,
+    unknown_term,
     unknown_term_message,
 )
 from accelcal.units import OUTPUT_UNITS, OutputUnit
@@ -298,7 +298,7 @@ class ErrorModel:
         """
         for name in terms:
             if name not in TERMS:
-                raise AccelcalError(model_file.unknown_term(name))
+                raise AccelcalError(unknown_term(name))
         if base is not None:
             return cls(**{**base.terms(), **terms}, output_unit=base.output_unit,
                        temperature=base.temperature)
@@ -339,7 +339,7 @@ class ErrorModel:
         mapped = {}
         for name, value in coefficients.items():
             if name not in _GUANTANG:
-                raise AccelcalError(model_file.unknown_term(name, _GUANTANG))
+                raise AccelcalError(unknown_term(name, _GUANTANG))
             mapped[_GUANTANG[name]] = value
         return cls.from_terms({**mapped, "sigma": sigma}, output_unit=output_unit)
 
@@ -414,13 +414,17 @@ class ErrorModel:
         }
 
     # -------------------------------------------------------------- files
+    # The model file's format and its reading and writing belong to io
+    # (:mod:`accelcal.io.model_file`, which imports this module's floor, never
+    # the model): these entry points reach it only when called.
     def to_dict(self, description: str | None = None) -> dict:
         """The model as the JSON-ready contents of a model file (:mod:`accelcal.io.model_file`)."""
-        return model_file.model_to_dict(self, description)
+        return _model_file().model_to_dict(self, description)
 
     @classmethod
     def from_dict(cls, data, *, source: str = "<dict>") -> "ErrorModel":
         """Validate decoded model-file contents and build the model; errors name ``source``."""
+        model_file = _model_file()
         coefficients, unit = model_file.validate(data, source=source)
         try:
             model = cls.from_terms(coefficients, output_unit=unit)
@@ -433,21 +437,28 @@ class ErrorModel:
 
     def to_json(self) -> str:
         """The model as the text of a model file (JSON; floats round-trip exactly)."""
-        return model_file.dumps(self.to_dict())
+        return _model_file().dumps(self.to_dict())
 
     @classmethod
     def from_json(cls, text: str, *, source: str = "<string>") -> "ErrorModel":
         """Parse the text of a model file; errors name ``source``."""
-        return cls.from_dict(model_file.loads(text, source=source), source=source)
+        return cls.from_dict(_model_file().loads(text, source=source), source=source)
 
     def save(self, path) -> None:
         """Write the model file atomically (nothing half-written on failure)."""
-        model_file.write_text(path, self.to_json())
+        _model_file().write_text(path, self.to_json())
 
     @classmethod
     def load(cls, path) -> "ErrorModel":
         """Read and validate a model file."""
-        return cls.from_json(model_file.read_text(path), source=str(path))
+        return cls.from_json(_model_file().read_text(path), source=str(path))
+
+
+def _model_file():
+    """:mod:`accelcal.io.model_file`, imported when a model is read or written."""
+    from accelcal.io import model_file
+
+    return model_file
 
 
 def _real(name: str, value) -> float:

@@ -12,7 +12,9 @@ no value can break a one-line message, a file name or a report:
   method) to :data:`MAX_LABEL_LENGTH` characters without control
   characters, and a string that becomes part of a file name to one without
   path separators;
-- :func:`is_finite_number` tells a finite JSON number from everything else.
+- :func:`is_finite_number` tells a finite JSON number from everything else,
+  and :func:`check_rate` checks a sample rate (read from a recording or
+  given to the Allan deviations).
 
 This module imports only the standard library and :mod:`accelcal.errors`;
 the limits that are about files (bounded reads, the JSON loader) are in
@@ -25,8 +27,8 @@ import re
 
 from accelcal.errors import AccelcalError
 
-__all__ = ["MAX_LABEL_LENGTH", "MAX_MESSAGE_LENGTH", "check_label", "is_finite_number", "one_line",
-           "shown", "shown_name", "shown_path"]
+__all__ = ["MAX_LABEL_LENGTH", "MAX_MESSAGE_LENGTH", "MAX_RATE_HZ", "MIN_RATE_HZ", "check_label",
+           "check_rate", "is_finite_number", "one_line", "shown", "shown_name", "shown_path"]
 
 MAX_MESSAGE_LENGTH = 500
 """Longest error message printed, in characters (``accelcal.cli`` clips
@@ -37,6 +39,13 @@ MAX_LABEL_LENGTH = 200
 """Longest serial number, operator or method name, in characters: the width
 of the records store's ``serial`` and ``method`` columns, and well below the
 255-byte limit of a file name that a serial number becomes part of."""
+
+MAX_RATE_HZ = 1e9
+"""Highest sample rate accepted (1 GHz): beyond any accelerometer's DAQ."""
+
+MIN_RATE_HZ = 1e-6
+"""Lowest sample rate accepted (one sample in 11.6 days): slower is not a recording of
+an accelerometer, and averaging times of m / rate stay far inside the float range."""
 
 _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
 """Control characters (C0, DEL, C1), line and paragraph separators and
@@ -134,3 +143,15 @@ def is_finite_number(value) -> bool:
         return math.isfinite(value)
     except OverflowError:  # an integer beyond the float range
         return False
+
+
+def check_rate(rate) -> float:
+    """Check a sample rate in Hz (finite, :data:`MIN_RATE_HZ` to :data:`MAX_RATE_HZ`)."""
+    try:
+        value = float(rate)
+    except (TypeError, ValueError, OverflowError):
+        value = math.nan
+    if not (math.isfinite(value) and MIN_RATE_HZ <= value <= MAX_RATE_HZ):
+        raise AccelcalError(f"sample rate {shown(rate)} Hz must be a number from "
+                            f"{MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz", parameter="rate")
+    return value
