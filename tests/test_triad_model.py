@@ -13,7 +13,7 @@ import pytest
 
 from accelcal.errors import AccelcalError
 from accelcal.methods.triad import PARAMS, QUADRATIC, TriadCalibration, calibrate_known
-from accelcal.methods.triad.model import angles_of, t_matrix
+from accelcal.methods.triad.frames import angles_of, t_matrix
 from accelcal.physics.gravity import GAMMA_E, GAMMA_P, normal_gravity
 
 G = 9.80665

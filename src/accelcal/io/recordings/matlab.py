@@ -29,6 +29,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.recordings.channels import (
     ChannelInfo,
+    Source,
     column_name,
     json_ready,
     library_errors,
@@ -73,8 +74,6 @@ def open_mat(path: Path, head: bytes):
 
 def _open_v5(path: Path):
     import scipy.io
-
-    from accelcal.io.recordings.sources import Source
 
     size = path.stat().st_size
     if size > MAX_MAT5_BYTES:

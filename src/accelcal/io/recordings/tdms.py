@@ -30,6 +30,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.recordings.channels import (
     ChannelInfo,
+    Source,
     iso_time,
     json_ready,
     library_errors,
@@ -46,8 +47,6 @@ _OWN = ("wf_increment", "wf_start_time", "unit_string")
 def open_tdms(path: Path):
     """The channels of a TDMS file and its properties, as a :class:`~.sources.Source`."""
     from nptdms import TdmsFile
-
-    from accelcal.io.recordings.sources import Source
 
     channels, groups = {}, {}
     size = path.stat().st_size
