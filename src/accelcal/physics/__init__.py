@@ -13,6 +13,10 @@ and neither imports the other:
   regressors and gradients there;
 - :mod:`accelcal.physics.gravity`: WGS84 normal gravity (Somigliana, with a
   free-air height term) and the accepted range of a local gravity value.
+- :mod:`accelcal.physics.equation`: the error model's equation, the
+  indicated acceleration of given specific force and coefficients, which
+  :class:`~accelcal.model.ErrorModel` evaluates (adding its noise and scale
+  factor).
 
 This package imports only :mod:`accelcal.errors`, :mod:`accelcal.validation`,
 :mod:`accelcal.units` and :mod:`accelcal.terms`, and nothing on import (its
@@ -25,4 +29,5 @@ References
    accelerometers on an indexing head, 2014, eq. (5).
 .. [TR8350.2] NIMA TR8350.2, Department of Defense World Geodetic System
    1984, 3rd ed., 2000, eq. (4-1).
+.. [Guan2021] Guan W., Metrology & Measurement Technology 41(3), 2021, eqs. (1)-(3).
 """
