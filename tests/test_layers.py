@@ -6,7 +6,8 @@ inside functions is resolved relative to the package. The floors, bottom up
 (docs/api.md, "Floors"):
 
 1. ground: the package root, ``errors``, ``validation`` (standard library only);
-2. base: ``units``, ``terms``, ``formatting``, ``resources``, ``identifiability``;
+2. base: ``units``, ``terms``, ``formatting``, ``resources``, ``identifiability``, and the
+   method descriptors and ids (``catalog``, ``method_ids``), plain data every floor reads;
 3. ``physics``: frames, positions, geometry, normal gravity;
 4. the domain model: ``model``, ``results`` and the numeric helpers beside them;
 5. ``io``;
@@ -32,7 +33,7 @@ import pytest
 FLOORS = (
     ("ground", ("accelcal", "accelcal.errors", "accelcal.validation")),
     ("base", ("accelcal.units", "accelcal.terms", "accelcal.formatting", "accelcal.resources",
-              "accelcal.identifiability")),
+              "accelcal.identifiability", "accelcal.catalog", "accelcal.method_ids")),
     ("physics", ("accelcal.physics",)),
     ("domain model", ("accelcal.model", "accelcal.defaults", "accelcal.engineering",
                       "accelcal.outputs", "accelcal.results", "accelcal.fitting",

@@ -33,7 +33,7 @@ def _reduction(dof):
     names = ("K0", "K1")
     est = Estimate(names, [1e-4, 1.3], np.diag([1e-12, 1e-12]), {"K0": "g", "K1": "V/g"}, "x",
                    residuals=np.zeros(dof + 2), dof=dof)
-    return Reduction("tumble", "tumble-lsq", (est,), dof=dof)
+    return Reduction("tumble", "tumble/lsq", (est,), dof=dof)
 
 
 def test_records_carry_dof_and_t_factor_and_warn_below_ten():

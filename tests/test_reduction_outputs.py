@@ -98,8 +98,8 @@ def test_unidentified_coefficients_fixed_terms_and_combinations():
     nan = float("nan")
     est = Estimate(("K2", "K3", "K0_asym"), [nan, nan, 2e-6],
                    np.diag([nan, nan, 1e-16]), {"K2": "g/g^2", "K3": "g/g^3", "K0_asym": "g"},
-                   "vre-identify", residuals=np.zeros(6), dof=4)
-    red = Reduction("vre", "vre-identify", (est,), fixed={"K4": 0.0},
+                   "vre/identify", residuals=np.zeros(6), dof=4)
+    red = Reduction("vre", "vre/identify", (est,), fixed={"K4": 0.0},
                     combinations=(Combination((("K2", 1.0), ("K3", 6.0)), 1e-5, 1e-7,
                                               "g/g^2"),))
     assert red.unidentified() == ("K2", "K3")

@@ -123,7 +123,7 @@ def test_simulate_analyze_fit_round_trip(capsys, tmp_path, model_file):
     truth = tr.GUANTANG_FIG4
     for name in ("Ko", "Kp", "Koo", "Kpp", "Kop"):
         assert abs(est[name]["estimate"] - getattr(truth, name)) < 5 * est[name]["std"]
-        assert est[name]["method"] == "transverse-both"
+        assert est[name]["method"] == "transverse/both"
 
 
 def test_one_record_file_and_python_round_trip(tmp_path):

@@ -66,7 +66,7 @@ def test_reduction_fields():
     data = contract.simulate(truth, rng, noisy=True)
     red = contract.reduce(data)
     assert red.family == "transverse"
-    assert red.method == "transverse-2w"
+    assert red.method == "transverse/2w"
     assert red.assumed("amplitude") == 5.0
     assert red.assumption("amplitude").unit == "g"
     assert red.assumption("amplitude").text == "shaker vibration amplitude 5 g"

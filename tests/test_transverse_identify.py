@@ -36,7 +36,7 @@ def test_contract_noise_free_recovers_truth(*, ko, kp, koo, kpp, kop, route, gra
     red = tr.identify(rig.simulate(truth, THETA), route=route)
     est = red.estimate
     assert est.names == NAMES
-    assert red.method == est.method == f"transverse-{route}"
+    assert red.method == est.method == f"transverse/{route}"
     assert red.family == "transverse"
     # noise-free: exact to rounding of the sine fits; output ~ k_i * 50 * A_v^2 * 5e-5
     # mV against coefficients ~1e-4: absolute 1e-12 on each coefficient

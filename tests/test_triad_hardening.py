@@ -153,11 +153,11 @@ def test_a_positions_file_of_the_wrong_length(plain, tmp_path, capsys):
 
 
 @pytest.mark.parametrize(("extra", "words"), [
-    (["--orientations", "known"], ["--orientations known needs"]),
+    (["--orientations", "known"], ["--orientations", "known needs"]),
     (["--orientations", "sideways"], ["sideways"]),
     (["--format", "csv"], ["--format csv"]),
     (["--quadratic"], ["--imucal-out", "quadratic"]),
-    (["--gravity", "9.8", "--latitude", "45"], ["either --gravity or --latitude"]),
+    (["--gravity", "9.8", "--latitude", "45"], ["--gravity", "either gravity or latitude"]),
 ])
 def test_inconsistent_options(plain, tmp_path, capsys, extra, words):
     src = _write(tmp_path, plain)
@@ -168,7 +168,7 @@ def test_inconsistent_options(plain, tmp_path, capsys, extra, words):
 def test_no_gravity_for_a_generic_file(plain, tmp_path, capsys):
     src = _write(tmp_path, plain)
     args = GENERIC[:-2]  # without --gravity
-    refused(_calibrate(src, tmp_path, *args), capsys, "local gravity", "--latitude")
+    refused(_calibrate(src, tmp_path, *args), capsys, "--gravity", "local gravity", "latitude")
     _nothing_written(tmp_path)
 
 

@@ -208,7 +208,7 @@ def test_eight_points_lose_k4_when_the_start_angle_kills_the_nyquist_cosine(axis
     m = ErrorModel(K0=1e-4, K1=1.2, K4=3e-4, K3=2e-4)
     theta = uniform(8, 1.0)  # cos(4) = -0.65: separable, amplitude weighted by cos^2
     res = reduce_tumble(theta, m.output(*inputs(theta, axis)), rotation_axis=axis, sigma=1e-6)
-    assert res.method == "tumble-fourier"
+    assert res.method == "tumble/fourier"
     assert close(res.estimate["K4"], m.K4)
     assert close(res.estimate["K0"], m.K0)
     assert close(res.estimate["K3"], m.K3)
@@ -260,7 +260,7 @@ def test_noise_free_recovery_of_every_identifiable_term(axis, n, route, data):
     theta = uniform(n, start)
     E = m.output(*inputs(theta, axis))
     res = reduce_tumble(theta, E, rotation_axis=axis, route=route, sigma=1e-6)
-    assert res.method == ("tumble-fourier" if route == "auto" else "tumble-lsq")
+    assert res.method == ("tumble/fourier" if route == "auto" else "tumble/lsq")
     assert res.assumed("route") == ("fourier" if route == "auto" else "lsq")
     est, true = res.estimate.values, truth_vector(m, DEFAULT_TERMS[axis])
     # Rounding is amplified by the design's conditioning (15 for N >= 9 after
@@ -366,7 +366,7 @@ def test_non_uniform_positions_with_asymmetry(axis, data):
     res = reduce_tumble(
         theta, m.output(*inputs(theta, axis)), rotation_axis=axis, terms=terms, sigma=1e-6
     )
-    assert res.method == "tumble-lsq"
+    assert res.method == "tumble/lsq"
     assert "fourier_A" not in res.observations  # no Fourier coefficients: not uniform
     rep = res.identifiability
     assert rep.full_rank
@@ -387,7 +387,7 @@ def test_dong2014_terms_about_pa():
         terms=("K0", "K1", "K2", "Ko", "Kio"),
         sigma=1e-7,
     )
-    assert res.method == "tumble-lsq"
+    assert res.method == "tumble/lsq"
     for t in ("K0", "K1", "K2", "Ko", "Kio"):
         assert close(res.estimate[t], getattr(m, t))
     assert res.estimate.units["K1"] == "V/g"

@@ -85,7 +85,7 @@ def test_contract_reductions_carry_their_fields():
     t = TestContractLeastSquaresPA()
     truth = t.truth(rng)
     red = t.reduce(t.simulate(truth, rng, noisy=True))
-    assert (red.family, red.method) == ("tumble", "tumble-lsq")
+    assert (red.family, red.method) == ("tumble", "tumble/lsq")
     assert red.assumed("rotation_axis") == "PA"
     assert red.assumed("noise") == "residuals"
     assert red.assumed("repeats") == 3

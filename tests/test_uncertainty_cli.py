@@ -8,6 +8,8 @@ import pytest
 from accelcal.cli import main
 
 MC_KEYS = ("mc_std", "ci95_low", "ci95_high")
+ENGINEERING_SD = ("engineering", "eng_std")
+"""Keys whose standard uncertainty is the Monte Carlo one with --uncertainty mc."""
 
 
 def _run(args, capsys):
@@ -58,10 +60,20 @@ def test_mc_adds_columns_and_keeps_the_formal_ones(files, kind, capsys):
     assert code == 0
     rows = _rows(kind, out)
     assert len(rows) == len(formal)
+    engineered = 0
     for r, f in zip(rows, formal, strict=True):
-        assert {k: v for k, v in r.items() if k not in MC_KEYS} == f  # existing keys unchanged
+        kept = {k: v for k, v in r.items() if k not in (*MC_KEYS, *ENGINEERING_SD)}
+        assert kept == {k: v for k, v in f.items() if k not in ENGINEERING_SD}  # unchanged
         assert r["mc_std"] > 0
         assert r["ci95_low"] < r["estimate"] < r["ci95_high"]
+        # the engineering units carry the Monte Carlo SD: the formal one's factor times mc_std
+        for e, ef in zip(r.get("engineering") or [], f.get("engineering") or [], strict=True):
+            assert e["std"] == pytest.approx(ef["std"] * r["mc_std"] / f["std"], rel=1e-12)
+            assert e["std"] != pytest.approx(ef["std"], rel=1e-6)
+            engineered += 1
+        if r.get("engineering"):
+            assert r["eng_std"] == r["engineering"][0]["std"]
+    assert engineered > 0
     # same seed, same numbers; another seed, other numbers
     assert _run(args, capsys)[1] == out
     other = _rows(kind, _run([*args[:-len(TYPE_B[kind]) - 1], "4", *TYPE_B[kind]], capsys)[1])

@@ -57,7 +57,7 @@ def test_reduction_fields():
     meas = reduce_run(run)
     red = identify(meas.overload, meas.amplitude, meas.vre, meas.uncertainty,
                    assumptions=meas.assumptions())
-    assert (red.family, red.method) == ("vre", "vre-identify")
+    assert (red.family, red.method) == ("vre", "vre/identify")
     assert red.observations["overload"].shape == (18, 3)
     np.testing.assert_array_equal(red.observations["vre"], meas.vre)
     np.testing.assert_array_equal(red.observations["uncertainty"], meas.uncertainty)

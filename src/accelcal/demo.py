@@ -61,19 +61,20 @@ def lab(date: str, serial) -> dict:
 
 
 def stages() -> list:
-    """The demo's tests, in order (a new method adds its stage here)."""
-    from accelcal.methods.centrifuge import demo as centrifuge
-    from accelcal.methods.dividing_head import demo as head
-    from accelcal.methods.noise import demo as still
-    from accelcal.methods.thermal import demo as thermal
-    from accelcal.methods.transverse import demo as shaker
-    from accelcal.methods.triad import demo as triad
-    from accelcal.methods.vre import demo as vibrafuge
+    """The demo's tests, in order: each method's stage, named by its descriptor.
 
-    return [head.stage(SERIALS, lab), shaker.stage(SERIALS[0], lab),
-            vibrafuge.stage(SERIALS[0], lab), still.stage(SERIALS[0], lab),
-            thermal.stage(SERIALS[0], lab), centrifuge.stage(SERIALS[0], lab),
-            triad.stage(TRIAD_SERIAL, lab)]
+    A method takes part in the demo through its descriptor
+    (:data:`accelcal.catalog.METHODS`: ``demo``, ``demo_order``,
+    ``demo_sensors``); its stage builder gets the sensors it tests and
+    :func:`lab`.
+    """
+    import importlib
+
+    from accelcal.catalog import demo_methods
+
+    sensors = {"four": SERIALS, "one": SERIALS[0], "triad": TRIAD_SERIAL}
+    return [getattr(importlib.import_module(m.demo), m.demo_callable)(sensors[m.demo_sensors], lab)
+            for m in demo_methods()]
 
 
 def run(out="accelcal-demo", *, db=None, seed: int | None = None, progress: bool = True
@@ -99,14 +100,14 @@ def run(out="accelcal-demo", *, db=None, seed: int | None = None, progress: bool
     -------
     accelcal.pipeline.CampaignResult
     """
+    from accelcal.catalog import demo_methods, listed
     from accelcal.pipeline import run_campaign
 
     return run_campaign(
         stages(), out, db=db, seed=seed, progress=progress,
         title="Accelerometer calibration campaign (demo)",
         subtitle=(f"Simulated campaign of {', '.join(SERIALS)} and the triad {TRIAD_SERIAL}: "
-                  "indexing head, shaker transverse sweep, vibrafuge grid, still recording, "
-                  "thermal chamber, centrifuge and triad on static positions; "
+                  f"{listed((m.demo_test for m in demo_methods()), 'and')}; "
                   f"operator {OPERATOR}, date {{date}}, seed {{seed}}."),
         history_serial=SERIALS[0],
     )

@@ -3,25 +3,40 @@
 Shared by the command line's tables and the HTML report, so both round the
 same way: an estimate keeps every digit down to one tenth of its standard
 uncertainty (the uncertainty itself is shown with two significant digits,
-GUM 7.2.6), so a table never rounds away what the data resolve.
+GUM 7.2.6), so a table never rounds away what the data resolve. No value
+shows more than :data:`MAX_DIGITS` significant digits, what a double
+carries: an uncertainty at rounding level (a noise-free simulation's fit,
+1e-17 relative) would otherwise ask for digits that are rounding noise.
 
 References
 ----------
 .. [GUM] JCGM 100:2008, Evaluation of measurement data - Guide to the
    expression of uncertainty in measurement, sec. 7.2.6.
+.. [IEEE754] IEEE Std 754-2019, Floating-Point Arithmetic, sec. 5.12.2:
+   a decimal of 15 significant digits survives the round trip through a
+   binary64 number (``sys.float_info.dig``).
 """
 
 import math
+import re
+import sys
+
+MAX_DIGITS = sys.float_info.dig
+"""Most significant digits a value shows: 15, the decimal digits a double
+carries [IEEE754]; any more would print its rounding error."""
 
 
 def format_value(value: float, std: float | None = None) -> str:
-    """A value with as many digits as its uncertainty supports (two on the uncertainty)."""
+    """A value with as many digits as its uncertainty supports (two on the uncertainty).
+
+    At most :data:`MAX_DIGITS` significant digits, however small ``std``.
+    """
     if value is None or not math.isfinite(value):
         return "n/a"
     if std is None or not math.isfinite(std) or std <= 0:
         return f"{value:.7g}"
     magnitude = math.floor(math.log10(abs(value))) if value != 0 else math.floor(math.log10(std))
-    digits = max(2, magnitude - math.floor(math.log10(std)) + 2)
+    digits = min(MAX_DIGITS, max(2, magnitude - math.floor(math.log10(std)) + 2))
     return f"{value:#.{digits}g}".rstrip(".")  # '#': keep significant trailing zeros
 
 
@@ -50,6 +65,15 @@ def format_unit(unit: str) -> str:
     """A unit with superscript powers and micro signs (``ug/g^2`` -> ``µg/g²``)."""
     text = unit.replace("^2", "²").replace("^3", "³").replace("^4", "⁴")
     return "µ" + text[1:] if text.startswith("u") and text[1:2] in ("g", "r") else text
+
+
+def unit_squared(unit: str) -> str:
+    """The square of a unit (of a variance, a power): ``g^2``, ``(m/s^2)^2``, ``(V/g)^2``.
+
+    A unit with a power or a quotient is put in parentheses first, so its
+    power is not doubled into ``m/s^2^2``.
+    """
+    return f"{unit}^2" if re.fullmatch(r"[^/^*() ]+", unit) else f"({unit})^2"
 
 
 def format_correlation(x: float) -> str:

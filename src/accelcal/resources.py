@@ -108,16 +108,36 @@ def check_memory(samples: float, channels: float, factor: float, what: str, *,
 
 
 def generator(seed, parameter: str = "seed") -> np.random.Generator:
-    """A random generator from a seed (integer >= 0), a Generator or None (fresh entropy).
+    """A random generator from a seed (integer >= 0), a SeedSequence, a Generator or None.
+
+    A Generator is used as it is (its draws continue); None takes fresh entropy.
 
     Raises
     ------
     AccelcalError
         For a negative seed, or one that is not an integer.
     """
-    if seed is None or isinstance(seed, np.random.Generator):
+    if seed is None or isinstance(seed, np.random.Generator | np.random.SeedSequence):
         return np.random.default_rng(seed)
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise AccelcalError(f"{seed!r} must be an integer >= 0 (or none, for a fresh seed)",
+        raise AccelcalError(f"{seed!r} must be an integer >= 0, a numpy SeedSequence or "
+                            "Generator (or none, for a fresh seed)",
                             parameter=parameter)
     return np.random.default_rng(int(seed))
+
+
+def seeded(seed, rng=None) -> np.random.Generator | None:
+    """The generator of a simulation taking ``seed=`` and the older alias ``rng=``.
+
+    None when neither is given (a noise-free simulation); :func:`generator`
+    of whichever is given.
+
+    Raises
+    ------
+    AccelcalError
+        When both are given, or for a seed :func:`generator` refuses.
+    """
+    if seed is not None and rng is not None:
+        raise AccelcalError("give seed or its older alias rng, not both", parameter="rng")
+    source = seed if rng is None else rng
+    return None if source is None else generator(source)

@@ -174,9 +174,10 @@ class Reduction:
         ``"tumble"``, ``"transverse"``, ``"vre"``, ...): the key of
         :data:`accelcal.methods.REGISTRY`, which finds its figures.
     method : str
-        The reduction's full name, as calibration records and the store
-        carry it (``"dividing-head/joint"``, ``"tumble-fourier"``,
-        ``"transverse-2w"``, ``"vre-identify"``).
+        The reduction's id ``<family>/<route>``, as calibration records and
+        the store carry it (``"dividing-head/joint"``, ``"tumble/fourier"``,
+        ``"transverse/2w"``, ``"vre/identify"``); older ids are mapped by
+        :mod:`accelcal.method_ids`.
     sensors : tuple of Estimate
         One per sensor: coefficients with units, covariance, residuals, dof.
     sensor_names : tuple of str

@@ -12,6 +12,7 @@ import sys
 OPTION_NAMES: dict[str, str] = {
     "rotation_axis": "--axis",  # accelcal tumble
     "angles_rad": "--angles",  # accelcal tumble identify
+    "one_g": "--with",  # accelcal centrifuge reduce
     "values": "FILE",
     "rows": "--block-rows",  # accelcal import  # the samples of a recording (accelcal noise, triad)
 }

@@ -3,9 +3,10 @@
 Command groups are imported when a command of theirs runs (or a tree of
 every command is asked for), not to list them: ``accelcal --help`` shows
 each group from its entry in :data:`GROUPS`, so the start-up costs the
-commands' modules nothing. A new group adds one line there (its module,
-whose ``app`` is the group, and its help, which a test keeps equal to the
-group's own).
+commands' modules nothing. A method's group comes from its descriptor
+(:mod:`accelcal.catalog`: its module, whose ``app`` is the group, and its
+help, which a test keeps equal to the group's own); a group that is not a
+method adds one line to :data:`GROUPS`.
 """
 
 import importlib
@@ -14,47 +15,26 @@ import typer
 from typer.core import TyperGroup
 
 from accelcal import __version__
+from accelcal.catalog import METHODS
 from accelcal.cli import demo as demo_cmd
 from accelcal.cli import importer as importer_cmd
 from accelcal.cli import report as report_cmd
+from accelcal.cli.help_format import bare_flags
+
+bare_flags()
 
 GROUPS: dict[str, tuple[str, str]] = {
     "model": ("accelcal.cli.model", (
         "Show, create and evaluate accelerometer error models (model files are JSON).")),
-    "vre": ("accelcal.cli.vre", (
-        "Vibration rectification error (VRE) with asymmetry under overload + vibration "
-        "(vibrafuge): predict, simulate records, reduce them, identify coefficients.")),
-    "transverse": ("accelcal.cli.transverse", (
-        "Transverse sensitivity of an accelerometer vibrated in its transverse plane on a "
-        "shaker (GuanTang, after ISO 16063-31): sweep, simulate records, analyze, fit.")),
-    "dividing-head": ("accelcal.cli.dividing_head", (
-        "Accelerometers on an indexing (dividing) head: simulate records, reduce them "
-        "(single-sensor, four-sensor separation, joint least squares, IEEE tumble), and "
-        "compare the methods by Monte Carlo (Dong2014, corrected).")),
-    "tumble": ("accelcal.cli.tumble", (
-        "Multipoint tumble (IEEE 1293 style): what a position set identifies, simulated "
-        "records, and the Fourier / least-squares reduction.")),
-    "triad": ("accelcal.cli.triad", (
-        "Accelerometer triads on static positions (Tedaldi 2014, Ferraris 1995): static "
-        "intervals, calibration with uncertainty (known or unknown orientations), "
-        "applying a calibration to a recording, simulated triads.")),
-    "noise": ("accelcal.cli.noise", (
-        "Noise and stability of still recordings: Allan deviations with confidence "
-        "intervals, IEEE 952 coefficients (Q, N, B, K, R), PSD, simulated records.")),
-    "thermal": ("accelcal.cli.thermal", (
-        "Thermal-chamber tests (IEEE 1293 style): a multipoint tumble at each temperature "
-        "plateau, temperature coefficients with uncertainty, hysteresis, warm-up, and "
-        "temperature compensation of recordings.")),
-    "centrifuge": ("accelcal.cli.centrifuge", (
-        "Precision centrifuge tests (IEEE 836): simulated records with the rig's errors, "
-        "reduction of K2, K3, K4 and the cross-coupling (alone or jointly with a 1 g "
-        "record), and test planning without data.")),
+    **{m.name: (m.cli, m.cli_help) for m in METHODS},
     "records": ("accelcal.cli.records", (
         "Store calibration records and follow each serial number: history, repeatability "
         "and drift. Default store: an SQLite file in the user data directory "
         "($ACCELCAL_DB overrides it).")),
 }
-"""Command group name -> (module whose ``app`` is the group, the group's help)."""
+"""Command group name -> (module whose ``app`` is the group, the group's help): the two
+groups that are not methods (``model``, ``records``), and each method's from its
+descriptor (:data:`accelcal.catalog.METHODS`)."""
 
 
 class LazyGroup(TyperGroup):

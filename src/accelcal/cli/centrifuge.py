@@ -168,6 +168,7 @@ def reduce(
     estimated rig errors (sensor "rig"). Notes say what the records cannot separate.
     """
     from accelcal.io.formats import centrifuge as fmt_centrifuge
+    from accelcal.methods import centrifuge
 
     check_format(fmt)
     files = [file] + ([one_g] if one_g is not None else [])
@@ -178,26 +179,11 @@ def reduce(
         record_paths(record_out, 1)
     if sensor is not None and one_g is None:
         raise AccelcalError("--sensor goes with --with (a dividing-head record)")
+    if sigma is not None and one_g is not None:
+        raise AccelcalError("--sigma: a joint reduction estimates each record's noise")
     record = fmt_centrifuge.read(file)
-    chosen = _names(estimate, "--estimate")
-    if one_g is None:
-        from accelcal.methods.centrifuge import reduce_centrifuge
-
-        result = reduce_centrifuge(record, terms=_names(terms, "--terms"),
-                                   estimate=chosen or (), sigma=sigma)
-    else:
-        from accelcal.methods.centrifuge import read_one_g, reduce_joint
-
-        if sigma is not None:
-            raise AccelcalError("--sigma: a joint reduction estimates each record's noise")
-        try:
-            result = reduce_joint(record, read_one_g(one_g), terms=_names(terms, "--terms"),
-                                  estimate=("radius_error",) if chosen is None else chosen,
-                                  sensor=sensor)
-        except AccelcalError as exc:
-            if exc.parameter == "one_g":
-                raise AccelcalError(f"--with: {exc.message}") from None
-            raise
+    result = centrifuge.reduce(record, one_g=one_g, sensor=sensor, terms=_names(terms, "--terms"),
+                               estimate=_names(estimate, "--estimate"), sigma=sigma)
     if plot is not None:
         result.plot(plot)
     if info is not None:

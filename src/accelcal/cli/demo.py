@@ -4,6 +4,8 @@ from pathlib import Path
 
 import typer
 
+from accelcal.catalog import demo_methods, listed
+
 
 def demo(
     out: Path = typer.Option(
@@ -20,10 +22,7 @@ def demo(
 ) -> None:
     """Simulate a calibration campaign of the default accelerometer, reduce it, store and report.
 
-    Indexing head with four sensors (Dong2014), shaker transverse sweep
-    (GuanTang) and vibrafuge grid (Guan2021): input files, calibration
-    records, the store and a self-contained HTML report. Each run is dated,
-    so running it again adds new records and the report shows the history.
+    The full help, which names the tests the campaign runs, is :func:`_help`'s.
     """
     from accelcal.demo import run
 
@@ -36,3 +35,15 @@ def demo(
                f"{', '.join(map(str, result.record_ids))})")
     typer.echo(f"seed:    {result.seed} (repeat with --seed {result.seed})")
     typer.echo(f"done in {result.seconds:.1f} s")
+
+
+def _help() -> str:
+    """The command's help: the tests it runs, from the methods' descriptors."""
+    tests = listed((f"{m.demo_test} ({m.paper})" for m in demo_methods()), "and")
+    return ("Simulate a calibration campaign of the default accelerometer, reduce it, store and "
+            f"report.\n\nThe tests, in order: {tests}. It writes the input files, the "
+            "calibration records, the store and a self-contained HTML report. Each run is "
+            "dated, so running it again adds new records and the report shows the history.")
+
+
+demo.__doc__ = _help()

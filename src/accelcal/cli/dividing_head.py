@@ -277,7 +277,7 @@ def reduce_cmd(
 ) -> None:
     """Reduce a record: estimate and standard uncertainty of each coefficient (volts)."""
     from accelcal.io.formats.dividing_head import read_head_record
-    from accelcal.methods.dividing_head import HeadData, options_from_record, reduce
+    from accelcal.methods.dividing_head import HeadData, lab_options, reduce
 
     check_format(fmt)
     monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
@@ -293,13 +293,11 @@ def reduce_cmd(
         from accelcal.calibration import record_paths
 
         record_paths(record_out, len(record.sensors))
-    options = options_from_record(record, method)  # the file's first harmonic and readings
-    if first_harmonic is not None:  # given: replaces the file's value and its uncertainty
-        options["first_harmonic"] = _pair(first_harmonic, "--first-harmonic")
-        options.pop("first_harmonic_sd", None)
-    if first_harmonic_sd is not None:
-        options["first_harmonic_sd"] = first_harmonic_sd
-    options.update(covariance=covariance, gauss_newton=gauss_newton or None)
+    options = lab_options(  # the file's first harmonic and readings, unless given
+        record, method, covariance=covariance, gauss_newton=gauss_newton or None,
+        first_harmonic=None if first_harmonic is None else _pair(first_harmonic,
+                                                                 "--first-harmonic"),
+        first_harmonic_sd=first_harmonic_sd)
     result = reduce(data, method, **options)
     rows = result.rows()
     if monte_carlo:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import typer
 
+from accelcal.catalog import kinds, listed
 from accelcal.cli.common import check_format, emit
 from accelcal.cli.input_options import DELIMITER, RATE, SCALE, TIME, UNIT
 from accelcal.errors import AccelcalError
@@ -18,6 +19,9 @@ from accelcal.errors import AccelcalError
 _FORMAT_HELP = ("Format of the recording: auto, csv, parquet, tdms, hdf5, mat, imucal, imu_tk "
                 "or record (default: the mapping file's, else auto: from the file's first "
                 "bytes).")
+
+KINDS = tuple(sorted(kinds()))
+"""The record kinds (:mod:`accelcal.catalog`), as ``--kind`` lists them."""
 
 _OPTIONS = {"columns": "channels", "units": "mapping", "scales": "mapping"}
 """Library parameters -> this command's options where they differ."""
@@ -32,8 +36,7 @@ def import_(
         None, "--channels", help="Record column = channel, comma separated, e.g. "
         "acc_x=Accel/X,acc_y=Accel/Y,acc_z=Accel/Z (see `accelcal inspect`)."),
     kind: str | None = typer.Option(
-        None, "--kind", help="Record kind: dividing-head, shaker, vibrafuge, tumble, triad or "
-        "noise (default: the mapping file's)."),
+        None, "--kind", help=f"Record kind: {listed(KINDS)} (default: the mapping file's)."),
     input_format: str | None = typer.Option(None, "--input-format", help=_FORMAT_HELP),
     rate: float | None = RATE,
     time: str | None = TIME,
@@ -154,6 +157,11 @@ def inspect(
         typer.echo(f"{found['file']} ({found['input_format']}), sha256 {found['sha256']}")
         if found["properties"]:
             typer.echo(f"file properties: {_short(found['properties'], 600)}")
+
+
+inspect.__doc__ = (f"{inspect.__doc__}\n\nThe channels are what `accelcal import` maps to the "
+                   f"columns of a record of kind {listed(KINDS)} (--channels, or a mapping "
+                   "file).")
 
 
 def _short(props: dict, limit: int = 80) -> str:

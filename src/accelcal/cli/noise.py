@@ -17,6 +17,7 @@ from accelcal.cli import input_options as io_opts
 from accelcal.cli import record_options
 from accelcal.cli.common import check_format, emit, parse_grid
 from accelcal.errors import AccelcalError
+from accelcal.formatting import unit_squared
 
 app = typer.Typer(
     help="Noise and stability of still recordings: Allan deviations with confidence "
@@ -124,8 +125,8 @@ def fit(
     """
     import json
 
+    from accelcal.methods import noise
     from accelcal.methods.noise.fit import check_terms, coefficients
-    from accelcal.methods.noise.stream import stream_fit
 
     if fmt not in ("table", "json"):
         raise AccelcalError(f"--format {fmt!r} is not one of table, json")
@@ -133,7 +134,8 @@ def fit(
     opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter)
     info = _lab(record_out, file, serial, operator)
     with _progress(f"fit of {file.name}") as progress:
-        red = stream_fit(file, opts, terms=names, taus=_taus(taus), progress=progress)
+        red = noise.reduce(file, options=opts, terms=names, taus=_taus(taus),
+                           progress=progress)
     if info is not None:
         from accelcal.calibration import save_records
 
@@ -204,7 +206,8 @@ def psd(
     rows = [{"frequency_hz": float(fk), "psd": float(pk),
              **{f"level_{t}": float(v[i]) for t, v in marks.items()}}
             for i, (fk, pk) in enumerate(zip(f[keep], p[keep], strict=True))]
-    emit(rows, fmt, title=f"one-sided PSD of {file.name} ({red.provenance['unit']}^2/Hz)")
+    emit(rows, fmt,
+         title=f"one-sided PSD of {file.name} ({unit_squared(red.provenance['unit'])}/Hz)")
     if plot is not None:
         for path in red.plot(plot):
             print(f"wrote {path}", file=sys.stderr)

@@ -20,7 +20,7 @@ _DB_HELP = (
     "Default: $ACCELCAL_DB, else ~/.local/share/accelcal/records.sqlite."
 )
 _METHOD_HELP = ("Only calibrations by this method, as 'records list' shows it "
-                "(e.g. dividing-head/joint).")
+                "(e.g. dividing-head/joint; an old id such as tumble-fourier also works).")
 
 
 def _store(db: str | None, *, readonly: bool = False):

@@ -112,8 +112,7 @@ def reduce(
     """
     import sys
 
-    from accelcal.io.formats import thermal as thermal_format
-    from accelcal.methods.thermal import Compensation, reduce_thermal
+    from accelcal.methods import thermal
 
     check_format(fmt)
     if order not in ("auto", "1", "2", "3"):
@@ -121,9 +120,8 @@ def reduce(
     for path in (compensation, model_out, record_out):
         check_writable(path)
     info = record_options.lab_info_for(record_out, [file], serial=serial, operator=None)
-    record = thermal_format.read(file)
     chosen = [t.strip() for t in terms.split(",")] if terms is not None else None
-    red = reduce_thermal(record, order=order if order == "auto" else int(order),
+    red = thermal.reduce(file, order=order if order == "auto" else int(order),
                          reference=reference, terms=chosen, window=window,
                          rate_limit=rate_limit, tolerance=tolerance)
     if plot is not None:
@@ -131,7 +129,7 @@ def reduce(
             typer.echo(f"wrote {p}", err=True)
     model = red.models[0]
     if compensation is not None:
-        Compensation.from_model(model, description=f"from {file.name}").save(compensation)
+        thermal.Compensation.from_model(model, description=f"from {file.name}").save(compensation)
         typer.echo(f"wrote {compensation}", err=True)
     if model_out is not None:
         model.save(model_out)

@@ -287,7 +287,7 @@ def fit_cmd(
     ),
 ) -> None:
     """Identify k_o, k_p, k_oo, k_pp, k_op (g/g^n) with standard uncertainties."""
-    from accelcal.methods.transverse import identify, with_fitted_frequency
+    from accelcal.methods import transverse
     from accelcal.model import ErrorModel
 
     check_format(fmt)
@@ -306,16 +306,15 @@ def fit_cmd(
     rows = []
     cal = []
     for rec in _read(data):
-        if fit_frequency:
-            rec = with_fitted_frequency(rec)  # noqa: PLW2901
-        red = identify(rec, route=route, terms=names, base=base, scale_factor=scale_factor)
+        if fit_frequency:  # the Monte Carlo below runs at the fitted frequency too
+            rec = transverse.with_fitted_frequency(rec)  # noqa: PLW2901
+        red = transverse.reduce(rec, route=route, terms=names, base=base,
+                                scale_factor=scale_factor)
         red_rows = [{"amplitude_g": rec.amplitude, **r, "method": red.method}
                     for r in red.rows()]
         if monte_carlo:
-            from accelcal.methods.transverse import transverse_uncertainty
-
             with uncertainty_options.progress_bar() as progress:
-                mc = transverse_uncertainty(rec, red, trials=trials, seed=seed,
+                mc = transverse.uncertainty(red, rec, trials=trials, seed=seed,
                                             reference_sd=reference_sd, progress=progress)
             fitted = len(red.estimate.names)  # the fixed terms' rows follow, without MC columns
             held = dict.fromkeys(mc.columns(0), float("nan"))

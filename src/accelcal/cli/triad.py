@@ -18,6 +18,7 @@ from accelcal.cli.input_options import (
     input_options,
 )
 from accelcal.errors import AccelcalError
+from accelcal.formatting import unit_squared
 
 app = typer.Typer(
     help=("Accelerometer triads on static positions (Tedaldi 2014, Ferraris 1995): static "
@@ -34,19 +35,6 @@ INIT_STATIC = typer.Option(
 WINDOW = typer.Option(1.0, "--window", help="Window of the moving variance, s (1-2 s).")
 MIN_LENGTH = typer.Option(2.0, "--min-length", help="Shortest static interval kept, s.")
 PLOT = typer.Option(None, "--plot", help="Directory for the figures (PNG and SVG).")
-
-
-def _read(file: Path, opts):
-    from accelcal.io.recordings import read_recording
-
-    return read_recording(file, opts, channels=3, what="triad recording")
-
-
-def _detect(rec, init_static: float, window: float, factor: float, min_length: float):
-    from accelcal.signal.static import detect_static
-
-    return detect_static(rec.values, rec.rate, init_static=init_static, window=window,
-                         factor=factor, min_length=min_length, time=rec.time, unit=rec.unit)
 
 
 def _save_intervals_figure(intervals, rec, plot: Path) -> None:
@@ -102,38 +90,7 @@ def detect(
             typer.echo(f"wrote {p}", err=True)
     emit(found.rows(), fmt,
          title=f"{file}: {len(found)} static intervals (threshold {found.threshold:.4g} "
-               f"{prov['unit']}^2 = {factor:g} x the first {init_static:g} s)")
-
-
-def _gravity(gravity: float | None, latitude: float | None, height: float | None, rec) -> float:
-    from accelcal.physics.gravity import check_gravity, normal_gravity
-
-    if gravity is not None:
-        if latitude is not None or height is not None:
-            raise AccelcalError("give either --gravity or --latitude (and --height), not both")
-        return check_gravity(gravity)
-    if latitude is not None:
-        return normal_gravity(latitude, 0.0 if height is None else height)
-    if height is not None:
-        raise AccelcalError("--height goes with --latitude (WGS84 normal gravity)")
-    value = rec.metadata.get("local_gravity", rec.metadata.get("gravity"))
-    if value is None:
-        raise AccelcalError("give the local gravity: --gravity G (m/s^2, measured) or "
-                            "--latitude DEG [--height M] (WGS84 normal gravity)")
-    return check_gravity(value)
-
-
-def _known(rec, positions: Path | None, detect_args):
-    """Known positions: --positions with detected intervals, imucal labels, record positions."""
-    from accelcal.methods.triad.imucal import listed_positions, positions_file, session_positions
-
-    if positions is not None:
-        found = _detect(rec, *detect_args)
-        return positions_file(positions, rec.values, found.start, found.stop), found
-    known = session_positions(rec)
-    if known is None and rec.metadata.get("positions"):
-        known = listed_positions(rec.values, rec.metadata["positions"], "the record's positions")
-    return known, None
+               f"{unit_squared(prov['unit'])} = {factor:g} x the first {init_static:g} s)")
 
 
 @app.command("calibrate")
@@ -183,40 +140,27 @@ def calibrate(
     after calibration.
     """
     from accelcal.methods.triad.common import calibration_of
-    from accelcal.signal.static import check_settings
+    from accelcal.methods.triad.lab import run
 
     check_format(fmt)
     if fmt == "csv":
         raise AccelcalError("--format csv: calibrate prints two tables (coefficients and "
                             "positions); use table or json")
-    if orientations not in (None, "known", "unknown"):
-        raise AccelcalError(f"--orientations {orientations!r} is not known or unknown")
-    if positions is not None and orientations == "unknown":
-        raise AccelcalError("--positions gives known orientations; drop --orientations unknown")
     if imucal_out is not None and quadratic:
         raise AccelcalError("--imucal-out: imucal's layout has no quadratic terms; drop "
                             "--quadratic")
     monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
-    check_settings(init_static=init_static, window=window, min_length=min_length,
-                   factor=2.0 if factor is None else factor)
     for path in (out, imucal_out, record_out):
         check_writable(path)
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
                          regions=regions)
-    rec = _read(file, opts)
+    lab = run(file, options=opts, orientations=orientations, positions=positions,
+              gravity=gravity, latitude=latitude, height=height, quadratic=quadratic,
+              init_static=init_static, window=window, factor=factor, min_length=min_length)
+    red, rec, found = lab.reduction, lab.recording, lab.intervals
     files = [file] if rec.provenance.get("input_format") == "record" else []
     info = record_options.lab_info_for(record_out, files, serial=serial, operator=None)
-    g = _gravity(gravity, latitude, height, rec)
-    detect_args = (init_static, window, 2.0 if factor is None else factor, min_length)
-    known, found = (None, None) if orientations == "unknown" else _known(rec, positions,
-                                                                         detect_args)
-    if orientations == "known" and known is None:
-        raise AccelcalError(
-            "--orientations known needs the positions' orientations: imucal labels (a 'part' "
-            "column or --regions), a triad record's positions, or --positions FILE")
-    red, sweep = _reduce(rec, g, known, detect_args, auto=factor is None, quadratic=quadratic)
-    found = found if known is not None else sweep[0]
     rows = red.rows()
     if monte_carlo:
         from accelcal.methods.triad.mc import triad_uncertainty
@@ -242,49 +186,15 @@ def calibrate(
 
         for p in save_records(red.to_records(info, input_files=[file]), record_out):
             typer.echo(f"wrote {p}", err=True)
-    _print_calibration(red, rows, found, sweep[1], fmt=fmt, file=file)
+    _print_calibration(lab, rows, fmt=fmt, file=file)
 
 
-def _reduce(rec, g: float, known, detect_args, *, auto: bool, quadratic: bool):
-    """The reduction, and (intervals, factor sweep rows) of the gravity-norm route."""
-    if known is not None:
-        from accelcal.methods.triad.known import calibrate_known
-
-        red = calibrate_known(known.means, known.up, g, input_unit=rec.unit, quadratic=quadratic,
-                              labels=known.labels, counts=known.counts)
-        return red, (None, None)
-    from accelcal.methods.triad.threshold import choose_factor
-    from accelcal.methods.triad.unknown import calibrate_unknown
-
-    init_static, window, _, min_length = detect_args
-    if auto:
-        choice = choose_factor(rec.values, rec.rate, g, init_static=init_static, window=window,
-                               min_length=min_length, input_unit=rec.unit, quadratic=quadratic,
-                               time=rec.time)
-        return choice.reduction, (choice.intervals, choice.rows)
-    found = _detect(rec, *detect_args)
-    red = calibrate_unknown(found.means, g, input_unit=rec.unit, quadratic=quadratic,
-                            labels=[f"I{k + 1}" for k in range(len(found))], counts=found.counts)
-    return red, (found, None)
-
-
-def _print_calibration(red, rows, found, sweep, *, fmt: str, file: Path) -> None:
+def _print_calibration(lab, rows, *, fmt: str, file: Path) -> None:
     import json
 
-    import numpy as np
-
-    obs = red.observations
-    labels = red.provenance["labels"]
-    positions = [{"position": label, "norm_before": float(b), "norm_after": float(a)}
-                 for label, b, a in zip(labels, obs["norm_before"], obs["norm_after"],
-                                        strict=True)]
-    if found is not None and len(found) == len(positions):
-        for row, (t0, t1) in zip(positions, found.times, strict=True):
-            row.update(start_s=float(t0), stop_s=float(t1))
-    cond = float(red.identifiability.condition_number) if red.identifiability else 0.0
-    summary = {"method": red.method, "gravity": red.provenance["gravity"],
-               "positions": len(positions), "dof": int(red.dof),
-               "condition_number": cond if np.isfinite(cond) and cond else float("nan")}
+    red, sweep = lab.reduction, lab.sweep
+    positions = lab.norm_rows()
+    summary = lab.summary()
     if fmt == "json":
         from accelcal.cli.common import _json_value
 

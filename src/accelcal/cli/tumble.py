@@ -154,26 +154,14 @@ def reduce(
     """Reduce a tumble record: estimate and standard uncertainty of each coefficient."""
     import sys
 
-    from accelcal.io.formats import tumble as tumble_format
-    from accelcal.methods.tumble import combination_label, reduce_tumble
+    from accelcal.methods import tumble
 
     check_format(fmt)
-    record = tumble_format.read(file)
-    repeats = record.repeats
-    result = reduce_tumble(
-        record.angles_rad,
-        record.outputs if repeats > 1 else record.outputs[:, 0],
-        rotation_axis=record.rotation_axis,
-        output_unit=record.output_unit,
-        terms=_terms(terms),
-        route=route,
-        sigma=sigma,
-        repeats=repeats > 1,
-    )
+    result = tumble.reduce(file, terms=_terms(terms), route=route, sigma=sigma)
     route_used = result.assumed("route")
     emit(result.rows(), fmt, title=f"Tumble reduction ({route_used}), {file}")
     lines = [
-        f"combination {combination_label(c)} = {c.value:.10g} +- {c.std:.3g} {c.unit}"
+        f"combination {tumble.combination_label(c)} = {c.value:.10g} +- {c.std:.3g} {c.unit}"
         for c in result.combinations
     ]
     lines += [f"note: {n}" for n in result.estimate.notes]

@@ -5,7 +5,8 @@ import typer
 UNCERTAINTY = typer.Option(
     "formal", "--uncertainty",
     help="formal (least-squares covariance) or mc (Monte Carlo, GUM Supplement 1: adds "
-         "mc_std and the 95 % coverage interval ci95_low, ci95_high in the coefficient units).",
+         "mc_std and the 95 % coverage interval ci95_low, ci95_high in the coefficient units; "
+         "the engineering units then carry mc_std).",
 )
 TRIALS = typer.Option(
     10_000, "--trials",
@@ -42,5 +43,23 @@ def progress_bar():
 
 
 def merge(rows: list[dict], mc) -> list[dict]:
-    """Rows with the Monte Carlo columns of coefficient ``i`` added to row ``i``."""
-    return [{**row, **mc.columns(i)} for i, row in enumerate(rows)]
+    """Rows with the Monte Carlo columns of coefficient ``i`` added to row ``i``.
+
+    The engineering units (``engineering``, ``eng_std``) then carry the Monte
+    Carlo standard uncertainty, the one the run reports, in place of the
+    formal one: each is the coefficient's ``std`` times a fixed factor
+    (:func:`accelcal.engineering.engineering`), so it is ``mc_std`` times that
+    factor; NaN where the formal one is 0 or undetermined and gives no factor.
+    """
+    return [_engineering_mc({**row, **mc.columns(i)}) for i, row in enumerate(rows)]
+
+
+def _engineering_mc(row: dict) -> dict:
+    import math
+
+    if not row.get("engineering"):
+        return row
+    std, mc_std = row["std"], row["mc_std"]
+    ratio = mc_std / std if math.isfinite(std) and std > 0 else math.nan
+    items = [{**e, "std": e["std"] * ratio} for e in row["engineering"]]
+    return {**row, "engineering": items, "eng_std": items[0]["std"]}

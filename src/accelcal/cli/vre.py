@@ -126,25 +126,6 @@ def simulate(
           f"({sampling} sampling, noise {run.noise:g} g)", file=sys.stderr)
 
 
-def _read_measurements(files):
-    import numpy as np
-
-    from accelcal.io.formats.vibrafuge import read_vibrafuge
-    from accelcal.methods.vre import reduce_run
-
-    if not files:
-        raise AccelcalError("give at least one vibrafuge record file")
-    parts = [reduce_run(read_vibrafuge(f)) for f in files]
-    cat = {k: np.concatenate([getattr(p, k) for p in parts])
-           for k in ("overload", "amplitude", "vre", "uncertainty")}
-    cat["direction"] = np.concatenate(
-        [np.broadcast_to(p.direction, (p.amplitude.size, 3)) for p in parts])
-    designs = [p.design_columns() for p in parts]
-    cat["columns"] = {t: np.concatenate([d[t] for d in designs]) for t in designs[0]}
-    cat["assumptions"] = [a for p in parts for a in p.assumptions()]
-    return cat
-
-
 @app.command("reduce")
 def reduce(
     files: list[Path] = typer.Argument(..., help="Vibrafuge record files (CSV)."),
@@ -155,8 +136,10 @@ def reduce(
     fmt: str = typer.Option("table", "--format", help=_FORMAT_HELP),
 ) -> None:
     """Reduce records to VRE (g) with standard uncertainty, from whole-period means."""
+    from accelcal.methods.vre import measure_runs
+
     check_format(fmt)
-    m = _read_measurements(files)
+    m = measure_runs(files)
     rows = []
     for k in range(m["amplitude"].size):
         rows.append({"overload_g": float(m["overload"][k, 0]),
@@ -216,7 +199,7 @@ def fit(
     """
     import json
 
-    from accelcal.methods.vre import identify
+    from accelcal.methods import vre
     from accelcal.outputs import describe
 
     check_format(fmt)
@@ -235,17 +218,11 @@ def fit(
             raise AccelcalError(f"--fix {item!r} is not NAME=VALUE (e.g. --fix K4=0)")
         fixed[name.strip()] = parse_number(value, f"--fix {name.strip()}")
     info = record_options.lab_info_for(record_out, files, serial=serial, operator=operator)
-    m = _read_measurements(files)
-    result = identify(m["overload"], m["amplitude"], m["vre"], m["uncertainty"],
-                      direction=m["direction"], terms=names, fixed=fixed,
-                      provenance={"files": [str(f) for f in files]},
-                      assumptions=m["assumptions"], columns=m["columns"])
+    result = vre.reduce(files, terms=names, fixed=fixed)
     rows = result.rows()
     if monte_carlo:
-        from accelcal.methods.vre import vre_uncertainty
-
         with uncertainty_options.progress_bar() as progress:
-            mc = vre_uncertainty(result, trials=trials, seed=seed, amplitude_sd=amplitude_sd,
+            mc = vre.uncertainty(result, trials=trials, seed=seed, amplitude_sd=amplitude_sd,
                                  overload_sd=overload_sd, progress=progress)
         p = len(mc.names)
         rows = [*uncertainty_options.merge(rows[:p], mc),

@@ -47,6 +47,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.atomic import write_text_atomic
 from accelcal.io.limits import MAX_JSON_BYTES, check_regular_file, load_json, read_bounded
+from accelcal.method_ids import canonical
 from accelcal.model import ErrorModel
 from accelcal.validation import check_label, is_finite_number, shown, shown_name
 
@@ -85,7 +86,9 @@ class CalibrationRecord:
     serial : str
         Serial number of the accelerometer.
     method : str
-        Test method and reduction, e.g. ``"dividing-head/joint"``.
+        Test method and reduction, e.g. ``"dividing-head/joint"``; an id of
+        the older pattern (``"tumble-fourier"``) is read as its id today
+        (:func:`accelcal.method_ids.canonical`).
     names : tuple of str
         Coefficient names.
     estimates : numpy.ndarray
@@ -139,6 +142,7 @@ class CalibrationRecord:
                 check_label(getattr(self, name), what, file_name=name == "serial", limit=limit)
             except AccelcalError as exc:
                 raise AccelcalError(f"calibration record: {exc}") from None
+        object.__setattr__(self, "method", canonical(self.method))
         for name in self.names:
             check_label(name, "calibration record: coefficient name", limit=_NAME_LENGTH)
             check_label(self.units.get(name, ""), f"calibration record: unit of {name}",

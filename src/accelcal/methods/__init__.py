@@ -13,23 +13,17 @@ the generic code paths (plots, reports), three names:
     Short corrections of the method's paper that a report shows, each with
     its entry in docs/errata.md.
 
-:data:`REGISTRY` maps a Reduction's ``family`` to its package; a new
-method adds one line here.
+:data:`REGISTRY` maps a Reduction's ``family`` to its package; it is
+derived from the methods' descriptors (:data:`accelcal.catalog.METHODS`),
+where a new method is named once.
 """
 
 import importlib
 from dataclasses import dataclass
 
-REGISTRY = {
-    "centrifuge": "accelcal.methods.centrifuge",
-    "dividing-head": "accelcal.methods.dividing_head",
-    "noise": "accelcal.methods.noise",
-    "tumble": "accelcal.methods.tumble",
-    "thermal": "accelcal.methods.thermal",
-    "transverse": "accelcal.methods.transverse",
-    "triad": "accelcal.methods.triad",
-    "vre": "accelcal.methods.vre",
-}
+from accelcal.catalog import families
+
+REGISTRY = families()
 """Method family -> package (imported on first use)."""
 
 

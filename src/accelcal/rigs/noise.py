@@ -223,8 +223,8 @@ def simulate(*, N=0.0, B=0.0, K=0.0, Q=0.0, R=0.0, rate, duration, seed=0, bias=
         Sample rate, Hz.
     duration : float
         Length, s.
-    seed : int
-        Seed of the random generator.
+    seed : int, numpy.random.SeedSequence or numpy.random.Generator
+        Seed of the random generator (an int is written into the metadata).
     bias : float
         Constant added, ``unit``.
     unit : str
@@ -265,7 +265,8 @@ def simulate(*, N=0.0, B=0.0, K=0.0, Q=0.0, R=0.0, rate, duration, seed=0, bias=
 def truth_metadata(*, N, B, K, Q, R, bias, seed, b_range) -> dict:
     """The metadata a simulated record carries: ``true``, ``seed``, ``simulated``."""
     meta = {"true": {"N": N, "B": B, "K": K, "Q": Q, "R": R, "bias": bias},
-            "seed": seed, "simulated": True}
+            "seed": int(seed) if isinstance(seed, int | np.integer) else None,
+            "simulated": True}
     if b_range is not None:
         meta["b_range"] = [float(b_range[0]), float(b_range[1])]
     return meta

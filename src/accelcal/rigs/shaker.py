@@ -41,7 +41,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.shaker import MAX_MAGNITUDE, ShakerRecords
 from accelcal.model import MAX_SPECIFIC_FORCE_G, ErrorModel
-from accelcal.resources import check_memory
+from accelcal.resources import check_memory, seeded
 from accelcal.units import OUTPUT_UNITS
 
 MEMORY_FACTOR = 20
@@ -267,7 +267,8 @@ class ShakerRig:
         a_o = axial * np.sin(theta) + a_n * np.cos(theta)
         return (a_ia, a_o, a_p), (a_v, a_n, a_ia)
 
-    def simulate(self, sensor: Sensor, theta, *, rng: np.random.Generator | None = None,
+    def simulate(self, sensor: Sensor, theta, *, seed=None,
+                 rng: np.random.Generator | None = None,
                  trials: int | None = None) -> ShakerRecords:
         """Simulate records at direction angles ``theta`` (rad).
 
@@ -277,8 +278,10 @@ class ShakerRig:
             The accelerometer.
         theta : array_like, shape (m,)
             Direction angles, rad.
+        seed : int, numpy.random.SeedSequence or numpy.random.Generator, optional
+            Source of noise; without it (and ``rng``) the records are noise-free.
         rng : numpy.random.Generator, optional
-            Source of noise; without it the records are noise-free.
+            The older name of ``seed`` (a Generator), kept as an alias.
         trials : int, optional
             Independent noise realisations stacked on a leading axis.
 
@@ -292,6 +295,7 @@ class ShakerRig:
         AccelcalError
             When the records would not fit in memory, or overflow.
         """
+        rng = seeded(seed, rng)
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
         lead = () if trials is None else (int(trials),)
         self._check_size(theta.size * (1 if trials is None else int(trials)))

@@ -40,7 +40,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.vibrafuge import MAX_MAGNITUDE, VibrafugeRun
 from accelcal.model import MAX_SPECIFIC_FORCE_G, ErrorModel
-from accelcal.resources import check_memory
+from accelcal.resources import check_memory, seeded
 
 SAMPLING = ("integrating", "point")
 """Sampling models: mean over each sample interval, or instantaneous values."""
@@ -139,6 +139,7 @@ def simulate(
     noise: float | None = None,
     quantum: float = 0.0,
     sampling: str = "integrating",
+    seed=None,
     rng: np.random.Generator | None = None,
     centrifuge=None,
 ) -> VibrafugeRun:
@@ -165,13 +166,15 @@ def simulate(
         Vibration phase at t = 0, rad.
     noise : float, optional
         White noise standard deviation, g; default ``model.sigma``. Needs
-        ``rng`` when positive.
+        ``seed`` when positive.
     quantum : float
         Output quantisation step in the model's output unit (0: none).
     sampling : {"integrating", "point"}
         Sampling model (see the module notes).
-    rng : numpy.random.Generator, optional
+    seed : int, numpy.random.SeedSequence or numpy.random.Generator, optional
         Source of the noise.
+    rng : numpy.random.Generator, optional
+        The older name of ``seed`` (a Generator), kept as an alias.
     centrifuge : accelcal.rigs.centrifuge.CentrifugeRig, optional
         The centrifuge that produces the overloads: the sensor then feels
         :meth:`~accelcal.rigs.centrifuge.CentrifugeRig.overload` of each
@@ -199,6 +202,7 @@ def simulate(
     ----------
     .. [1] Guan2021, eqs. (4)-(6) (inputs), (1)-(3) (output).
     """
+    rng = seeded(seed, rng)
     vectors, A, u = _grid(overload, amplitude, direction)
     f = _positive(frequency, "frequency", "Hz")
     fs = _positive(sample_rate, "sample_rate", "Hz")
@@ -218,7 +222,8 @@ def simulate(
         raise AccelcalError(f"{sigma} g must be >= 0 and finite", parameter="noise")
     _recordable(sigma, "noise", "g")
     if sigma > 0 and rng is None:
-        raise AccelcalError("noise > 0 needs a random generator (rng) or seed; or set noise = 0")
+        raise AccelcalError("noise > 0 needs a seed (or a random generator); or set noise = 0",
+                            parameter="seed")
     quantum = float(quantum)
     if not (np.isfinite(quantum) and quantum >= 0):
         raise AccelcalError(f"{quantum} must be >= 0 and finite (0: no quantisation)",

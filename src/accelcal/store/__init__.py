@@ -30,6 +30,7 @@ from pathlib import Path
 
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
+from accelcal.method_ids import ALIASES, spellings
 from accelcal.store.location import (
     DEFAULT_DB_ENV,
     check_sqlite_path,
@@ -40,7 +41,14 @@ from accelcal.store.location import (
     store_exists,
     store_url,
 )
-from accelcal.store.rows import calibration_row, coefficient_rows, labels, none_added, what
+from accelcal.store.rows import (
+    calibration_row,
+    coefficient_rows,
+    former_uids,
+    labels,
+    none_added,
+    what,
+)
 from accelcal.store.schema import SCHEMA_VERSION, migrate, stored_version
 from accelcal.store.schema import sqlite_on_begin as _sqlite_on_begin
 from accelcal.store.schema import sqlite_on_connect as _sqlite_on_connect
@@ -276,11 +284,13 @@ class Store:
         import sqlalchemy as sa
 
         uid = self._tables["calibrations"].c.uid
+        known = [(row["uid"], *former_uids(row)) for row in rows]
+        every = [u for uids in known for u in uids]
         stored = set()
-        for k in range(0, len(rows), _CHUNK):
-            chunk = [row["uid"] for row in rows[k:k + _CHUNK]]
+        for k in range(0, len(every), _CHUNK):
+            chunk = every[k:k + _CHUNK]
             stored.update(conn.execute(sa.select(uid).where(uid.in_(chunk))).scalars())
-        return next((i for i, row in enumerate(rows) if row["uid"] in stored), None)
+        return next((i for i, uids in enumerate(known) if stored.intersection(uids)), None)
 
     def calibrations(self, serial: str | None = None) -> list[dict]:
         """Stored calibrations, oldest first: id, serial, method, date, software, simulated."""
@@ -306,8 +316,8 @@ class Store:
 
         cal = self._tables["calibrations"]
         simulated = sa.false().label("simulated") if self._old_schema else cal.c.simulated
-        query = sa.select(cal.c.id, cal.c.serial, cal.c.method, cal.c.date, cal.c.software,
-                          simulated)
+        query = sa.select(cal.c.id, cal.c.serial, _method_today(cal), cal.c.date,
+                          cal.c.software, simulated)
         if serial is not None:
             query = query.where(cal.c.serial == check_label(serial, "serial number"))
         return query.order_by(cal.c.date, cal.c.id)
@@ -342,10 +352,11 @@ class Store:
         if method is not None:
             check_label(method, "method")
         cal, coef = self._tables["calibrations"], self._tables["coefficients"]
+        method_today = _method_today(cal)
         columns = {
-            "history": (cal.c.id, cal.c.date, cal.c.method, coef.c.name, coef.c.unit,
+            "history": (cal.c.id, cal.c.date, method_today, coef.c.name, coef.c.unit,
                         coef.c.estimate, coef.c.std),
-            "calibrations": (cal.c.id, cal.c.date, cal.c.method),
+            "calibrations": (cal.c.id, cal.c.date, method_today),
             "coefficients": (coef.c.calibration_id, coef.c.name, coef.c.unit,
                              coef.c.estimate, coef.c.std),
         }
@@ -353,7 +364,7 @@ class Store:
         for name in what:
             query = sa.select(*columns[name]).select_from(cal).where(cal.c.serial == serial)
             if method is not None:
-                query = query.where(cal.c.method == method)
+                query = query.where(cal.c.method.in_(spellings(method)))
             if name == "calibrations":
                 queries.append(query.order_by(cal.c.date, cal.c.id))
             else:
@@ -375,7 +386,8 @@ class Store:
         ----------
         serial : str
         method : str, optional
-            Only calibrations by this method (e.g. ``dividing-head/joint``).
+            Only calibrations by this method (e.g. ``dividing-head/joint``; an old id
+            such as ``tumble-fourier`` selects the same records as its id today).
 
         Returns
         -------
@@ -430,3 +442,10 @@ def _columns(rows: list[tuple], names: Sequence[str]) -> dict[str, list]:
     from operator import itemgetter
 
     return {name: list(map(itemgetter(i), rows)) for i, name in enumerate(names)}
+
+
+def _method_today(cal):
+    """The ``method`` column as its id today (old ids mapped by the database, one CASE)."""
+    import sqlalchemy as sa
+
+    return sa.case(ALIASES, value=cal.c.method, else_=cal.c.method).label("method")

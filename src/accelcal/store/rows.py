@@ -1,11 +1,13 @@
 """Rows of the records store made from calibration records, and the words naming them."""
 
 import hashlib
+import json
 import math
 from collections.abc import Sequence
 
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
+from accelcal.method_ids import spellings
 from accelcal.validation import shown_path
 
 
@@ -35,6 +37,23 @@ def calibration_row(record: CalibrationRecord) -> dict:
     return {"uid": hashlib.sha256(text.encode()).hexdigest(), "serial": record.serial,
             "method": record.method, "simulated": bool(record.simulated),
             "date": utc(record.date), "software": record.software, "record_json": text}
+
+
+def former_uids(row: dict) -> tuple[str, ...]:
+    """The uids the same record had when written with an older id of its method.
+
+    A record stored before method ids took the ``<family>/<route>`` pattern
+    was hashed with its old id (``"tumble-fourier"``); read back, it carries
+    the id today, so the same record added again would hash differently.
+    These are the hashes of its JSON with each older spelling of the id
+    (:func:`accelcal.method_ids.spellings`), which the store checks too.
+    """
+    today = json.dumps(row["method"])
+    text = row["record_json"]
+    return tuple(
+        hashlib.sha256(text.replace(f'"method": {today}', f'"method": {json.dumps(old)}', 1)
+                       .encode()).hexdigest()
+        for old in spellings(row["method"])[1:])
 
 
 def coefficient_rows(row_id: int, record: CalibrationRecord) -> list[dict]:

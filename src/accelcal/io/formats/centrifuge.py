@@ -44,12 +44,17 @@ from typing import NamedTuple
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import check_lab_metadata
 from accelcal.io.records import read_record, write_record
 from accelcal.units import OUTPUT_UNITS, STANDARD_GRAVITY
 from accelcal.validation import check_label, is_finite_number, shown
 
 KIND = "centrifuge"
+
+IMPORT = ImportLayout()
+"""How ``accelcal import`` makes this kind from a recording."""
+
 COLUMNS = ("step", "position", "level", "rate_rad_s", "output")
 _RESERVED = ("format_version", "kind", "units", "radius_m", "output_unit", "positions", "survey")
 

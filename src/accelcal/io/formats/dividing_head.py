@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import check_lab_metadata
 from accelcal.io.limits import MAX_JSON_BYTES
 from accelcal.io.records import MAX_RECORD_VALUES, read_record, write_record
@@ -48,6 +49,9 @@ from accelcal.units import ARCSEC, DEG, OUTPUT_UNITS
 from accelcal.validation import is_finite_number, shown, shown_name
 
 KIND = "dividing-head"
+
+IMPORT = ImportLayout(reader="read_head_record", states=("output_unit", "sensors"))
+"""How ``accelcal import`` makes this kind from a recording."""
 
 MAX_ANGLE_ERROR_RAD = float(np.radians(1.0))
 """Largest head angle error (and its uncertainty) accepted, rad (1 deg = 3600 arcsec).

@@ -38,12 +38,16 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.atomic import atomic_path
+from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
 from accelcal.io.records import FORMAT_VERSION, MARKER, read_record, write_record, write_rows
 from accelcal.validation import shown
 
 KIND = "noise"
 """Record-file kind of still (noise) recordings."""
+
+IMPORT = ImportLayout(stream=True, outputs="recorded", fixed_names=False, states=("rate", "unit"))
+"""How ``accelcal import`` makes this kind from a recording."""
 
 RECORD_UNITS = {"g": "g", "m/s^2": "m/s^2", "V": "V", "mV": "mV", "counts": "1"}
 """Sample unit -> column unit of the record file."""

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import check_lab_metadata, read_metadata
 from accelcal.io.records import read_record, write_record
 from accelcal.validation import shown, shown_path
@@ -104,6 +105,10 @@ class ShakerRecords:
 
 KIND = "shaker"
 """``kind`` of shaker record files (see :mod:`accelcal.io.records`)."""
+
+IMPORT = ImportLayout(reader="read_records", time=True,
+                      states=("output_unit", "sample_rate_hz"))
+"""How ``accelcal import`` makes this kind from a recording."""
 
 _REQUIRED_META = ("frequency_hz", "sample_rate_hz", "angle_deg", "amplitude_g", "gravity_g",
                   "output_unit")

@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
 from accelcal.io.records import read_record, write_record
 from accelcal.terms import MAX_TEMPERATURE_DEGC, MIN_TEMPERATURE_DEGC
@@ -51,6 +52,9 @@ from accelcal.validation import shown
 
 KIND = "thermal"
 """Record-file kind of thermal-chamber tests."""
+
+IMPORT = ImportLayout()
+"""How ``accelcal import`` makes this kind from a recording."""
 
 AXES = ("OA", "PA")
 PHASES = {"warm-up": 0, "soak": 1, "tumble": 2}

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
 from accelcal.io.recordings.options import UNITS as INPUT_UNITS
 from accelcal.io.records import UNITS as RECORD_UNITS
@@ -44,6 +45,9 @@ from accelcal.validation import check_label, is_finite_number, shown
 
 KIND = "triad"
 """Record-file kind of triad records."""
+
+IMPORT = ImportLayout(time=True, stream=True, outputs="input", states=("rate", "input_unit"))
+"""How ``accelcal import`` makes this kind from a recording."""
 
 COLUMNS = ("t", "acc_x", "acc_y", "acc_z")
 """Columns of a triad record, in order."""

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
 from accelcal.io.records import read_record, write_record
 from accelcal.units import OUTPUT_UNITS
@@ -38,6 +39,9 @@ from accelcal.validation import shown
 
 KIND = "tumble"
 """Record-file kind of tumble records."""
+
+IMPORT = ImportLayout()
+"""How ``accelcal import`` makes this kind from a recording."""
 
 AXES = ("OA", "PA")
 """Rotation axes a tumble record may give."""

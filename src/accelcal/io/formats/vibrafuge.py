@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import check_lab_metadata
 from accelcal.io.records import read_record, write_record
 from accelcal.units import OUTPUT_UNITS
@@ -46,6 +47,10 @@ from accelcal.validation import shown
 
 KIND = "vibrafuge"
 """Record-file kind of vibrafuge records."""
+
+IMPORT = ImportLayout(reader="read_vibrafuge", time=True, restart="point",
+                      states=("output_unit", "sample_rate_hz"))
+"""How ``accelcal import`` makes this kind from a recording."""
 
 SAMPLE_RATE_RTOL = 1e-9
 """Relative tolerance for a time column to match ``sample_rate_hz``."""

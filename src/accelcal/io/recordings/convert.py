@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.recordings.kinds import STREAM_KINDS, TIME_KINDS, Layout, layout, validator
+from accelcal.io.recordings.kinds import Layout, declared, layout, validator
 from accelcal.io.recordings.options import TEMPERATURE_UNITS, InputOptions
 from accelcal.io.recordings.read import DEFAULT_BLOCK_ROWS, describe, iter_blocks
 from accelcal.validation import check_label, shown, shown_name, shown_path
@@ -98,7 +98,8 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
     if not 1 <= rows <= MAX_BLOCK_ROWS:
         raise AccelcalError(f"{rows} rows per block: give 1 to {MAX_BLOCK_ROWS}",
                             parameter="rows")
-    timed = kind in STREAM_KINDS or kind in TIME_KINDS
+    spec = declared(kind)
+    timed = spec.stream or spec.time
     opts = dataclasses.replace(options, columns=tuple(channels.values()), refuse_gaps=timed)
     prov, rate = describe(path, opts, need_rate=timed, what=f"{kind} record")
     source_units = prov.get("units") or dict.fromkeys(channels.values(), prov["unit"])
@@ -193,8 +194,8 @@ def _columns(plan: Layout, block, rate, state: dict) -> dict:
     if "t" in plan.columns and plan.columns["t"] is None:
         n = block.values.shape[0]
         row = block.start + np.arange(n)
-        if plan.kind == "vibrafuge" and "point" in out:
-            row = row - _point_starts(out["point"], block.start, state)
+        if plan.restart and plan.restart in out:
+            row = row - _point_starts(out[plan.restart], block.start, state)
             out["t"] = row / rate
         else:
             out["t"] = block.time if block.time is not None else row / rate
@@ -305,7 +306,7 @@ def _validate(staged: Path, out: Path, plan: Layout, samples: int, rows: int) ->
 
     values = samples * len(plan.columns)
     try:
-        if plan.kind in STREAM_KINDS and samples > rows:
+        if plan.stream and samples > rows:
             _validate_long(staged, plan, samples, rows)
         elif values <= MAX_RECORD_VALUES:
             validator(plan.kind)(staged)

@@ -1,14 +1,19 @@
 """What a record of each kind needs from a recording: columns, units, metadata, reader.
 
-:func:`layout` turns a channel map (record column -> the recording's
-channel) and the channels' units into a record of one kind:
+Each kind's format module declares its import layout (``IMPORT``, an
+:class:`~accelcal.io.formats.ImportLayout`): whether the record has a time
+column, whether it streams, how it records a sensor output's unit, which
+metadata the recording states and which reader validates it. :func:`layout`
+reads that declaration (this module has no branch per kind) and turns a
+channel map (record column -> the recording's channel) and the channels'
+units into a record of the kind:
 
 - each column's record unit and the factor that takes the channel there
   (mg and ug to g, rad to deg; a reference accelerometer to g; a sensor
   output in m/s^2 to g where the kind wants an output unit);
 - the columns the kind needs that a recording does not hold: the time ``t``
-  of shaker and vibrafuge records (from the time column, or ``j / rate``;
-  restarting at each vibrafuge ``point``);
+  (from the time column, or ``j / rate``; restarting where the declared
+  column, a vibrafuge record's ``point``, changes);
 - the metadata the recording itself states (``rate`` and ``unit``,
   ``sample_rate_hz``, ``output_unit``, a dividing head's ``sensors``); the
   rest (a shaker's ``frequency_hz``, a tumble's ``rotation_axis`` ...) comes
@@ -28,15 +33,9 @@ import math
 from dataclasses import dataclass
 
 from accelcal.errors import AccelcalError
+from accelcal.io.formats import ImportLayout
 from accelcal.units import STANDARD_GRAVITY
 from accelcal.validation import shown, shown_name
-
-STREAM_KINDS = ("noise", "triad")
-"""Kinds of long still or slowly turned recordings, one row per sample, in the recording's
-own unit: a record too long to read whole is validated by streaming it."""
-
-TIME_KINDS = ("shaker", "vibrafuge", "triad")
-"""Kinds with a time column ``t`` (seconds)."""
 
 _ACCEL_TO_G = {"g": 1.0, "mg": 1e-3, "ug": 1e-6, "m/s^2": 1.0 / STANDARD_GRAVITY}
 _TO_RECORD = {"g": ("g", 1.0), "mg": ("g", 1e-3), "ug": ("g", 1e-6), "m/s^2": ("m/s^2", 1.0),
@@ -47,8 +46,6 @@ _FIXED = {"t": "s", "angle": "deg", "angle_deg": "deg", "point": "-", "repeat": 
 """Columns whose record unit is fixed, by name (they are not the sensor's output)."""
 
 _OUTPUT_UNITS = ("V", "mV", "mA", "g")
-_READERS = {"dividing-head": "read_head_record", "shaker": "read_records",
-            "vibrafuge": "read_vibrafuge"}
 
 
 @dataclass(frozen=True)
@@ -58,7 +55,8 @@ class Layout:
     ``columns`` (record column -> source channel, or None for a column made
     here), ``units`` (record column -> record unit), ``factors`` (record
     column -> factor from the channel's unit), and ``metadata`` the
-    recording states.
+    recording states; ``restart`` and ``stream`` as the kind declares them
+    (:class:`~accelcal.io.formats.ImportLayout`).
     """
 
     kind: str
@@ -66,6 +64,8 @@ class Layout:
     units: dict
     factors: dict
     metadata: dict
+    restart: str = ""
+    stream: bool = False
 
 
 def kinds() -> tuple[str, ...]:
@@ -73,6 +73,22 @@ def kinds() -> tuple[str, ...]:
     from accelcal.io.formats import KINDS
 
     return tuple(sorted(KINDS))
+
+
+def declared(kind: str) -> ImportLayout:
+    """The import layout the kind's format module declares (its ``IMPORT``).
+
+    Raises
+    ------
+    AccelcalError
+        For an unknown kind.
+    """
+    from accelcal.io.formats import KINDS
+
+    if kind not in KINDS:
+        raise AccelcalError(f"kind {shown(kind)} is not known; use one of "
+                            + ", ".join(kinds()), parameter="kind")
+    return importlib.import_module(KINDS[kind]).IMPORT
 
 
 def layout(kind: str, columns: dict, channel_units: dict, rate: float | None) -> Layout:
@@ -84,38 +100,31 @@ def layout(kind: str, columns: dict, channel_units: dict, rate: float | None) ->
         For an unknown kind, a column in a unit its kind cannot hold, or
         sensor outputs in different units.
     """
-    if kind not in kinds():
-        raise AccelcalError(f"kind {shown(kind)} is not known; use one of "
-                            + ", ".join(kinds()), parameter="kind")
+    spec = declared(kind)
     units, factors = {}, {}
     for col, source in columns.items():
-        units[col], factors[col] = _record_unit(kind, col, channel_units[source])
+        units[col], factors[col] = _record_unit(spec, kind, col, channel_units[source])
     outputs = sorted({u for c, u in units.items() if c not in _FIXED})
     if len(outputs) > 1:
         raise AccelcalError(f"the record's output columns are in different units "
                             f"({', '.join(outputs)}); a record has one output unit: give a "
                             "scale per channel to bring them to one", parameter="units")
     out = dict(columns)
-    meta = {}
-    if kind in TIME_KINDS and "t" not in columns:
+    if spec.time and "t" not in columns:
         out = {"t": None, **columns}
         units["t"], factors["t"] = "s", 1.0
-    if kind == "noise":
-        meta = {"rate": rate, "unit": {"1": "counts"}.get(outputs[0], outputs[0])}
-    elif kind == "triad":
-        meta = {"rate": rate, "input_unit": next(channel_units[s] for c, s in columns.items()
-                                                 if c not in _FIXED)}
-    elif outputs:
-        meta = {"output_unit": outputs[0]}
-    if kind in ("shaker", "vibrafuge"):
-        meta["sample_rate_hz"] = rate
-    if kind == "dividing-head":
-        meta["sensors"] = [c for c in columns if c not in _FIXED]
-    return Layout(kind, out, units, factors, meta)
+    sensors = [c for c in columns if c not in _FIXED]
+    stated = {"rate": rate, "sample_rate_hz": rate}
+    if outputs:
+        stated |= {"unit": {"1": "counts"}.get(outputs[0], outputs[0]),
+                   "input_unit": channel_units[columns[sensors[0]]],
+                   "output_unit": outputs[0], "sensors": sensors}
+    meta = {name: stated[name] for name in spec.states if name in stated}
+    return Layout(kind, out, units, factors, meta, restart=spec.restart, stream=spec.stream)
 
 
-def _record_unit(kind: str, col: str, unit: str) -> tuple[str, float]:
-    fixed = _FIXED.get(col) if kind != "noise" else None
+def _record_unit(spec: ImportLayout, kind: str, col: str, unit: str) -> tuple[str, float]:
+    fixed = _FIXED.get(col) if spec.fixed_names else None
     if fixed == "g":
         if unit not in _ACCEL_TO_G:
             raise AccelcalError(f"column {shown_name(col)} is an acceleration (g); its channel "
@@ -130,11 +139,11 @@ def _record_unit(kind: str, col: str, unit: str) -> tuple[str, float]:
     if unit not in _TO_RECORD or _TO_RECORD[unit][0] in ("deg", "s", "-"):
         raise AccelcalError(f"column {shown_name(col)} holds a sensor output; its channel is in "
                             f"{unit}, not an output unit", parameter="units")
-    if kind == "triad":  # the record keeps the input unit (column unit 1 where it has none)
+    if spec.outputs == "input":  # the input unit kept (column unit 1 where it has none)
         from accelcal.io.records import UNITS
 
         return (unit if unit in UNITS else "1"), 1.0
-    if kind == "noise":
+    if spec.outputs == "recorded":
         return _TO_RECORD[unit]
     if unit in _ACCEL_TO_G:
         return "g", _ACCEL_TO_G[unit]
@@ -150,4 +159,4 @@ def validator(kind: str):
     from accelcal.io.formats import KINDS
 
     module = importlib.import_module(KINDS[kind])
-    return getattr(module, _READERS.get(kind, "read"))
+    return getattr(module, module.IMPORT.reader)

@@ -22,7 +22,10 @@ three angles) at several levels ``Omega^2 R / g``. The package:
     Output against level per position, residuals.
 
 The rig is :mod:`accelcal.rigs.centrifuge`, the record format
-:mod:`accelcal.io.formats.centrifuge`.
+:mod:`accelcal.io.formats.centrifuge`. The verbs every method package has:
+:func:`simulate` (the rig), :func:`reduce` (a record, or its file, alone or
+with a 1 g record: what ``accelcal centrifuge reduce`` does) and
+:func:`plan`; ``reduce_centrifuge`` and ``reduce_joint`` stay as they were.
 
 References
 ----------
@@ -31,6 +34,7 @@ References
 .. [DOMAIN] accelcal domain notes, sections 1 and 9.
 """
 
+from accelcal.errors import AccelcalError
 from accelcal.methods import ReportText
 from accelcal.methods.centrifuge.figures import figures
 from accelcal.methods.centrifuge.identify import CentrifugeIdentifiability, identifiability
@@ -49,7 +53,8 @@ from accelcal.physics.centrifuge import (
 __all__ = [
     "ASYMMETRY_TERMS", "ERRATA", "FAMILY", "FULL_TERMS", "POSITIONS", "RIG_ERRORS",
     "CentrifugeIdentifiability", "CentrifugePlan", "figures", "identifiability", "orientation",
-    "plan", "read_one_g", "reduce_centrifuge", "reduce_joint", "report_text", "specific_force",
+    "plan", "read_one_g", "reduce", "reduce_centrifuge", "reduce_joint", "report_text",
+    "simulate", "specific_force",
 ]
 
 ERRATA = (
@@ -80,3 +85,62 @@ def report_text(reduction) -> ReportText:
                        "+ asymmetry), a = C f with f = Ω² R r + g z.",
         paper="IEEE836",
     )
+
+
+def simulate(model, positions, levels, *, seed=None, **settings):
+    """Simulate a centrifuge test: the rig's :func:`accelcal.rigs.centrifuge.simulate`.
+
+    ``settings``: ``rig``, ``readings``, ``spinup``, ``noise``, ``survey``;
+    ``seed`` an int, SeedSequence or Generator.
+    """
+    from accelcal.rigs.centrifuge import simulate as rig_simulate
+
+    return rig_simulate(model, positions, levels, seed=seed, **settings)
+
+
+def reduce(records, *, one_g=None, sensor: str | None = None, terms=None, estimate=None,
+           sigma=None, rig_errors=None):
+    """Reduce a centrifuge record (or its file), as ``accelcal centrifuge reduce`` does.
+
+    Alone (:func:`reduce_centrifuge`, method ``centrifuge/lsq``) or, with a
+    1 g record of the same sensor, jointly (:func:`reduce_joint`, method
+    ``centrifuge/joint``, which also yields the radius error) [IEEE836]_.
+
+    Parameters
+    ----------
+    records : accelcal.io.formats.centrifuge.CentrifugeRecord or path-like
+    one_g : TumbleRecord, HeadRecord or path-like, optional
+        The 1 g record (a file is read by :func:`read_one_g`).
+    sensor : str, optional
+        Sensor column of a dividing-head ``one_g``.
+    terms : sequence of str, optional
+        Terms to fit.
+    estimate : sequence of str, optional
+        Rig errors to estimate; default none alone, the radius error jointly.
+    sigma : float, optional
+        Known noise SD of one reading (alone only).
+    rig_errors : mapping, optional
+        Given rig errors, name -> ``(value, sd)`` (override the survey).
+
+    Returns
+    -------
+    accelcal.results.Reduction
+    """
+    from os import PathLike
+
+    if sensor is not None and one_g is None:
+        raise AccelcalError("goes with a 1 g dividing-head record (one_g)", parameter="sensor")
+    if sigma is not None and one_g is not None:
+        raise AccelcalError("a joint reduction estimates each record's noise", parameter="sigma")
+    record = records
+    if isinstance(records, str | PathLike):
+        from accelcal.io.formats import centrifuge as centrifuge_format
+
+        record = centrifuge_format.read(records)
+    if one_g is None:
+        return reduce_centrifuge(record, terms=terms, estimate=estimate or (),
+                                 rig_errors=rig_errors, sigma=sigma)
+    if isinstance(one_g, str | PathLike):
+        one_g = read_one_g(one_g)
+    return reduce_joint(record, one_g, terms=terms, rig_errors=rig_errors, sensor=sensor,
+                        estimate=("radius_error",) if estimate is None else estimate)

@@ -17,7 +17,10 @@ Data: nominal head angles, sensor outputs and mount phases
   sensor, mapped to Dong2014's coefficients.
 
 :func:`reduce` runs any of them by name (the one place that checks which
-options a method takes). Monte Carlo: :func:`head_uncertainty` (GUM-S1
+options a method takes), on data or on a record file as ``accelcal
+dividing-head reduce`` does. The verbs every method package has:
+:func:`simulate` (the rig), :func:`reduce` and :func:`uncertainty` (Monte
+Carlo, :func:`head_uncertainty`). Monte Carlo: :func:`head_uncertainty` (GUM-S1
 uncertainty of a reduction of measured data) and :func:`run_study` (formal
 SDs against actual errors over simulated experiments). Modules: ``theory``
 (basis, alias, names), ``data``, ``single``, ``four`` (with ``factors``:
@@ -59,7 +62,13 @@ from accelcal.methods.dividing_head.mc import (
     head_uncertainty,
     noise_levels,
 )
-from accelcal.methods.dividing_head.reduce import OPTIONS, options_from_record, reduce, tumble
+from accelcal.methods.dividing_head.reduce import (
+    OPTIONS,
+    lab_options,
+    options_from_record,
+    reduce,
+    tumble,
+)
 from accelcal.methods.dividing_head.report import ERRATA, report_text
 from accelcal.methods.dividing_head.single import scale_factors, single, single_operator
 from accelcal.methods.dividing_head.study import (
@@ -109,6 +118,7 @@ __all__ = [
     "identifiability",
     "joint",
     "joint_design",
+    "lab_options",
     "method_name",
     "noise_levels",
     "null_space_dim",
@@ -119,7 +129,33 @@ __all__ = [
     "residual_noise_variances",
     "run_study",
     "scale_factors",
+    "simulate",
     "single",
     "single_operator",
     "tumble",
+    "uncertainty",
 ]
+
+
+def simulate(rig, seed=None, *, trials=None):
+    """Readings on the indexing head: the rig's :func:`accelcal.rigs.dividing_head.simulate`.
+
+    ``seed`` an int, SeedSequence or Generator (None: noise-free).
+    """
+    from accelcal.rigs.dividing_head import simulate as rig_simulate
+
+    return rig_simulate(rig, seed, trials=trials)
+
+
+def uncertainty(reduction, data, *, trials: int, seed: int, **options):
+    """Monte Carlo (GUM-S1) uncertainty of a reduction of ``data``: :func:`head_uncertainty`.
+
+    ``data`` is the :class:`HeadData` reduced (or its record file).
+    """
+    from os import PathLike
+
+    if isinstance(data, str | PathLike):
+        from accelcal.io.formats.dividing_head import read_head_record
+
+        data = HeadData.from_record(read_head_record(data))
+    return head_uncertainty(data, reduction, trials=trials, seed=seed, **options)

@@ -57,16 +57,20 @@ def check_options(method: str, options: dict) -> dict:
     return given
 
 
-def reduce(data: HeadData, method: str, **options) -> Reduction:
+def reduce(data, method: str = "joint", **options) -> Reduction:
     """Run ``method`` (``single``, ``four``, ``joint`` or ``tumble``) on ``data``.
 
-    ``options`` are passed to the method (:data:`OPTIONS`; an option given
-    as None counts as not given): ``first_harmonic``, ``first_harmonic_sd``;
-    for ``four`` also ``covariance``; for ``joint`` also ``mean_error``,
-    ``autocollimator``, ``autocollimator_sd``, ``gauss_newton``,
-    ``max_iterations``. ``tumble`` uses the IEEE 1293 multipoint Fourier
-    reduction of :mod:`accelcal.methods.tumble` on each sensor, with the
-    head axis along PA.
+    ``data`` is a :class:`HeadData`, or a record (:class:`HeadRecord` or its
+    file): a record's own first harmonic and autocollimator readings are
+    then used where ``options`` do not give them (:func:`lab_options`), as
+    ``accelcal dividing-head reduce`` does. ``options`` are passed to the
+    method (:data:`OPTIONS`; an option given as None counts as not given):
+    ``first_harmonic``, ``first_harmonic_sd``; for ``four`` also
+    ``covariance``; for ``joint`` also ``mean_error``, ``autocollimator``,
+    ``autocollimator_sd``, ``gauss_newton``, ``max_iterations``. ``tumble``
+    uses the IEEE 1293 multipoint Fourier reduction of
+    :mod:`accelcal.methods.tumble` on each sensor, with the head axis along
+    PA.
 
     Returns
     -------
@@ -78,9 +82,36 @@ def reduce(data: HeadData, method: str, **options) -> Reduction:
     AccelcalError
         For an unknown method or options the method does not take.
     """
+    from os import PathLike
+
+    if isinstance(data, str | PathLike):
+        from accelcal.io.formats.dividing_head import read_head_record
+
+        data = read_head_record(data)
+    if isinstance(data, HeadRecord):
+        options = lab_options(data, method, **options)
+        data = HeadData.from_record(data)
     given = check_options(method, options)
     return {"single": single, "four": four, "joint": joint, "tumble": tumble}[method](
         data, **given)
+
+
+def lab_options(record: HeadRecord, method: str, **given) -> dict:
+    """The options of ``method`` for a record: the record's own, then those ``given``.
+
+    A ``first_harmonic`` given replaces the record's measured one and its
+    uncertainty (``first_harmonic_sd`` then only when given too); options
+    given as None count as not given.
+
+    Raises
+    ------
+    AccelcalError
+        For an unknown method.
+    """
+    options = options_from_record(record, method)
+    if given.get("first_harmonic") is not None:
+        options.pop("first_harmonic_sd", None)
+    return {**options, **{k: v for k, v in given.items() if v is not None}}
 
 
 def options_from_record(record: HeadRecord, method: str) -> dict:

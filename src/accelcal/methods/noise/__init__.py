@@ -8,7 +8,7 @@ The package:
 :mod:`~accelcal.methods.noise.fit`
     :func:`fit`, :func:`fit_deviation`: the IEEE 952 coefficients Q, N, B,
     K, R by weighted non-negative least squares on the Allan variance, with
-    uncertainties (family ``"noise"``, method ``"ieee952-fit"``);
+    uncertainties (family ``"noise"``, method ``"noise/ieee952-fit"``);
     :func:`coefficients`, :func:`navigation_units`.
 :mod:`~accelcal.methods.noise.covariance`
     :func:`avar_covariance`: the covariance of Allan variances across taus.
@@ -22,7 +22,10 @@ The package:
     :func:`figures`: deviation plot with bars and fitted terms, PSD plot.
 
 Record files of kind ``noise`` are :mod:`accelcal.io.formats.noise`; the
-simulator is :mod:`accelcal.rigs.noise`.
+simulator is :mod:`accelcal.rigs.noise`. The verbs every method package
+has: :func:`simulate` (the rig) and :func:`reduce` (a recording, streamed
+from its file, or a record to the IEEE 952 fit: what ``accelcal noise fit``
+does); :func:`fit` (samples) stays as it was.
 
 References
 ----------
@@ -48,7 +51,8 @@ from accelcal.methods.noise.fit import (
 )
 
 __all__ = ["ERRATA", "FAMILY", "METHOD", "TERMS", "coefficients", "figures", "fit",
-           "fit_deviation", "model_avar", "navigation_units", "report_text"]
+           "fit_deviation", "model_avar", "navigation_units", "reduce", "report_text",
+           "simulate"]
 
 ERRATA = ()
 """No corrections of the references are shown."""
@@ -75,3 +79,52 @@ def report_text(reduction) -> ReportText:
                  + ("; ".join(parts) + "." if parts else "") + extra),
         sensor_summary="IEEE 952 noise terms fitted to the overlapping Allan variance.",
     )
+
+
+def simulate(*, seed=0, **settings):
+    """A simulated still recording: the rig's :func:`accelcal.rigs.noise.simulate`.
+
+    ``settings``: the IEEE 952 coefficients ``N``, ``B``, ``K``, ``Q``, ``R``,
+    ``rate``, ``duration``, ``bias``, ``unit``, ``b_range``, ``channel``;
+    ``seed`` an int, SeedSequence or Generator.
+    """
+    from accelcal.rigs.noise import simulate as rig_simulate
+
+    return rig_simulate(seed=seed, **settings)
+
+
+def reduce(records, *, options=None, terms=None, taus="octave", confidence: float = 0.683,
+           progress=None):
+    """The IEEE 952 fit of a still recording, as ``accelcal noise fit`` does [IEEE952]_.
+
+    Parameters
+    ----------
+    records : path-like or accelcal.io.formats.noise.NoiseRecord
+        A file (CSV, Parquet or noise record), streamed in bounded memory
+        (:func:`accelcal.methods.noise.stream.stream_fit`), or a record in
+        memory (its first channel, :func:`fit`).
+    options : accelcal.io.recordings.InputOptions, optional
+        How to read the file.
+    terms : sequence of str, optional
+        Terms to fit (default :data:`TERMS`).
+    taus : str or sequence
+        Tau set.
+    confidence : float
+        Level of the deviation's intervals.
+    progress : callable, optional
+        Called with the rows read (a file only).
+
+    Returns
+    -------
+    accelcal.results.Reduction
+        Method ``noise/ieee952-fit``.
+    """
+    from os import PathLike
+
+    if isinstance(records, str | PathLike):
+        from accelcal.methods.noise.stream import stream_fit
+
+        return stream_fit(records, options, terms=terms, taus=taus, confidence=confidence,
+                          progress=progress)
+    return fit(records.values[:, 0], records.rate, terms=terms or TERMS, taus=taus,
+               confidence=confidence, unit=records.unit)

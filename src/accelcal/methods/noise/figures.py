@@ -47,7 +47,7 @@ def figures(reduction, **context) -> list[tuple]:
     """
     from accelcal.methods.noise.fit import model_avar
 
-    if reduction.method == "noise-run-to-run":
+    if reduction.method == "noise/run-to-run":
         return [_runs_figure(reduction)]
     obs = reduction.observations
     est = reduction.estimate

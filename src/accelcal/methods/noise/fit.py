@@ -29,7 +29,7 @@ diagonal only). Coefficients by the delta method: ``X = sqrt(C)``,
 as 0 with the standard uncertainty ``sqrt(u(C))`` of the unconstrained fit
 (the size of the term the data cannot tell from zero), and a note says so.
 
-The Reduction (family ``"noise"``, method ``"ieee952-fit"``) has one sensor
+The Reduction (family ``"noise"``, method ``"noise/ieee952-fit"``) has one sensor
 (the channel) with the terms fitted, in the record's unit: N unit*sqrt(s),
 B unit, K unit/sqrt(s), Q unit*s, R unit/s; ``dof = 0`` (the covariance is
 computed, not scaled by residuals). Observations: ``tau`` (s), ``m``,
@@ -61,7 +61,7 @@ from accelcal.results import Assumption, Estimate, Reduction
 FAMILY = "noise"
 """The method family (key of :data:`accelcal.methods.REGISTRY`)."""
 
-METHOD = "ieee952-fit"
+METHOD = "noise/ieee952-fit"
 """The reduction's name, as calibration records and the store carry it."""
 
 TERMS = ("Q", "N", "B", "K", "R")

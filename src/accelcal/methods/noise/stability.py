@@ -3,8 +3,8 @@
 Several still recordings of one accelerometer, each switched on anew, give
 one IEEE 952 fit each (:func:`accelcal.methods.noise.fit.fit_deviation`):
 its run mean (coefficient ``bias``) and its bias instability ``B``. Stored
-as calibration records (method ``ieee952-fit``), :func:`from_store` collects
-them by serial number and :func:`run_to_run` sets side by side:
+as calibration records (method ``noise/ieee952-fit``), :func:`from_store`
+collects them by serial number and :func:`run_to_run` sets side by side:
 
 ``bias_repeatability``
     The sample SD of the k run means (turn-on to turn-on repeatability,
@@ -19,7 +19,7 @@ them by serial number and :func:`run_to_run` sets side by side:
     The mean of the run means, with ``s / sqrt(k)``.
 
 The result is a :class:`~accelcal.results.Reduction` (family ``"noise"``,
-method ``"noise-run-to-run"``, ``dof = k - 1``); observations ``run_bias``,
+method ``"noise/run-to-run"``, ``dof = k - 1``); observations ``run_bias``,
 ``run_bias_std``, ``run_B``, ``run_B_std``.
 
 References
@@ -36,7 +36,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.results import Assumption, Estimate, Reduction
 
-METHOD = "noise-run-to-run"
+METHOD = "noise/run-to-run"
 """The reduction's name."""
 
 
@@ -86,7 +86,7 @@ def run_to_run(bias, bias_std, b, b_std, *, unit: str = "", runs=()) -> Reductio
 
 
 def from_store(store, serial: str) -> Reduction:
-    """:func:`run_to_run` of every ``ieee952-fit`` record of ``serial`` in a store."""
+    """:func:`run_to_run` of every ``noise/ieee952-fit`` record of ``serial`` in a store."""
     from accelcal.methods.noise.fit import METHOD as FIT
 
     pairs = [(row, store.record(row["id"])) for row in store.calibrations(serial)

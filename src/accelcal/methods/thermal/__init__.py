@@ -26,7 +26,10 @@ after turn-on and the residual after compensation. The package:
     residual after compensation, warm-up.
 
 The rig simulator is :mod:`accelcal.rigs.thermal`, the record format
-:mod:`accelcal.io.formats.thermal`.
+:mod:`accelcal.io.formats.thermal`. The verbs every method package has:
+:func:`simulate` (the rig) and :func:`reduce` (a record, or its file, to a
+Reduction: what ``accelcal thermal reduce`` does); ``reduce_thermal`` stays
+as it was.
 
 References
 ----------
@@ -48,7 +51,8 @@ from accelcal.methods.thermal.warmup import WarmupFit, fit_warmup
 __all__ = [
     "ALPHA", "ERRATA", "FAMILY", "METHOD", "ORDERS", "Compensation", "Plateau", "PolyFit",
     "Settling", "WarmupFit", "compensate_stream", "default_terms", "figures", "fit_polynomial",
-    "fit_warmup", "reduce_plateaus", "reduce_thermal", "report_text", "settling",
+    "fit_warmup", "reduce", "reduce_plateaus", "reduce_thermal", "report_text", "settling",
+    "simulate",
 ]
 
 ERRATA = (
@@ -78,3 +82,32 @@ def report_text(reduction) -> ReportText:
                        "(T − T0)^k), likewise K2 and the misalignment.",
         paper="IEEE1293",
     )
+
+
+def simulate(model, programme=None, *, seed=None, **settings):
+    """A simulated thermal-chamber test: the rig's :func:`accelcal.rigs.thermal.simulate`.
+
+    ``settings``: ``tau``, ``rotation_axis``, ``noise``, ``temperature_noise``,
+    the warm-up, hysteresis and rate-sensitivity terms; ``seed`` an int,
+    SeedSequence or Generator.
+    """
+    from accelcal.rigs.thermal import simulate as rig_simulate
+
+    return rig_simulate(model, programme, seed=seed, **settings)
+
+
+def reduce(records, **options):
+    """Reduce a thermal record (or its file), as ``accelcal thermal reduce`` does.
+
+    :func:`reduce_thermal` of the record; ``options`` are its own (``order``,
+    ``reference``, ``terms``, ``alpha``, ``window``, ``rate_limit``,
+    ``tolerance``).
+    """
+    from os import PathLike
+
+    record = records
+    if isinstance(records, str | PathLike):
+        from accelcal.io.formats import thermal as thermal_format
+
+        record = thermal_format.read(records)
+    return reduce_thermal(record, **options)

@@ -3,7 +3,7 @@
 :func:`reduce_thermal` reduces a
 :class:`~accelcal.io.formats.thermal.ThermalRecord` to one
 :class:`~accelcal.results.Reduction` (family ``"thermal"``, method
-``"thermal-wls"``). Coefficient names (docs/thermal.md):
+``"thermal/wls"``). Coefficient names (docs/thermal.md):
 
 ``K0, K0_T1 .. K0_Tm, K0_hyst`` (and likewise K2, Kp or Ko)
     The term at the reference temperature T0, its k-th temperature
@@ -48,7 +48,7 @@ from accelcal.results import Assumption, Estimate, Reduction
 from accelcal.terms import TEMPERATURE_TERMS, TemperatureTerms, check_temperature
 
 FAMILY = "thermal"
-METHOD = "thermal-wls"
+METHOD = "thermal/wls"
 ORDERS = ("auto", 1, 2, 3)
 _HYST_QUANTITY = {"K0": "bias", "K1": "ratio", "K2": "second", "Ko": "misalignment",
                   "Kp": "misalignment"}

@@ -19,7 +19,11 @@ The package, along its seams:
     Polar plots, GuanTang Fig. 4, and a reduction's figures.
 
 Records are :class:`accelcal.io.formats.shaker.ShakerRecords`, simulated by
-:class:`accelcal.rigs.shaker.ShakerRig`.
+:class:`accelcal.rigs.shaker.ShakerRig`. The verbs every method package
+has: :func:`simulate` (the rig), :func:`reduce` (the records of one
+amplitude, or their directory, to the identification: what ``accelcal
+transverse fit`` does per amplitude) and :func:`uncertainty` (Monte Carlo);
+:func:`identify` and :func:`transverse_uncertainty` stay as they were.
 
 References
 ----------
@@ -29,6 +33,7 @@ References
 .. [ISO16063-31] ISO 16063-31:2009, Testing of transverse vibration sensitivity.
 """
 
+from accelcal.errors import AccelcalError
 from accelcal.methods import ReportText
 from accelcal.methods.transverse.estimators import (
     PEAK_COVERAGE,
@@ -78,8 +83,9 @@ __all__ = [
     "closed_form_sT", "cross_axis_B", "cross_axis_C", "estimate_sT", "figure4",
     "figure4_linear", "figures", "fundamental_extremes", "identify", "identify_arrays",
     "linear_sT", "observation_columns", "observation_covariance", "polar_figure",
-    "record_phasors", "records_axial_sensitivity", "regressors", "report_text", "save_polar",
-    "summarize", "sweep", "transverse_uncertainty", "w_ratio", "with_fitted_frequency",
+    "record_phasors", "records_axial_sensitivity", "reduce", "regressors", "report_text",
+    "save_polar", "simulate", "summarize", "sweep", "transverse_uncertainty", "uncertainty",
+    "w_ratio", "with_fitted_frequency",
 ]
 
 ERRATA = (
@@ -118,3 +124,67 @@ def report_text(reduction) -> ReportText:
                  "the paper)."),
         paper="GuanTang",
     )
+
+
+def simulate(sensor, theta, *, rig=None, seed=None, trials=None):
+    """Shaker records of ``sensor`` at direction angles ``theta`` (rad).
+
+    The rig's :meth:`accelcal.rigs.shaker.ShakerRig.simulate` on ``rig``
+    (default ``ShakerRig()``); ``seed`` an int, SeedSequence or Generator
+    (None: noise-free).
+    """
+    from accelcal.rigs.shaker import ShakerRig
+
+    return (ShakerRig() if rig is None else rig).simulate(sensor, theta, seed=seed,
+                                                          trials=trials)
+
+
+def reduce(records, *, route: str = "2w", terms=DEFAULT_FIT, base=None, scale_factor=None,
+           fit_frequency: bool = False):
+    """Identify the cross-axis coefficients of one amplitude, as ``accelcal transverse fit``.
+
+    Parameters
+    ----------
+    records : accelcal.io.formats.shaker.ShakerRecords or path-like
+        The records of one amplitude, or a file or directory holding them
+        (:func:`accelcal.io.formats.shaker.read_records`).
+    route, terms, base, scale_factor
+        As :func:`identify` takes them.
+    fit_frequency : bool
+        Fit the vibration frequency to the reference channel first
+        (:func:`with_fitted_frequency`, IEEE 1057) instead of trusting the
+        records' nominal one.
+
+    Returns
+    -------
+    accelcal.results.Reduction
+        Method ``transverse/<route>`` [GuanTang]_.
+
+    Raises
+    ------
+    AccelcalError
+        For a directory holding several amplitudes (reduce each).
+    """
+    from os import PathLike
+
+    if isinstance(records, str | PathLike):
+        from accelcal.io.formats.shaker import read_records
+
+        found = read_records(records)
+        if len(found) != 1:
+            raise AccelcalError(f"{records} holds {len(found)} amplitudes; reduce the records "
+                                "of each (accelcal.io.formats.shaker.read_records)",
+                                parameter="records")
+        records = found[0]
+    if fit_frequency:
+        records = with_fitted_frequency(records)
+    return identify(records, route=route, terms=terms, base=base, scale_factor=scale_factor)
+
+
+def uncertainty(reduction, records, *, trials: int, seed: int, **options):
+    """Monte Carlo (GUM-S1) uncertainty of an identification of ``records``.
+
+    :func:`transverse_uncertainty` (``options``: ``reference_sd``,
+    ``shortest``, ``progress``).
+    """
+    return transverse_uncertainty(records, reduction, trials=trials, seed=seed, **options)

@@ -4,7 +4,7 @@
 terms) to the DC, w and 2w components of the records at several direction
 angles, with the shaker's measured transverse motion in the regressors,
 and returns a :class:`~accelcal.results.Reduction` (family ``transverse``,
-method ``transverse-<route>``). :func:`identify_arrays` is the same
+method ``transverse/<route>``). :func:`identify_arrays` is the same
 reduction vectorised over leading (trial) axes, returning arrays.
 
 Assumptions the Reduction carries (:class:`~accelcal.results.Assumption`
@@ -269,7 +269,7 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
     Returns
     -------
     Reduction
-        Family ``transverse``, method ``transverse-<route>``; one sensor whose
+        Family ``transverse``, method ``transverse/<route>``; one sensor whose
         values are in g/g^n, with the weighted residuals (1 = one standard
         deviation) and their degrees of freedom; assumptions, fixed terms and
         observations as listed in the module docstring; ``quantities`` show
@@ -299,7 +299,7 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
     terms = tuple(terms)
     with np.errstate(over="ignore", invalid="ignore"):  # non-finite results are refused below
         design, y, k1, noisy, ph, held = _system(records, route, terms, base, scale_factor)
-    method = f"transverse-{route}"
+    method = f"transverse/{route}"
     units = {t: _TERM_UNITS[t] for t in terms}
     provenance = {"angles": int(records.theta.size), "amplitude_g": records.amplitude,
                   "gravity_g": records.gravity, "scale_factor": k1}

@@ -25,7 +25,15 @@ means of static intervals, by two routes:
     :func:`figures`: norm residuals before/after, position directions.
 
 Static-interval detection (``static``) and the imucal session reader
-(``imucal``) are further modules of the package. The rig simulator is
+(``imucal``) are further modules of the package.
+
+The verbs every method package has: :func:`simulate` (the rig),
+:func:`reduce` (a recording to a Reduction), :func:`uncertainty` (Monte
+Carlo) and :func:`plan` (a design of positions before the test);
+:func:`run` (:mod:`~accelcal.methods.triad.lab`) is the lab's path of
+``accelcal triad calibrate`` in one call. ``calibrate_known``,
+``calibrate_unknown`` (on interval means) and ``triad_uncertainty`` stay
+as they were. The rig simulator is
 :mod:`accelcal.rigs.triad`, the record format :mod:`accelcal.io.formats.triad`.
 
 References
@@ -45,6 +53,7 @@ from accelcal.methods.triad.figures import figures
 from accelcal.methods.triad.identify import Plan, plan
 from accelcal.methods.triad.known import METHOD as KNOWN_METHOD
 from accelcal.methods.triad.known import calibrate_known
+from accelcal.methods.triad.lab import TriadRun, run
 from accelcal.methods.triad.mc import TriadSampler, triad_uncertainty
 from accelcal.methods.triad.model import PARAMS, QUADRATIC, TriadCalibration
 from accelcal.methods.triad.result import GAUGE
@@ -54,9 +63,9 @@ from accelcal.physics.gravity import normal_gravity
 
 __all__ = [
     "ERRATA", "FAMILY", "GAUGE", "KNOWN_METHOD", "PARAMS", "QUADRATIC", "UNKNOWN_METHOD", "Plan",
-    "TriadCalibration", "TriadSampler", "calibrate_known", "calibrate_unknown",
-    "calibration_of", "figures", "norm_residuals", "normal_gravity", "plan", "report_text",
-    "triad_uncertainty",
+    "TriadCalibration", "TriadRun", "TriadSampler", "calibrate_known", "calibrate_unknown",
+    "calibration_of", "figures", "norm_residuals", "normal_gravity", "plan", "reduce",
+    "report_text", "run", "simulate", "triad_uncertainty", "uncertainty",
 ]
 
 ERRATA = (
@@ -96,3 +105,29 @@ def report_text(reduction) -> ReportText:
                        "(Tedaldi).",
         paper="Tedaldi2014",
     )
+
+
+def simulate(calibration, up, *, seed=None, **settings):
+    """A triad recording of ``calibration`` through static positions ``up``.
+
+    The rig's simulation, :func:`accelcal.rigs.triad.simulate` (``settings``:
+    ``rate``, ``dwell``, ``motion``, ``still``, ``noise_sd``, ``gravity``,
+    ``lever_arm``, ``labels``); ``seed`` an int, SeedSequence or Generator.
+    """
+    from accelcal.rigs.triad import simulate as rig_simulate
+
+    return rig_simulate(calibration, up, seed=seed, **settings)
+
+
+def reduce(records, **options):
+    """The calibration of a triad recording (path or Recording), as ``triad calibrate``.
+
+    :func:`run` (route, static detection, gravity) and its Reduction;
+    ``options`` are :func:`run`'s.
+    """
+    return run(records, **options).reduction
+
+
+def uncertainty(reduction, *, trials: int, seed: int, **options):
+    """Monte Carlo (GUM-S1) uncertainty of a triad calibration: :func:`triad_uncertainty`."""
+    return triad_uncertainty(reduction, trials=trials, seed=seed, **options)

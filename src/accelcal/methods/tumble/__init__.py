@@ -18,6 +18,12 @@ positions in the gravity field. The package:
 The rig simulator is :mod:`accelcal.rigs.tumble`, the record file format
 :mod:`accelcal.io.formats.tumble`.
 
+The verbs every method package has: :func:`simulate` (the rig),
+:func:`reduce` (a record, or its file, to a Reduction: what ``accelcal
+tumble reduce`` does) and :func:`plan` (what a set of positions separates,
+``accelcal tumble identify``). ``reduce_tumble`` (angles and outputs) and
+``identifiability`` stay as they were.
+
 References
 ----------
 .. [IEEE1293] IEEE Std 1293-2018, Specification Format Guide and Test
@@ -62,8 +68,11 @@ __all__ = [
     "figures",
     "fourier_coefficients",
     "identifiability",
+    "plan",
+    "reduce",
     "reduce_tumble",
     "report_text",
+    "simulate",
     "specific_force",
     "tumble_arrays",
 ]
@@ -93,3 +102,55 @@ def report_text(reduction) -> ReportText:
         sensor_summary="Model E = K1 (K0 + a_i + K2 a_i² + K3 a_i³ + K4 a_i⁴ + cross terms).",
         paper="IEEE1293",
     )
+
+
+def simulate(positions_rad, model, *, seed=None, **settings):
+    """Readings of ``model`` at the positions: the rig's :func:`accelcal.rigs.tumble.simulate`.
+
+    ``settings``: ``rotation_axis``, ``noise``, ``repeats``, ``position_sd``;
+    ``seed`` an int, SeedSequence or Generator.
+    """
+    from accelcal.rigs.tumble import simulate as rig_simulate
+
+    return rig_simulate(positions_rad, model, seed=seed, **settings)
+
+
+def reduce(records, *, terms=None, route: str = "auto", sigma=None):
+    """Reduce a tumble record (or its file), as ``accelcal tumble reduce`` does.
+
+    The record's positions, outputs (every repeat), rotation axis and output
+    unit go to :func:`reduce_tumble`.
+
+    Parameters
+    ----------
+    records : accelcal.io.formats.tumble.TumbleRecord or path-like
+        The record, or a tumble record file.
+    terms : sequence of str, optional
+        Terms to fit (default: :data:`DEFAULT_TERMS` of the axis).
+    route : {"auto", "fourier", "lsq"}
+        The IEEE 1293 Fourier relations or least squares [IEEE1293]_.
+    sigma : float, optional
+        Known noise SD of one reading, output unit.
+
+    Returns
+    -------
+    accelcal.results.Reduction
+        Method ``tumble/fourier`` or ``tumble/lsq``.
+    """
+    from os import PathLike
+
+    record = records
+    if isinstance(records, str | PathLike):
+        from accelcal.io.formats import tumble as tumble_format
+
+        record = tumble_format.read(records)
+    repeats = record.repeats
+    return reduce_tumble(record.angles_rad,
+                         record.outputs if repeats > 1 else record.outputs[:, 0],
+                         rotation_axis=record.rotation_axis, output_unit=record.output_unit,
+                         terms=terms, route=route, sigma=sigma, repeats=repeats > 1)
+
+
+def plan(design, rotation_axis: str = "OA", *, terms=None) -> IdentifiabilityReport:
+    """What a set of positions (rad) separates before the test: :func:`identifiability`."""
+    return identifiability(design, rotation_axis, terms=terms)

@@ -170,7 +170,7 @@ def reduce_tumble(
     Returns
     -------
     accelcal.results.Reduction
-        Family ``"tumble"``, method ``"tumble-fourier"`` or ``"tumble-lsq"``;
+        Family ``"tumble"``, method ``"tumble/fourier"`` or ``"tumble/lsq"``;
         one sensor. Terms that the positions cannot separate are NaN (value
         and covariance); the identifiable combinations of them are in
         ``combinations`` (weights on the output-unit coefficients, named
@@ -202,7 +202,7 @@ def reduce_tumble(
     >>> a_i, a_o, a_p = specific_force(theta, "OA")
     >>> res = reduce_tumble(theta, truth.output(a_i, a_o, a_p) + 1e-9 * np.cos(7 * theta))
     >>> round(res.estimate["K2"] / 2e-5, 6), res.method
-    (1.0, 'tumble-fourier')
+    (1.0, 'tumble/fourier')
     """
     with np.errstate(over="ignore", invalid="ignore"):  # non-finite results refused in _solve
         sol = _solve(angles_rad, outputs, rotation_axis=rotation_axis, output_unit=output_unit,
@@ -393,7 +393,7 @@ def _to_g_units(b, cov_b, terms):
 # ------------------------------------------------------------- the Reduction
 def _reduction(sol: _Solution, output_unit: str, *, given: bool) -> Reduction:
     terms, report = sol.terms, sol.report
-    method = f"tumble-{sol.route}"
+    method = f"tumble/{sol.route}"
     units = {t: term_unit(t, output_unit) for t in terms}
     few = _few_dof(sol, given)
     est = Estimate(

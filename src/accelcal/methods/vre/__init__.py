@@ -15,7 +15,7 @@ while vibrating minus the mean at rest, in g. The package:
 :mod:`~accelcal.methods.vre.identify`
     :func:`identify`: the coefficients from measured VRE, as a
     :class:`~accelcal.results.Reduction` (family ``"vre"``, method
-    ``"vre-identify"``).
+    ``"vre/identify"``).
 :mod:`~accelcal.methods.vre.mc`
     :func:`vre_uncertainty`: Monte Carlo (GUM-S1) uncertainty of an
     identification.
@@ -24,7 +24,11 @@ while vibrating minus the mean at rest, in g. The package:
     paper's Figs. 2-4.
 
 Record files of kind ``vibrafuge`` are :mod:`accelcal.io.formats.vibrafuge`;
-the simulator is :mod:`accelcal.rigs.vibrafuge`.
+the simulator is :mod:`accelcal.rigs.vibrafuge`. The verbs every method
+package has: :func:`simulate` (the rig), :func:`reduce` (vibrafuge runs, or
+their files, to the identification: what ``accelcal vre fit`` does) and
+:func:`uncertainty` (Monte Carlo); :func:`identify` (measured VRE) and
+:func:`vre_uncertainty` stay as they were.
 
 References
 ----------
@@ -33,6 +37,7 @@ References
    2021, eqs. (1)-(25), Table 1, Figs. 2-4.
 """
 
+from accelcal.io.formats.vibrafuge import VibrafugeRun
 from accelcal.methods import ReportText
 from accelcal.methods.vre.closed_form import (
     PAPER_TERMS,
@@ -50,14 +55,20 @@ from accelcal.methods.vre.closed_form import (
 from accelcal.methods.vre.figures import figures, table_figures
 from accelcal.methods.vre.identify import FAMILY, METHOD, identify
 from accelcal.methods.vre.mc import VreSampler, vre_uncertainty
-from accelcal.methods.vre.measure import HARMONICS, VreMeasurement, reduce_run, sampled_columns
+from accelcal.methods.vre.measure import (
+    HARMONICS,
+    VreMeasurement,
+    measure_runs,
+    reduce_run,
+    sampled_columns,
+)
 
 __all__ = [
     "ERRATA", "FAMILY", "HARMONICS", "METHOD", "PAPER_TERMS", "VRE_TERMS", "VreMeasurement",
     "VreSampler", "VreTable", "along_ia", "asymmetry_vre", "even_order_vre", "figures",
-    "identify", "reduce_run", "relative_error", "report_text", "sampled_columns", "sgn_shape",
-    "table_figures",
-    "vector_vre", "vre_columns", "vre_table", "vre_uncertainty",
+    "identify", "measure_runs", "reduce", "reduce_run", "relative_error", "report_text",
+    "sampled_columns", "sgn_shape", "simulate", "table_figures", "uncertainty", "vector_vre",
+    "vre_columns", "vre_table", "vre_uncertainty",
 ]
 
 ERRATA = (
@@ -81,3 +92,52 @@ def report_text(reduction) -> ReportText:
                  f"coefficients by {how} (Guan2021, asymmetry included)."),
         paper="Guan2021",
     )
+
+
+def simulate(model, overload, amplitude, *, seed=None, **settings):
+    """Simulate vibrafuge test points: the rig's :func:`accelcal.rigs.vibrafuge.simulate`.
+
+    ``settings``: ``frequency``, ``sample_rate``, ``duration`` (required),
+    ``direction``, ``phase``, ``noise``, ``quantum``, ``sampling``,
+    ``centrifuge``; ``seed`` an int, SeedSequence or Generator.
+    """
+    from accelcal.rigs.vibrafuge import simulate as rig_simulate
+
+    return rig_simulate(model, overload, amplitude, seed=seed, **settings)
+
+
+def reduce(records, *, terms=PAPER_TERMS, fixed=None):
+    """Identify the VRE coefficients from vibrafuge runs, as ``accelcal vre fit`` does.
+
+    Every run (a :class:`~accelcal.io.formats.vibrafuge.VibrafugeRun` or its
+    file) is reduced to measured VRE (:func:`measure_runs`); the points
+    together go to :func:`identify` with their directions, uncertainties and
+    design columns [Guan2021]_.
+
+    Parameters
+    ----------
+    records : path-like or VibrafugeRun, or a sequence of them
+    terms : sequence of str
+        Coefficients to fit (default the paper's K2, K3, K0_asym, K1_asym).
+    fixed : mapping, optional
+        Coefficients held at known values.
+
+    Returns
+    -------
+    accelcal.results.Reduction
+        Method ``vre/identify``.
+    """
+    from os import PathLike
+
+    runs = [records] if isinstance(records, str | PathLike | VibrafugeRun) else list(records)
+    m = measure_runs(runs)
+    files = [str(r) for r in runs if isinstance(r, str | PathLike)]
+    return identify(m["overload"], m["amplitude"], m["vre"], m["uncertainty"],
+                    direction=m["direction"], terms=terms, fixed=fixed or {},
+                    provenance={"files": files}, assumptions=m["assumptions"],
+                    columns=m["columns"])
+
+
+def uncertainty(reduction, *, trials: int, seed: int, **options):
+    """Monte Carlo (GUM-S1) uncertainty of an identification: :func:`vre_uncertainty`."""
+    return vre_uncertainty(reduction, trials=trials, seed=seed, **options)

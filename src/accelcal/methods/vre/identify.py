@@ -49,7 +49,7 @@ from accelcal.results import Assumption, Estimate, Reduction
 FAMILY = "vre"
 """The method family (key of :data:`accelcal.methods.REGISTRY`)."""
 
-METHOD = "vre-identify"
+METHOD = "vre/identify"
 """The reduction's name, as calibration records and the store carry it."""
 
 
@@ -134,7 +134,7 @@ def identify(
     Returns
     -------
     Reduction
-        Family ``"vre"``, method ``"vre-identify"``, one sensor with every
+        Family ``"vre"``, method ``"vre/identify"``, one sensor with every
         requested coefficient: NaN value and covariance for the ones the
         design cannot separate (``reduction.unidentified()``), whose
         determined combinations are in ``reduction.combinations``; the held

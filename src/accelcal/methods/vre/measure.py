@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.formats.vibrafuge import VibrafugeRun
+from accelcal.io.formats.vibrafuge import VibrafugeRun, read_vibrafuge
 from accelcal.methods.vre.closed_form import vre_columns
 from accelcal.results import Assumption
 from accelcal.signal.periods import whole_period_mean
@@ -231,3 +231,37 @@ def sampled_columns(overload, amplitude, direction, phases) -> dict[str, np.ndar
         "K0_asym": 0.5 * vre(np.sign(ai), np.sign(bi)),  # Eq. (3) [Guan2021]
         "K1_asym": 0.5 * vre(np.abs(ai), np.abs(bi)),  # Eq. (3) [Guan2021]
     }
+
+
+def measure_runs(runs) -> dict:
+    """The measured VRE of several vibrafuge runs (or their files), points concatenated.
+
+    Each run is reduced by :func:`reduce_run`; a path is read by
+    :func:`accelcal.io.formats.vibrafuge.read_vibrafuge`.
+
+    Returns
+    -------
+    dict
+        ``overload`` (P, 3), ``amplitude``, ``vre``, ``uncertainty`` (P,),
+        ``direction`` (P, 3), ``columns`` (term -> design column, the
+        runs' :meth:`VreMeasurement.design_columns`) and ``assumptions``.
+
+    Raises
+    ------
+    AccelcalError
+        For no run, or a file that cannot be read.
+    """
+    from os import PathLike
+
+    runs = list(runs)
+    if not runs:
+        raise AccelcalError("give at least one vibrafuge record file", parameter="records")
+    parts = [reduce_run(read_vibrafuge(r) if isinstance(r, str | PathLike) else r) for r in runs]
+    cat = {k: np.concatenate([getattr(p, k) for p in parts])
+           for k in ("overload", "amplitude", "vre", "uncertainty")}
+    cat["direction"] = np.concatenate(
+        [np.broadcast_to(p.direction, (p.amplitude.size, 3)) for p in parts])
+    designs = [p.design_columns() for p in parts]
+    cat["columns"] = {t: np.concatenate([d[t] for d in designs]) for t in designs[0]}
+    cat["assumptions"] = [a for p in parts for a in p.assumptions()]
+    return cat

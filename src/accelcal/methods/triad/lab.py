@@ -1,0 +1,214 @@
+"""The lab's path of a triad calibration: a recording in, the calibration out, in one call.
+
+:func:`run` does what ``accelcal triad calibrate`` does between reading its
+options and writing its files: it reads the recording (any format
+:func:`accelcal.io.recordings.read_recording` reads), takes the local
+gravity (given, WGS84 normal gravity from latitude and height [TR8350.2]_,
+or the record's own), chooses the route (known orientations when the file
+or a positions file gives them, else the gravity norm [Tedaldi2014]_), finds
+the static intervals (with the threshold factor chosen by the calibration
+residual when none is given) and reduces. The command line parses its
+options, calls :func:`run` and prints the :class:`TriadRun`; a Python user
+calls the same function.
+
+References
+----------
+.. [Tedaldi2014] Tedaldi D., Pretto A., Menegatti E., "A robust and easy to
+   implement method for IMU calibration without external equipments", ICRA
+   2014, sec. III (static detection, threshold by the residual).
+.. [Ferraris1995] Ferraris F., Grimaldi U., Parvis M., "Procedure for
+   effortless in-field calibration of three-axis rate gyros and
+   accelerometers", Sensors and Materials 7(5), 1995 (known orientations).
+.. [TR8350.2] NIMA TR8350.2, World Geodetic System 1984, 3rd ed., 2000.
+"""
+
+from dataclasses import dataclass
+from os import PathLike
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+
+ORIENTATIONS = ("known", "unknown")
+"""The routes: known orientations (linear least squares) or unknown (the gravity norm)."""
+
+
+@dataclass(frozen=True)
+class TriadRun:
+    """A triad calibration run from a recording, as the command line prints it.
+
+    Attributes
+    ----------
+    reduction : accelcal.results.Reduction
+        The calibration (method ``triad/known-orientations`` or
+        ``triad/gravity-norm``).
+    recording : accelcal.io.recordings.Recording
+        The recording read.
+    intervals : accelcal.signal.static.StaticIntervals or None
+        The static intervals the reduction used, when they were detected
+        (None for positions the file labels itself).
+    sweep : list of dict or None
+        The threshold factor sweep (factor, intervals, rms_residual, note)
+        when the factor was chosen by the residual.
+    """
+
+    reduction: object
+    recording: object
+    intervals: object = None
+    sweep: list | None = None
+
+    def norm_rows(self) -> list[dict]:
+        """The norm residual ``|a| - g`` of every position before and after, m/s^2.
+
+        One row per position: ``position``, ``norm_before``, ``norm_after``,
+        and ``start_s``, ``stop_s`` when the positions are detected intervals.
+        """
+        obs = self.reduction.observations
+        rows = [{"position": label, "norm_before": float(b), "norm_after": float(a)}
+                for label, b, a in zip(self.reduction.provenance["labels"], obs["norm_before"],
+                                       obs["norm_after"], strict=True)]
+        if self.intervals is not None and len(self.intervals) == len(rows):
+            for row, (t0, t1) in zip(rows, self.intervals.times, strict=True):
+                row.update(start_s=float(t0), stop_s=float(t1))
+        return rows
+
+    def summary(self) -> dict:
+        """``method``, ``gravity`` (m/s^2), ``positions``, ``dof``, ``condition_number``."""
+        red = self.reduction
+        cond = float(red.identifiability.condition_number) if red.identifiability else 0.0
+        return {"method": red.method, "gravity": red.provenance["gravity"],
+                "positions": len(red.provenance["labels"]), "dof": int(red.dof),
+                "condition_number": cond if np.isfinite(cond) and cond else float("nan")}
+
+
+def run(source, *, options=None, orientations: str | None = None, positions=None,
+        gravity: float | None = None, latitude: float | None = None,
+        height: float | None = None, quadratic: bool = False, init_static: float = 30.0,
+        window: float = 1.0, factor: float | None = None, min_length: float = 2.0) -> TriadRun:
+    """Calibrate a triad from a recording, as ``accelcal triad calibrate`` does.
+
+    Parameters
+    ----------
+    source : path-like or accelcal.io.recordings.Recording
+        The recording: a file (CSV, Parquet, an imucal session, an imu_tk
+        file or a triad record) or one already read.
+    options : accelcal.io.recordings.InputOptions, optional
+        How to read the file (columns, time, rate, unit, regions...).
+    orientations : {"known", "unknown"}, optional
+        The route; default: known when the file or ``positions`` gives the
+        orientations, else unknown.
+    positions : path-like, optional
+        JSON list of the up vector of each detected static interval, in
+        order: known orientations for any file.
+    gravity : float, optional
+        Local gravity, m/s^2 (measured).
+    latitude, height : float, optional
+        Geodetic latitude (deg) and height (m) for the WGS84 normal gravity
+        [TR8350.2]_ instead of ``gravity``. Without either, the record's own
+        ``local_gravity`` (or ``gravity``) metadata.
+    quadratic : bool
+        Fit per-axis quadratic terms.
+    init_static, window, min_length : float
+        Static detection: initial still period, moving-variance window and
+        shortest interval kept, s.
+    factor : float, optional
+        Threshold factor of the detection; default: with unknown orientations
+        the one of 2..10 whose calibration leaves the smallest norm residual
+        [Tedaldi2014]_, else 2.
+
+    Returns
+    -------
+    TriadRun
+
+    Raises
+    ------
+    AccelcalError
+        For inconsistent options, a recording that cannot be read, or too
+        few positions; the message names the parameter.
+    """
+    from accelcal.signal.static import check_settings
+
+    if orientations not in (None, *ORIENTATIONS):
+        raise AccelcalError(f"{orientations!r} is not known or unknown", parameter="orientations")
+    if positions is not None and orientations == "unknown":
+        raise AccelcalError("a positions file gives known orientations; drop orientations "
+                            "unknown", parameter="positions")
+    check_settings(init_static=init_static, window=window, min_length=min_length,
+                   factor=2.0 if factor is None else factor)
+    rec = read(source, options)
+    g = local_gravity(rec, gravity=gravity, latitude=latitude, height=height)
+    detect = (init_static, window, 2.0 if factor is None else factor, min_length)
+    known, found = (None, None) if orientations == "unknown" else _known(rec, positions, detect)
+    if orientations == "known" and known is None:
+        raise AccelcalError(
+            "known needs the positions' orientations: imucal labels (a 'part' column or "
+            "regions), a triad record's positions, or a positions file", parameter="orientations")
+    if known is not None:
+        from accelcal.methods.triad.known import calibrate_known
+
+        red = calibrate_known(known.means, known.up, g, input_unit=rec.unit, quadratic=quadratic,
+                              labels=known.labels, counts=known.counts)
+        return TriadRun(red, rec, found)
+    from accelcal.methods.triad.unknown import calibrate_unknown
+
+    if factor is None:
+        from accelcal.methods.triad.threshold import choose_factor
+
+        choice = choose_factor(rec.values, rec.rate, g, init_static=init_static, window=window,
+                               min_length=min_length, input_unit=rec.unit, quadratic=quadratic,
+                               time=rec.time)
+        return TriadRun(choice.reduction, rec, choice.intervals, choice.rows)
+    found = detect_intervals(rec, *detect)
+    red = calibrate_unknown(found.means, g, input_unit=rec.unit, quadratic=quadratic,
+                            labels=[f"I{k + 1}" for k in range(len(found))], counts=found.counts)
+    return TriadRun(red, rec, found)
+
+
+def read(source, options=None):
+    """The triad recording of ``source`` (a path, read with ``options``, or a Recording)."""
+    if not isinstance(source, str | PathLike):
+        return source
+    from accelcal.io.recordings import read_recording
+
+    return read_recording(source, options, channels=3, what="triad recording")
+
+
+def detect_intervals(rec, init_static: float, window: float, factor: float, min_length: float):
+    """The static intervals of a recording (:func:`accelcal.signal.static.detect_static`)."""
+    from accelcal.signal.static import detect_static
+
+    return detect_static(rec.values, rec.rate, init_static=init_static, window=window,
+                         factor=factor, min_length=min_length, time=rec.time, unit=rec.unit)
+
+
+def local_gravity(rec, *, gravity=None, latitude=None, height=None) -> float:
+    """The local gravity, m/s^2: given, WGS84 normal gravity [TR8350.2]_, or the record's."""
+    from accelcal.physics.gravity import check_gravity, normal_gravity
+
+    if gravity is not None:
+        if latitude is not None or height is not None:
+            raise AccelcalError("give either gravity or latitude (and height), not both",
+                                parameter="gravity")
+        return check_gravity(gravity)
+    if latitude is not None:
+        return normal_gravity(latitude, 0.0 if height is None else height)
+    if height is not None:
+        raise AccelcalError("goes with latitude (WGS84 normal gravity)", parameter="height")
+    value = rec.metadata.get("local_gravity", rec.metadata.get("gravity"))
+    if value is None:
+        raise AccelcalError("give the local gravity: gravity G (m/s^2, measured) or latitude "
+                            "DEG and height M (WGS84 normal gravity)", parameter="gravity")
+    return check_gravity(value)
+
+
+def _known(rec, positions, detect):
+    """Known positions (and the intervals detected for a positions file), or (None, None)."""
+    from accelcal.methods.triad.imucal import listed_positions, positions_file, session_positions
+
+    if positions is not None:
+        found = detect_intervals(rec, *detect)
+        return positions_file(positions, rec.values, found.start, found.stop), found
+    known = session_positions(rec)
+    if known is None and rec.metadata.get("positions"):
+        known = listed_positions(rec.values, rec.metadata["positions"], "the record's positions")
+    return known, None
