@@ -49,8 +49,6 @@ FLOORS = (
 LAZY_UP = {
     ("accelcal.model", "accelcal.io.model_file"):
         "ErrorModel.to_dict/from_dict/to_json/from_json/save/load: the model file is io's",
-    ("accelcal.io.calibration_record", "accelcal"): "the package's __version__ (the root "
-                                                    "imports nothing)",
     ("accelcal.results", "accelcal.calibration"): "Reduction.to_records",
     ("accelcal.results", "accelcal.methods"): "Reduction.figures: the method's figures",
     ("accelcal.results", "accelcal.plotting"): "Reduction.plot",
