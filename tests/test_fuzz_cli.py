@@ -145,6 +145,9 @@ STR_VALUES = [("", False), ("bogus", False), ("nan", False), ("1e308", False), (
 CHOICE_VALUES = [("bogus", True), ("", True), ("JSON ", True)]
 INPUT_VALUES = [(DIRECTORY, True), (MISSING, True), (ZERO, True), (NULL, True), (FIFO, True),
                 ("/proc/self/mem", True), ("", True)]
+INPUT_DIRECTORY_VALUES = [(MISSING, True), (FILE, True), (NULL, True), (FIFO, True), ("", False),
+                          (DIRECTORY, False)]
+"""An input directory: "" is the working directory (a Path of "")."""
 OUTPUT_VALUES = [(DIRECTORY, True), (MISSING, True), ("/proc/accelcal-fuzz/x", True),
                  (FULL, True), (FIFO, True), ("", True)]
 DIRECTORY_OUTPUT_VALUES = [(NULL, True), ("/proc/accelcal-fuzz", True), (FILE, True),
@@ -166,11 +169,13 @@ KINDS: dict[str, str] = {
 COMMAND_KINDS: dict[tuple[str, str], str] = {
     ("records history", "method"): "str", ("records stats", "method"): "str",
     ("transverse simulate", "out"): "output-dir", ("demo", "out"): "output-dir",
+    ("report", "data"): "input-dir",
 }
 """(command, parameter) -> kind, where the parameter name means something else there."""
 
 VALUES = {"float": FLOAT_VALUES, "int": INT_VALUES, "str": STR_VALUES,
-          "choice": CHOICE_VALUES, "input": INPUT_VALUES, "output": OUTPUT_VALUES,
+          "choice": CHOICE_VALUES, "input": INPUT_VALUES, "input-dir": INPUT_DIRECTORY_VALUES,
+          "output": OUTPUT_VALUES,
           "output-dir": DIRECTORY_OUTPUT_VALUES, "store": STORE_VALUES}
 
 

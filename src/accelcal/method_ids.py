@@ -43,3 +43,8 @@ def spellings(method: str) -> tuple[str, ...]:
     """Every id a record of ``method`` may carry: its id today first, then the old ones."""
     new = canonical(method)
     return (new, *(old for old, today in ALIASES.items() if today == new))
+
+
+def route_of(method: str) -> str:
+    """The route of a method id: ``dividing-head/joint`` -> ``joint`` (old ids mapped first)."""
+    return canonical(method).partition("/")[2]

@@ -8,8 +8,11 @@ reduces them (:attr:`Stage.reduce`) to :class:`Outcome` s: a
 is the same for every method and lives here once: the records are written
 (one JSON file each), added to the store, and every reduction becomes report
 sections (:func:`accelcal.report.sections.reduction_sections`) in one
-self-contained HTML report with its figures. A new method takes part by
-adding one stage.
+self-contained HTML report with its figures. ``accelcal report`` of the
+records written goes through the same function, with the reduction rebuilt
+from the records and the input files they name
+(:mod:`accelcal.report.rebuild`), and gives the same sections. A new method
+takes part by adding one stage.
 
 References
 ----------

@@ -6,9 +6,16 @@ import typer
 
 
 def report(
-    records: list[Path] = typer.Argument(..., help="Calibration record files (JSON)."),
+    records: list[Path] = typer.Argument(
+        ..., help="Calibration record files (JSON, from a reduction's --record) and triad "
+        "calibration files (triad calibrate --out)."),
+    *,
     out: Path = typer.Option(..., "--out", help="HTML file to write (self-contained)."),
     title: str = typer.Option("Accelerometer calibration report", "--title", help="Page title."),
+    data: list[Path] = typer.Option(
+        [], "--data", help="A directory holding the records' input files (found by name and "
+        "SHA-256, also in subdirectories two levels deep), for the figures; the records' own "
+        "directories and the working directory are searched first. Repeatable."),
     history: bool = typer.Option(
         False, "--history", help="Add each serial number's calibration history from the store "
         "(coefficients against date, repeatability), one section per serial and method."),
@@ -16,28 +23,34 @@ def report(
         None, "--db", help="Store for --history: an SQLite file path or a database URL. "
         "Default: $ACCELCAL_DB, else ~/.local/share/accelcal/records.sqlite."),
 ) -> None:
-    """Write a self-contained HTML report (tables with uncertainties, correlations, inputs).
+    """Write a self-contained HTML report: the same sections as the demo's.
 
-    Every record is read and validated before the report is written; the
+    Records of one reduction (the sensors of one indexing-head run) share a
+    section with every sensor's coefficients in engineering units, the
+    method's summary, figures and the paper's errata; the figures are drawn
+    from the input files the records name by SHA-256, reduced again (when
+    they are not found, or do not reproduce the record, the section says
+    so). Every file is read and validated before the report is written; the
     file is written atomically.
     """
-    from accelcal.io.calibration_record import CalibrationRecord
-    from accelcal.report import Section, write_report
+    from accelcal.report import write_report
+    from accelcal.report.inputs import report_sections
 
-    loaded = [CalibrationRecord.load(path) for path in records]
-    sections = [Section(f"{r.serial}: {r.method}", r) for r in loaded]
+    if db is not None and not history:
+        from accelcal.errors import AccelcalError
+
+        raise AccelcalError("--db goes with --history")
+    sections = report_sections(records, search=data)
     if history:
         from accelcal.report.sections import history_section
         from accelcal.store import Store
 
+        pairs = dict.fromkeys((s.record.serial, s.record.method) for s in sections
+                              if s.record is not None)
         with Store(db, readonly=True) as store:
-            for serial, method in dict.fromkeys((r.serial, r.method) for r in loaded):
+            for serial, method in pairs:
                 section = history_section(store, serial, method=method)
                 if section is not None:
                     sections.append(section)
-    elif db is not None:
-        from accelcal.errors import AccelcalError
-
-        raise AccelcalError("--db goes with --history")
     write_report(out, sections, title=title)
     typer.echo(f"wrote {out}")

@@ -22,14 +22,25 @@ from accelcal.report import Figure, Section, figure_svg
 ERRATA_SEE = "Details, checks and the code that implements each correction: docs/errata.md"
 
 
-def reduction_sections(reduction, records, **context) -> list[Section]:
+def reduction_sections(reduction, records, *, unavailable: str = "", **context
+                       ) -> list[Section]:
     """Sections of one reduction: an overview, then one per sensor.
+
+    The one road to a report: the demo's campaign (:mod:`accelcal.pipeline`)
+    calls it with the reduction it made, ``accelcal report`` with the
+    reduction rebuilt from the record files
+    (:func:`accelcal.report.rebuild.rebuild`).
 
     Parameters
     ----------
     reduction : accelcal.results.Reduction
-    records : sequence of CalibrationRecord
-        One per sensor (:meth:`~accelcal.results.Reduction.to_records`).
+    records : sequence of CalibrationRecord or None
+        One per sensor (:meth:`~accelcal.results.Reduction.to_records`);
+        None for a sensor whose record is not reported (it keeps its column
+        in the overview, under its sensor name, and gets no section).
+    unavailable : str
+        Why the reduction cannot draw its figures (a reduction rebuilt from
+        records alone); shown as the first note, and no figure is drawn.
     **context
         Passed to the method's figures (e.g. ``truth``: a simulated head
         error drawn beside the separated one).
@@ -38,29 +49,63 @@ def reduction_sections(reduction, records, **context) -> list[Section]:
     -------
     list of Section
     """
-    from accelcal.methods import errata_of, report_text_of
+    from accelcal.methods import errata_of
     from accelcal.outputs import describe
 
-    text = report_text_of(reduction)
-    figures = tuple(Figure(title, figure_svg(fig), caption)
-                    for _stem, title, fig, caption in reduction.figures(**context))
+    text = _report_text(reduction, rebuilt_from_records=bool(unavailable))
+    figures = () if unavailable else tuple(
+        Figure(title, figure_svg(fig), caption)
+        for _stem, title, fig, caption in reduction.figures(**context))
     errata = errata_of(reduction)
     if errata:
-        errata = (*errata, f"{ERRATA_SEE} ({text.paper}).")
+        errata = (*errata, f"{ERRATA_SEE} ({text.paper})." if text.paper else f"{ERRATA_SEE}.")
+    notes = tuple(dict.fromkeys([*([unavailable] if unavailable else []), *describe(reduction)]))
     overview = Section(
         title=text.title, summary=text.summary, rows=overview_rows(reduction, records),
-        notes=tuple(describe(reduction)), errata=errata, figures=figures,
+        notes=notes, errata=errata, figures=figures,
     )
     if reduction.n_sensors == 1:
         return [Section(title=f"{records[0].serial}: {text.title}", record=records[0],
                         summary=text.summary, rows=overview.rows, notes=overview.notes,
                         errata=errata, figures=figures)]
-    per_sensor = [
-        Section(title=f"{rec.serial}: {text.title} ({name})", record=rec,
-                summary=f"Sensor column {name}. {text.sensor_summary}".strip())
-        for name, rec in zip(reduction.sensor_names, records, strict=True)
-    ]
+    per_sensor = [_sensor_section(name, rec, text)
+                  for name, rec in zip(reduction.sensor_names, records, strict=True)
+                  if rec is not None]
     return [overview, *per_sensor]
+
+
+def _sensor_section(name: str, record, text) -> Section:
+    """One sensor's section of a several-sensor reduction."""
+    column = name != record.serial  # a reduction rebuilt from records names sensors by serial
+    return Section(title=f"{record.serial}: {text.title}" + (f" ({name})" if column else ""),
+                   record=record,
+                   summary=((f"Sensor column {name}. " if column else "")
+                            + text.sensor_summary).strip())
+
+
+def _report_text(reduction, *, rebuilt_from_records: bool):
+    """The method's title and summary, or a plain one for a reduction rebuilt from records.
+
+    A method's summary describes the set-up from the reduction's observations
+    and assumptions (positions, plateaus, rate), which records do not hold:
+    a reduction rebuilt from them alone gets the method's name and paper
+    (:mod:`accelcal.catalog`) and says where its numbers come from.
+    """
+    from accelcal.methods import ReportText, report_text_of
+
+    if not rebuilt_from_records:
+        return report_text_of(reduction)
+    from accelcal.catalog import method
+
+    try:
+        found = method(reduction.family)
+    except KeyError:
+        return ReportText(title=f"calibration by {reduction.method}", summary="")
+    return ReportText(
+        title=f"{found.title[:1].upper()}{found.title[1:]} ({reduction.method})",
+        summary=("Reported from the calibration record(s) alone: the description of the "
+                 "set-up and the figures need the test's input files (see the first note)."),
+        paper=found.paper)
 
 
 def overview_rows(reduction, records) -> list[dict]:
@@ -82,7 +127,7 @@ def overview_rows(reduction, records) -> list[dict]:
                      None)
             if r is None:
                 continue
-            head = f"{rec.serial} ({sensor})" if reduction.n_sensors > 1 else "estimate ± σ"
+            head = _column(sensor, rec) if reduction.n_sensors > 1 else "estimate ± σ"
             if r["status"] == "not identifiable":
                 row[head] = "not identifiable"
                 continue
@@ -92,6 +137,13 @@ def overview_rows(reduction, records) -> list[dict]:
             row[head] = f"{cell}\n({eng})" if eng and r["status"] == "fitted" else cell
         table.append(row)
     return table
+
+
+def _column(sensor: str, record) -> str:
+    """An overview column's heading: serial number and sensor column, as far as known."""
+    if record is None or record.serial == sensor:
+        return sensor
+    return f"{record.serial} ({sensor})"
 
 
 # --------------------------------------------------------------------- history

@@ -144,3 +144,24 @@ def reduce(records, *, one_g=None, sensor: str | None = None, terms=None, estima
         one_g = read_one_g(one_g)
     return reduce_joint(record, one_g, terms=terms, rig_errors=rig_errors, sensor=sensor,
                         estimate=("radius_error",) if estimate is None else estimate)
+
+
+def from_inputs(files, record):
+    """Candidate reductions of a record's input files, for its report's figures.
+
+    ``files`` are the input files the calibration ``record`` names (found by
+    their SHA-256, in the record's order); yields ``(reduction, context)``
+    with the settings the record and the files determine, else those of
+    ``accelcal demo`` and of the method's command by default
+    (:func:`accelcal.report.rebuild.rebuild` keeps the first that reproduces
+    the record).
+    """
+    from accelcal.io.formats import centrifuge
+    from accelcal.method_ids import route_of
+
+    if route_of(record.method) != "joint" or len(files) != 2:
+        return []
+    rec, one_g = centrifuge.read(files[0]), read_one_g(files[1])
+    # the demo's rig estimate, then the command's default (tried only if the first does not fit)
+    return ((reduce_joint(rec, one_g, estimate=estimate), {})
+            for estimate in (("radius_error", "arm_stretch"), ("radius_error",)))

@@ -159,3 +159,28 @@ def uncertainty(reduction, data, *, trials: int, seed: int, **options):
 
         data = HeadData.from_record(read_head_record(data))
     return head_uncertainty(data, reduction, trials=trials, seed=seed, **options)
+
+
+def from_inputs(files, record):
+    """Candidate reductions of a record's input files, for its report's figures.
+
+    ``files`` are the input files the calibration ``record`` names (found by
+    their SHA-256, in the record's order); yields ``(reduction, context)``
+    with the settings the record and the files determine, else those of
+    ``accelcal demo`` and of the method's command by default
+    (:func:`accelcal.report.rebuild.rebuild` keeps the first that reproduces
+    the record).
+    """
+    import numpy as np
+
+    from accelcal.io.formats.dividing_head import read_head_record
+    from accelcal.method_ids import route_of
+    from accelcal.methods.dividing_head import HeadData, options_from_record, reduce
+
+    route = route_of(record.method)
+    rec = read_head_record(files[0])
+    red = reduce(HeadData.from_record(rec), route, **options_from_record(rec, route))
+    truth = None
+    if rec.simulation and "angle_error_rad" in rec.simulation:
+        truth = np.asarray(rec.simulation["angle_error_rad"], dtype=float)
+    return [(red, {"truth": truth})]

@@ -128,3 +128,26 @@ def reduce(records, *, options=None, terms=None, taus="octave", confidence: floa
                           progress=progress)
     return fit(records.values[:, 0], records.rate, terms=terms or TERMS, taus=taus,
                confidence=confidence, unit=records.unit)
+
+
+def from_inputs(files, record):
+    """Candidate reductions of a record's input files, for its report's figures.
+
+    ``files`` are the input files the calibration ``record`` names (found by
+    their SHA-256, in the record's order); yields ``(reduction, context)``
+    with the settings the record and the files determine, else those of
+    ``accelcal demo`` and of the method's command by default
+    (:func:`accelcal.report.rebuild.rebuild` keeps the first that reproduces
+    the record).
+    """
+    from accelcal.io.lab_metadata import read_metadata
+    from accelcal.method_ids import route_of
+    from accelcal.methods.noise.fit import POWERS
+    from accelcal.methods.noise.stream import stream_fit
+
+    if route_of(record.method) != "ieee952-fit":
+        return []
+    red = stream_fit(files[0], terms=tuple(n for n in record.names if n in POWERS))
+    true = read_metadata(files[0]).get("true")
+    truth = {k: v for k, v in true.items() if k in POWERS} if isinstance(true, dict) else None
+    return [(red, {"truth": truth})]

@@ -188,3 +188,25 @@ def uncertainty(reduction, records, *, trials: int, seed: int, **options):
     ``shortest``, ``progress``).
     """
     return transverse_uncertainty(records, reduction, trials=trials, seed=seed, **options)
+
+
+def from_inputs(files, record):
+    """Candidate reductions of a record's input files, for its report's figures.
+
+    ``files`` are the input files the calibration ``record`` names (found by
+    their SHA-256, in the record's order); yields ``(reduction, context)``
+    with the settings the record and the files determine, else those of
+    ``accelcal demo`` and of the method's command by default
+    (:func:`accelcal.report.rebuild.rebuild` keeps the first that reproduces
+    the record).
+    """
+    from accelcal.io.formats.shaker import read_records, shaker_files
+    from accelcal.method_ids import route_of
+    from accelcal.methods.transverse import identify
+
+    directory = files[0].parent
+    names = {f.name for f in files}
+    groups = shaker_files(directory)
+    return [(identify(rec, route=route_of(record.method)), {})
+            for rec in read_records(directory)
+            if {f.name for f in groups.get(rec.amplitude, ())} == names]

@@ -131,3 +131,41 @@ def reduce(records, **options):
 def uncertainty(reduction, *, trials: int, seed: int, **options):
     """Monte Carlo (GUM-S1) uncertainty of a triad calibration: :func:`triad_uncertainty`."""
     return triad_uncertainty(reduction, trials=trials, seed=seed, **options)
+
+
+def from_inputs(files, record):
+    """Candidate reductions of a record's input files, for its report's figures.
+
+    ``files`` are the input files the calibration ``record`` names (found by
+    their SHA-256, in the record's order); yields ``(reduction, context)``
+    with the settings the record and the files determine, else those of
+    ``accelcal demo`` and of the method's command by default
+    (:func:`accelcal.report.rebuild.rebuild` keeps the first that reproduces
+    the record).
+    """
+    from accelcal.io.formats import triad
+    from accelcal.method_ids import route_of
+    from accelcal.methods.triad.lab import run
+    from accelcal.signal.static import detect_static
+
+    known = route_of(record.method) == "known-orientations"
+
+    def candidates():  # the demo's reduction of a triad record, then the command's path
+        rec = triad.read(files[0])
+        g = rec.metadata["gravity"]
+        if known:
+            means, counts = rec.interval_means()
+            yield calibrate_known(means, rec.up, g, input_unit=rec.input_unit,
+                                  labels=rec.labels, counts=counts), {}
+        else:
+            found = detect_static(rec.acc, rec.metadata["rate"], init_static=30.0)
+            yield (calibrate_unknown(found.means, g, input_unit=rec.input_unit,
+                                     counts=found.counts,
+                                     labels=[f"I{k + 1}" for k in range(len(found))]),
+                   {"intervals": found, "values": rec.acc, "time": rec.t})
+        lab = run(files[0], orientations="known" if known else "unknown")
+        yield lab.reduction, ({} if lab.intervals is None else {
+            "intervals": lab.intervals, "values": lab.recording.values,
+            "time": lab.recording.time})
+
+    return candidates()

@@ -141,3 +141,22 @@ def reduce(records, *, terms=PAPER_TERMS, fixed=None):
 def uncertainty(reduction, *, trials: int, seed: int, **options):
     """Monte Carlo (GUM-S1) uncertainty of an identification: :func:`vre_uncertainty`."""
     return vre_uncertainty(reduction, trials=trials, seed=seed, **options)
+
+
+def from_inputs(files, record):
+    """Candidate reductions of a record's input files, for its report's figures.
+
+    ``files`` are the input files the calibration ``record`` names (found by
+    their SHA-256, in the record's order); yields ``(reduction, context)``
+    with the settings the record and the files determine, else those of
+    ``accelcal demo`` and of the method's command by default
+    (:func:`accelcal.report.rebuild.rebuild` keeps the first that reproduces
+    the record).
+    """
+    from accelcal.io.formats.vibrafuge import read_vibrafuge
+    from accelcal.methods.vre import PAPER_TERMS, identify, reduce_run
+
+    meas = reduce_run(read_vibrafuge(files[0]))
+    return [(identify(meas.overload, meas.amplitude, meas.vre, meas.uncertainty,
+                      direction=meas.direction, terms=PAPER_TERMS,
+                      assumptions=meas.assumptions()), {})]
