@@ -8,13 +8,13 @@ Run from the repository root::
     python benchmarks/coverage.py --markdown table.md
     python benchmarks/coverage.py --update-docs       # the table of docs/coverage.md
 
-For each case (every ReductionContract subclass of tests/test_*_contract.py
-and the extra cases of tests/coverage_harness.py) it runs N simulated
+For each case (every ReductionContract subclass of tests/methods/*/test_*_contract.py
+and the extra cases of tests/helpers/coverage.py) it runs N simulated
 experiments (seeds 0..N-1) and prints, per coefficient, the ratio of the
 empirical SD of (estimate - truth) to the mean stated SD (target 0.9-1.1)
 and the coverage of the stated 95 % interval (target 0.93-0.97; k from
 Student's t of the reduction's dof). The verdict compares with the exact
-targets; tests/test_coverage.py asserts the same numbers against bands
+targets; tests/uncertainty/test_coverage.py asserts the same numbers against bands
 widened by their sampling error.
 """
 
@@ -29,9 +29,9 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs" / "coverage.md"
 MARKER = "<!-- coverage-table -->"
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "tests"))  # the test helpers (tests/helpers), not installed
 
-import coverage_harness as harness  # noqa: E402
+from helpers import coverage as harness  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -44,7 +44,13 @@ def main(argv=None) -> int:
     parser.add_argument("--markdown", type=Path, help="also write the markdown table here")
     parser.add_argument("--update-docs", action="store_true",
                         help=f"replace the table in {DOCS.relative_to(ROOT)} (after {MARKER})")
+    parser.add_argument("--intervals", action="append", default=[], metavar="KIND",
+                        help="instead: coverage of the 68.3 %% intervals of a deviation kind "
+                             "per tau, for every power-law noise (1000 series of 4096 samples; "
+                             "repeatable; the table of docs/noise.md)")
     args = parser.parse_args(argv)
+    if args.intervals:
+        return intervals(args.intervals, args.experiments or 1000)
 
     results = []
     header = (f"{'method':<58} {'coefficient':<12} {'SD ratio':>14} {'coverage':>8} "
@@ -72,6 +78,18 @@ def main(argv=None) -> int:
         head = text[:text.index(MARKER) + len(MARKER)]
         DOCS.write_text(f"{head}\n\n{table}", encoding="utf-8")
         print(f"\nupdated {DOCS}")
+    return 0
+
+
+def intervals(kinds: list[str], trials: int) -> int:
+    """Print, per kind and noise, the coverage of the 68.3 % intervals at each octave tau."""
+    for kind in kinds:
+        for alpha, noise in harness.INTERVAL_NOISES.items():
+            m, cover, right = harness.interval_coverage(kind, alpha, trials)
+            print(f"{kind} {noise} (alpha {alpha}), {trials} series")
+            print("  m        " + " ".join(f"{int(v):>5d}" for v in m))
+            print("  coverage " + " ".join(f"{v:5.3f}" for v in cover))
+            print("  alpha ok " + " ".join(f"{v:5.2f}" for v in right), flush=True)
     return 0
 
 

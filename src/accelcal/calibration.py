@@ -36,6 +36,7 @@ from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.io.lab_metadata import LabInfo, read_lab_metadata
 from accelcal.io.limits import file_type
+from accelcal.polar import stacked_index
 from accelcal.validation import shown, shown_path
 
 
@@ -202,11 +203,12 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
                 f"the {reduction.method} reduction determined no coefficient of sensor {name}; "
                 "there is nothing to record"
             )
+        rows = stacked_index(keep) if est.is_complex else keep  # complex: (Re, Im) rows
         # The sensor's Estimate class, taken from the reduction: this module needs no import
         # of accelcal.results, whose Reduction.to_records calls records.
         sub = type(est)(
             tuple(est.names[j] for j in keep), est.values[keep],
-            est.covariance[np.ix_(keep, keep)],
+            est.covariance[np.ix_(rows, rows)],
             {est.names[j]: est.units.get(est.names[j], "") for j in keep},
             reduction.method, residuals=est.residuals, dof=est.dof,
         )

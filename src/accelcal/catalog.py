@@ -14,7 +14,7 @@ documentation page and the key of its paper. Every registry is derived from
 - :func:`accelcal.demo.stages` (the demo's tests, in order);
 - the help texts that list kinds or tests (``accelcal import --kind``,
   ``accelcal demo --help``), checked with the documentation by
-  ``tests/test_descriptors.py``.
+  ``tests/project/test_descriptors.py``.
 
 This module imports nothing from accelcal, only the standard library, so
 that every floor can read it (io included) without pulling in the methods,

@@ -52,6 +52,12 @@ def pm(value: float, std: float) -> str:
     return f"{format_value(value, std)} ± {format_std(std)}"
 
 
+def pm_polar(magnitude: float, magnitude_std: float, phase_deg: float,
+             phase_std_deg: float) -> str:
+    """A complex value as magnitude and phase: ``1.0012 ± 0.0021 ∠ -3.41 ± 0.12°``."""
+    return f"{pm(magnitude, magnitude_std)} ∠ {pm(phase_deg, phase_std_deg)}°"
+
+
 def format_engineering(items) -> str:
     """Engineering units for people: ``-9.54 ± 0.68 µrad; -1.97 ± 0.14 arcsec``.
 

@@ -19,6 +19,33 @@ def _num(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
+COMPLEX_KEYS = ("real", "imag", "real_std", "imag_std", "magnitude", "magnitude_std",
+                "phase_deg", "phase_std_deg")
+"""Keys a complex coefficient's row adds (after ``estimate`` and ``std``, its magnitude's)."""
+
+
+def complex_columns(est) -> list[dict]:
+    """The table columns of each coefficient of a complex estimate.
+
+    ``estimate`` and ``std`` are the magnitude and its standard uncertainty
+    (so every table, CSV file and store column that reads ``estimate`` and
+    ``std`` shows the magnitude); then :data:`COMPLEX_KEYS`: real and
+    imaginary parts with their standard uncertainties (square roots of the
+    2x2 block's diagonal), magnitude and phase (degrees, in (-180, 180])
+    with their first-order standard uncertainties (:func:`accelcal.polar.polar`).
+    NaN where not determined.
+    """
+    pol = est.polar()
+    var = np.diag(est.covariance)
+    columns = zip(pol.magnitude, pol.magnitude_std, est.values.real, est.values.imag,
+                  np.sqrt(var[0::2]), np.sqrt(var[1::2]), np.degrees(pol.phase),
+                  np.degrees(pol.phase_std), strict=True)
+    return [{"estimate": float(m), "std": float(ms), "real": float(re), "imag": float(im),
+             "real_std": float(rs), "imag_std": float(is_), "magnitude": float(m),
+             "magnitude_std": float(ms), "phase_deg": float(ph), "phase_std_deg": float(phs)}
+            for m, ms, re, im, rs, is_, ph, phs in columns]
+
+
 def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
     """One row per sensor and coefficient, then one per fixed coefficient.
 
@@ -26,11 +53,16 @@ def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
     ``engineering`` also ``eng_estimate, eng_std, eng_unit`` (the first
     engineering unit, or NaN and '' where none applies) and ``engineering``
     (every engineering unit: a list of ``{"estimate", "std", "unit"}``).
-    Values not determined are NaN.
+    Values not determined are NaN. A complex coefficient's ``estimate`` and
+    ``std`` are its magnitude's, its row adds :data:`COMPLEX_KEYS`
+    (:func:`complex_columns`), and it has no engineering units.
     """
     rows = []
     for k, (name, est) in enumerate(zip(reduction.sensor_names, reduction.sensors, strict=True)):
         k1 = reduction.scale_factor(k)
+        if est.is_complex:
+            rows += _complex_rows(reduction, k, name, est, engineering)
+            continue
         for c, v, s in zip(est.names, est.values, est.std, strict=True):
             unit = est.units.get(c, "")
             row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": float(s),
@@ -45,6 +77,26 @@ def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
             if engineering:
                 row.update(_engineering_columns(reduction, c, float(v), 0.0, unit, k1, k))
             rows.append(row)
+    return rows
+
+
+def _complex_rows(reduction, k, name, est, engineering) -> list[dict]:
+    """The rows of a complex estimate (its fixed coefficients are real, as any)."""
+    rows = []
+    for c, columns in zip(est.names, complex_columns(est), strict=True):
+        row = {"sensor": name, "coefficient": c, "estimate": columns["estimate"],
+               "std": columns["std"], "unit": est.units.get(c, ""),
+               "status": reduction.status(c, k), "dof": int(est.dof),
+               **{key: columns[key] for key in COMPLEX_KEYS}}
+        if engineering:
+            row.update(eng_estimate=math.nan, eng_std=math.nan, eng_unit="", engineering=[])
+        rows.append(row)
+    for c, v in reduction.fixed.items():
+        row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": 0.0,
+               "unit": _fixed_unit(c, est), "status": "fixed", "dof": int(est.dof)}
+        if engineering:
+            row.update(eng_estimate=math.nan, eng_std=math.nan, eng_unit="", engineering=[])
+        rows.append(row)
     return rows
 
 
@@ -73,7 +125,28 @@ def _matrix(a) -> list | None:
     return [[_num(x) for x in row] for row in np.asarray(a)]
 
 
+def _complex_num(x) -> dict | None:
+    """A complex number as ``{"re": .., "im": ..}`` (None when not finite)."""
+    x = complex(x)
+    return {"re": x.real, "im": x.imag} if math.isfinite(x.real) and math.isfinite(x.imag) \
+        else None
+
+
 def _estimate_dict(est, name: str | None = None) -> dict:
+    if est.is_complex:
+        out = {
+            "complex": True,
+            "coefficients": [
+                {"name": c, "unit": est.units.get(c, ""), "estimate": _complex_num(v),
+                 "std": _num(col["std"]), "magnitude": _num(col["magnitude"]),
+                 "phase_deg": _num(col["phase_deg"]), "phase_std_deg": _num(col["phase_std_deg"])}
+                for c, v, col in zip(est.names, est.values, complex_columns(est), strict=True)
+            ],
+            "covariance": _matrix(est.covariance),
+            "dof": int(est.dof),
+            "residual_sigma": _num(est.residual_sigma()),
+        }
+        return {"sensor": name, **out} if name is not None else out
     out = {
         "coefficients": [
             {"name": c, "unit": est.units.get(c, ""), "estimate": _num(v), "std": _num(s)}
@@ -94,6 +167,12 @@ def to_dict(reduction) -> dict:
     ``shared`` (or None), ``combinations``, ``identifiability`` (rank,
     condition numbers, identifiable, not identifiable, tolerance; or None),
     ``assumptions``, ``fixed``, ``provenance``, ``notes``.
+
+    A complex estimate has ``"complex": true``; each of its coefficients
+    gives ``estimate`` as ``{"re": .., "im": ..}``, ``std`` (the
+    magnitude's), ``magnitude``, ``phase_deg`` and ``phase_std_deg``, and its
+    ``covariance`` is that of ``[Re x1, Im x1, Re x2, ...]`` (``2p x 2p``).
+    :func:`from_dict` reads the form back.
     """
     rows = reduction_rows(reduction)
     sensors = []
@@ -126,6 +205,122 @@ def to_dict(reduction) -> dict:
         "provenance": dict(reduction.provenance),
         "notes": list(reduction.notes),
     }
+
+
+def _fail(source: str, what: str):
+    from accelcal.errors import AccelcalError
+
+    return AccelcalError(f"{source}: {what}")
+
+
+def _array(rows, source: str, what: str) -> np.ndarray:
+    """A JSON list (of lists) of numbers or null as a float array (null -> NaN)."""
+    try:
+        return np.array(rows if rows is not None else [], dtype=float)
+    except (TypeError, ValueError):
+        raise _fail(source, f"{what} must be numbers or null") from None
+
+
+def estimate_from_dict(data: dict, *, method: str = "", source: str = "<dict>", estimate):
+    """An :class:`~accelcal.results.Estimate` from its :func:`to_dict` form.
+
+    ``estimate`` is the class to build (:class:`~accelcal.results.Estimate`,
+    passed in by :meth:`~accelcal.results.Reduction.from_dict`, so that this
+    module, which :mod:`accelcal.results` calls, does not import it back).
+
+    Values, units, covariance and dof are read back; the residuals are not
+    in the JSON (only their ``residual_sigma``).
+
+    Raises
+    ------
+    AccelcalError
+        Naming ``source`` and what is malformed.
+    """
+    if not isinstance(data, dict) or not isinstance(data.get("coefficients"), list):
+        raise _fail(source, "an estimate needs a list of 'coefficients'")
+    complex_ = data.get("complex", False) is True
+    names, units, values = [], {}, []
+    for i, c in enumerate(data["coefficients"]):
+        if not (isinstance(c, dict) and isinstance(c.get("name"), str)
+                and isinstance(c.get("unit", ""), str)):
+            raise _fail(source, f"coefficients[{i}] needs a name and a unit (strings)")
+        names.append(c["name"])
+        units[c["name"]] = c.get("unit", "")
+        values.append(_value(c.get("estimate"), complex_, source, f"coefficients[{i}].estimate"))
+    dof = data.get("dof", 0)
+    if isinstance(dof, bool) or not isinstance(dof, int):
+        raise _fail(source, "dof must be an integer")
+    try:
+        return estimate(tuple(names), np.array(values, dtype=complex if complex_ else float),
+                        _array(data.get("covariance"), source, "covariance"), units,
+                        method, dof=dof)
+    except ValueError as exc:
+        raise _fail(source, str(exc)) from None
+
+
+def _value(x, complex_: bool, source: str, where: str) -> float | complex:
+    """A JSON estimate: a number (null: NaN), or ``{"re", "im"}`` for a complex one."""
+    if x is None:
+        return complex(math.nan, math.nan) if complex_ else math.nan
+    if complex_:
+        if not (isinstance(x, dict) and set(x) == {"re", "im"}
+                and all(_is_number(x[k]) for k in ("re", "im"))):
+            raise _fail(source, f'{where} must be {{"re": number, "im": number}} or null')
+        return complex(x["re"], x["im"])
+    if not _is_number(x):
+        raise _fail(source, f"{where} must be a number or null")
+    return float(x)
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool)
+
+
+def from_dict(data: dict, *, source: str = "<dict>", reduction, estimate, assumption):
+    """A :class:`~accelcal.results.Reduction` from its :func:`to_dict` form (JSON read back).
+
+    Read back: family, method, dof, every sensor's estimate (real or
+    complex), the shared estimate, assumptions, fixed and nominal values,
+    provenance and notes. Not read back, because the JSON holds only their
+    summary: residuals, identifiability, combinations, observations and
+    models; nor quantity overrides, which it does not hold. ``reduction``,
+    ``estimate`` and ``assumption`` are the classes to build, passed in by
+    :meth:`~accelcal.results.Reduction.from_dict` (this module does not
+    import :mod:`accelcal.results`, which calls it).
+
+    Raises
+    ------
+    AccelcalError
+        Naming ``source`` and what is malformed.
+    """
+    if not isinstance(data, dict) or not isinstance(data.get("sensors"), list):
+        raise _fail(source, "a reduction needs a list of 'sensors'")
+    method = data.get("method")
+    if not isinstance(method, str) or not isinstance(data.get("family"), str):
+        raise _fail(source, "family and method must be strings")
+    sensors = [estimate_from_dict(d, method=method, source=f"{source}: sensors[{i}]",
+                                  estimate=estimate)
+               for i, d in enumerate(data["sensors"])]
+    shared = data.get("shared")
+    try:
+        return reduction(
+            family=data["family"], method=method, sensors=tuple(sensors),
+            sensor_names=tuple(str(d.get("sensor") or f"U{i + 1}")
+                               for i, d in enumerate(data["sensors"])),
+            shared=None if shared is None else estimate_from_dict(
+                shared, method=method, source=f"{source}: shared", estimate=estimate),
+            dof=int(data.get("dof", 0)),
+            assumptions=tuple(
+                assumption(a["name"], tuple(a["value"]) if isinstance(a["value"], list)
+                           else a["value"], a.get("unit", ""), a.get("text", ""))
+                for a in data.get("assumptions", [])),
+            fixed=dict(data.get("fixed", {})),
+            nominal={k: tuple(v) if isinstance(v, list) else v
+                     for k, v in data.get("nominal", {}).items()},
+            provenance=dict(data.get("provenance", {})), notes=tuple(data.get("notes", [])),
+        )
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise _fail(source, f"not a reduction's JSON ({type(exc).__name__}: {exc})") from None
 
 
 def describe(reduction) -> list[str]:

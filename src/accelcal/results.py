@@ -30,7 +30,20 @@ from accelcal.identifiability import Combination, Identifiability
 
 
 def _frozen(a) -> np.ndarray:
-    arr = np.array(a, dtype=float)
+    """A read-only float copy, or complex where ``a`` is complex."""
+    arr = np.array(a)
+    arr = arr.astype(complex if arr.dtype.kind == "c" else float, copy=False)
+    arr.setflags(write=False)
+    return arr
+
+
+def _frozen_real(a, what: str) -> np.ndarray:
+    """A read-only float copy of a covariance (never complex: see :mod:`accelcal.polar`)."""
+    arr = np.array(a)
+    if arr.dtype.kind == "c":
+        raise ValueError(f"{what} must be real: a complex estimate's covariance is that of "
+                         "[Re x1, Im x1, Re x2, ...] (accelcal.polar)")
+    arr = arr.astype(float, copy=False)
     arr.setflags(write=False)
     return arr
 
@@ -44,11 +57,17 @@ class Estimate:
     names : tuple of str
         Parameter names, in the order of ``values``.
     values : numpy.ndarray
-        Estimates, shape ``(p,)``; NaN where a parameter is not identifiable.
+        Estimates, shape ``(p,)``, real or complex (a frequency response's
+        sensitivities); NaN where a parameter is not identifiable.
     covariance : numpy.ndarray
-        Covariance of the estimates, shape ``(p, p)``; NaN rows and columns
-        where a parameter is not identifiable. Infinite values are refused
-        (AccelcalError): an overflow is never passed on as a result.
+        Covariance of the estimates, always real: shape ``(p, p)`` for real
+        values; for complex values shape ``(2p, 2p)``, the covariance of
+        ``[Re x1, Im x1, Re x2, Im x2, ...]`` (GUM Supplement 2's real 2n
+        representation, :mod:`accelcal.polar`), so the correlation of the
+        real and imaginary parts and between coefficients is kept exactly.
+        NaN rows and columns where a parameter is not identifiable. Infinite
+        values are refused (AccelcalError): an overflow is never passed on
+        as a result.
     units : dict
         Unit of each parameter by name.
     method : str
@@ -61,6 +80,17 @@ class Estimate:
         Caveats for people to read; no code reads them.
     provenance : dict
         Inputs' description (settings).
+
+    Notes
+    -----
+    A complex coefficient's value (``est[name]``) is a Python ``complex``;
+    its standard uncertainty (``std``, ``std_of``) is that of its magnitude,
+    to first order from its 2x2 block (:func:`accelcal.polar.polar`), and
+    :meth:`polar` gives magnitude and phase with both uncertainties.
+
+    References
+    ----------
+    .. [1] JCGM 102:2011 (GUM Supplement 2), secs. 6.2.1.3 and 9.3.
     """
 
     names: tuple[str, ...]
@@ -75,11 +105,12 @@ class Estimate:
 
     def __post_init__(self) -> None:
         values = _frozen(self.values)
-        cov = _frozen(self.covariance)
+        cov = _frozen_real(self.covariance, "Estimate: the covariance")
         p = len(self.names)
-        if values.shape != (p,) or cov.shape != (p, p):
+        n = 2 * p if values.dtype.kind == "c" else p
+        if values.shape != (p,) or cov.shape != (n, n):
             raise ValueError(
-                f"Estimate: {p} names need values of shape ({p},) and covariance ({p}, {p}); "
+                f"Estimate: {p} names need values of shape ({p},) and covariance ({n}, {n}); "
                 f"got {values.shape} and {cov.shape}"
             )
         if np.isinf(values).any() or np.isinf(cov).any():
@@ -94,25 +125,72 @@ class Estimate:
             object.__setattr__(self, "residuals", _frozen(self.residuals))
 
     @property
+    def is_complex(self) -> bool:
+        """True when the values are complex (covariance of shape ``(2p, 2p)``)."""
+        return self.values.dtype.kind == "c"
+
+    @property
     def std(self) -> np.ndarray:
-        """Standard uncertainties (square roots of the covariance diagonal)."""
+        """Standard uncertainties: square roots of the covariance diagonal.
+
+        For complex values, those of the magnitudes (:meth:`polar`).
+        """
+        if self.is_complex:
+            return self.polar().magnitude_std
         return np.sqrt(np.diag(self.covariance))
 
-    def __getitem__(self, name: str) -> float:
-        """The estimate of parameter ``name``."""
-        return float(self.values[self.names.index(name)])
+    def __getitem__(self, name: str) -> float | complex:
+        """The estimate of parameter ``name`` (a ``complex`` for complex values)."""
+        value = self.values[self.names.index(name)]
+        return complex(value) if isinstance(value, np.complexfloating) else float(value)
 
     def std_of(self, name: str) -> float:
-        """The standard uncertainty of parameter ``name``."""
+        """The standard uncertainty of parameter ``name`` (of its magnitude, if complex)."""
         i = self.names.index(name)
+        if self.is_complex:
+            return float(self.std[i])
         return float(np.sqrt(self.covariance[i, i]))
 
-    def as_dict(self) -> dict[str, float]:
+    def block(self, name: str) -> np.ndarray:
+        """The 2x2 covariance of ``(Re, Im)`` of a complex parameter ``name``."""
+        from accelcal.polar import stacked_index
+
+        if not self.is_complex:
+            raise ValueError(f"{self.method}: {name} is real; block() is for complex values")
+        rows = stacked_index([self.names.index(name)])
+        return self.covariance[np.ix_(rows, rows)]
+
+    def polar(self):
+        """Magnitudes, phases (rad) and their first-order standard uncertainties.
+
+        Returns
+        -------
+        accelcal.polar.Polar
+            Real values read as complex with a zero-variance imaginary part.
+        """
+        from accelcal.polar import polar
+
+        if self.is_complex:
+            return polar(self.values, self.covariance)
+        cov = np.zeros((2 * len(self.names),) * 2)
+        cov[::2, ::2] = self.covariance
+        return polar(self.values, cov)
+
+    def as_dict(self) -> dict[str, float | complex]:
         """Estimates by name."""
         return dict(zip(self.names, self.values.tolist(), strict=True))
 
     def rows(self) -> list[dict]:
-        """One dict per parameter: name, estimate, std, unit (for tables and files)."""
+        """One dict per parameter: name, estimate, std, unit (for tables and files).
+
+        A complex parameter's ``estimate`` and ``std`` are its magnitude's;
+        its row adds the keys of :func:`accelcal.outputs.complex_columns`.
+        """
+        if self.is_complex:
+            from accelcal.outputs import complex_columns
+
+            return [{"coefficient": n, **columns, "unit": self.units.get(n, "")}
+                    for n, columns in zip(self.names, complex_columns(self), strict=True)]
         return [
             {"coefficient": n, "estimate": float(v), "std": float(s), "unit": self.units.get(n, "")}
             for n, v, s in zip(self.names, self.values, self.std, strict=True)
@@ -125,9 +203,14 @@ class Estimate:
         return pd.DataFrame(self.rows()).set_index("coefficient")
 
     def residual_sigma(self) -> float:
-        """Residual standard deviation ``sqrt(r'r / dof)`` (0 without residuals or dof)."""
+        """Residual standard deviation ``sqrt(r'r / dof)`` (0 without residuals or dof).
+
+        Complex residuals give ``sqrt(sum |r|^2 / dof)``.
+        """
         if self.residuals is None or not self.dof:
             return 0.0
+        if self.residuals.dtype.kind == "c":
+            return float(np.sqrt(np.sum(np.abs(self.residuals) ** 2) / self.dof))
         return float(np.sqrt(np.sum(self.residuals**2) / self.dof))
 
 
@@ -187,6 +270,8 @@ class Reduction:
     covariance : numpy.ndarray or None
         Full covariance of ``[sensor 1 coefficients, ..., shared]`` where the
         sensors are correlated (joint reductions); None when independent.
+        Always real: a complex estimate's coefficients take two rows each
+        (real and imaginary part, as in :class:`Estimate`).
     dof : int
         Degrees of freedom of the variance estimate behind the covariance
         (0 when the noise was given, not estimated).
@@ -246,7 +331,8 @@ class Reduction:
         object.__setattr__(self, "sensors", sensors)
         object.__setattr__(self, "sensor_names", names)
         if self.covariance is not None:
-            object.__setattr__(self, "covariance", _frozen(self.covariance))
+            object.__setattr__(self, "covariance",
+                               _frozen_real(self.covariance, "Reduction: the covariance"))
         obs = {k: (_frozen(v) if not isinstance(v, str) else v)
                for k, v in self.observations.items()}
         object.__setattr__(self, "observations", obs)
@@ -266,12 +352,16 @@ class Reduction:
         """The one sensor's estimate (the first sensor's when there are several)."""
         return self.sensors[0]
 
-    def value(self, name: str, sensor: int = 0) -> float:
-        """Estimate of coefficient ``name`` of sensor ``sensor``."""
+    def value(self, name: str, sensor: int = 0) -> float | complex:
+        """Estimate of coefficient ``name`` of sensor ``sensor`` (a ``complex`` if complex)."""
         return self.sensors[sensor][name]
 
     def std(self, name: str, sensor: int = 0) -> float:
-        """Standard uncertainty of coefficient ``name`` of sensor ``sensor``."""
+        """Standard uncertainty of coefficient ``name`` of sensor ``sensor``.
+
+        For a complex coefficient, that of its magnitude (first order; the
+        phase's is in :meth:`Estimate.polar` and in :meth:`rows`).
+        """
         return self.sensors[sensor].std_of(name)
 
     def residuals(self) -> np.ndarray:
@@ -315,7 +405,7 @@ class Reduction:
         """
         est = self.sensors[sensor]
         for name in ("K_I", "K1"):
-            if name in est.names and np.isfinite(est[name]):
+            if name in est.names and not est.is_complex and np.isfinite(est[name]):
                 return est[name]
         value = self.assumed("scale_factor")
         return float(value) if isinstance(value, int | float) else None
@@ -327,7 +417,10 @@ class Reduction:
         Keys: ``sensor, coefficient, estimate, std, unit, status, dof`` and,
         where a coefficient has engineering units (:mod:`accelcal.engineering`),
         ``eng_estimate, eng_std, eng_unit`` (the first of them) and
-        ``engineering`` (all of them, as a list of dicts).
+        ``engineering`` (all of them, as a list of dicts). A complex
+        coefficient's ``estimate`` and ``std`` are its magnitude's; its row
+        adds ``real, imag, real_std, imag_std, magnitude, magnitude_std,
+        phase_deg, phase_std_deg`` (:func:`accelcal.outputs.complex_columns`).
         """
         from accelcal.outputs import reduction_rows
 
@@ -351,6 +444,21 @@ class Reduction:
         import json
 
         return json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
+
+    @classmethod
+    def from_dict(cls, data: dict, *, source: str = "<dict>") -> "Reduction":
+        """Read :meth:`to_dict` back: see :func:`accelcal.outputs.from_dict`."""
+        from accelcal.outputs import from_dict
+
+        return from_dict(data, source=source, reduction=cls, estimate=Estimate,
+                         assumption=Assumption)
+
+    @classmethod
+    def from_json(cls, text: str, *, source: str = "<string>") -> "Reduction":
+        """Read :meth:`to_json` back (decoded with the bounded JSON reader)."""
+        from accelcal.io.limits import load_json
+
+        return cls.from_dict(load_json(text, source), source=source)
 
     def to_records(self, info, *, input_files=(), date: str | None = None) -> list:
         """One calibration record per sensor (:func:`accelcal.calibration.records`)."""

@@ -33,6 +33,27 @@ record says exactly which data it came from; ``simulated`` is true when
 they are simulated (a rig simulator or the demo wrote them). ``dof`` and
 ``simulated`` are optional on reading (records written before them load,
 as dof unknown and not simulated).
+
+Complex coefficients (a frequency response's sensitivities) are written as
+``format_version`` 2 with ``"complex": true``; a record of real
+coefficients is still written as version 1, byte for byte as before, and
+both versions are read. In version 2 every ``estimate`` is
+``{"re": .., "im": ..}``, ``std`` and ``expanded`` are the magnitude's,
+``magnitude``, ``phase_deg``, ``phase_std_deg`` and ``phase_expanded_deg``
+are added (derived, like ``std`` and ``expanded``: recomputed on reading),
+and ``covariance`` is the ``2p x 2p`` covariance of ``[Re x1, Im x1, Re x2,
+...]`` (:mod:`accelcal.polar`)::
+
+    {"format_version": 2, ..., "complex": true,
+     "coefficients": [{"name": "S_80Hz", "unit": "V/g",
+                       "estimate": {"re": 1.0012, "im": -0.0213},
+                       "std": 4.1e-4, "expanded": 8.2e-4, "magnitude": 1.0014,
+                       "phase_deg": -1.219, "phase_std_deg": 0.023,
+                       "phase_expanded_deg": 0.046}],
+     "covariance": [[1.7e-7, 2.0e-9], [2.0e-9, 1.6e-7]], ...}
+
+An accelcal that reads only version 1 refuses such a record by its version
+instead of misreading its covariance.
 """
 
 import datetime as _dt
@@ -49,16 +70,21 @@ from accelcal.io.atomic import write_text_atomic
 from accelcal.io.limits import MAX_JSON_BYTES, check_regular_file, load_json, read_bounded
 from accelcal.method_ids import canonical
 from accelcal.model import ErrorModel
+from accelcal.polar import Polar, polar, real_names
 from accelcal.validation import check_label, is_finite_number, shown, shown_name
 
 FORMAT_VERSION = 1
+COMPLEX_FORMAT_VERSION = 2
+"""The version of a record of complex coefficients (real ones stay version 1)."""
 KIND = "accelcal.CalibrationRecord"
 _KEYS = {
     "format_version", "kind", "serial", "method", "date", "software", "operator",
     "coverage_factor", "coefficients", "covariance", "model", "inputs", "notes",
 }
-_OPTIONAL_KEYS = {"dof", "simulated"}
+_OPTIONAL_KEYS = {"dof", "simulated", "complex"}
 _COEFFICIENT_KEYS = {"name", "unit", "estimate", "std", "expanded"}
+_POLAR_KEYS = ("magnitude", "phase_deg", "phase_std_deg", "phase_expanded_deg")
+"""Keys a complex coefficient adds, derived from its estimate and 2x2 block."""
 _LABELS = (("serial", "serial number", 200), ("method", "method", 200),
            ("software", "software", 100), ("operator", "operator", 200))
 """Text fields, what they are called in messages and their longest length: the
@@ -92,9 +118,10 @@ class CalibrationRecord:
     names : tuple of str
         Coefficient names.
     estimates : numpy.ndarray
-        Estimates, shape ``(p,)``.
+        Estimates, shape ``(p,)``, real or complex.
     covariance : numpy.ndarray
-        Covariance, shape ``(p, p)``.
+        Covariance, shape ``(p, p)``; for complex estimates ``(2p, 2p)``,
+        that of ``[Re x1, Im x1, Re x2, ...]`` (:mod:`accelcal.polar`).
     units : dict
         Unit of each coefficient.
     date : str
@@ -147,13 +174,18 @@ class CalibrationRecord:
             check_label(name, "calibration record: coefficient name", limit=_NAME_LENGTH)
             check_label(self.units.get(name, ""), f"calibration record: unit of {name}",
                         limit=_UNIT_LENGTH)
-        est = np.asarray(self.estimates, dtype=float)
+        complex_ = np.iscomplexobj(self.estimates)
+        est = np.asarray(self.estimates, dtype=complex if complex_ else float)
+        if np.iscomplexobj(self.covariance):
+            raise AccelcalError("calibration record: the covariance must be real (that of "
+                                "[Re x1, Im x1, ...] for complex estimates)")
         cov = np.asarray(self.covariance, dtype=float)
         p = len(self.names)
-        if est.shape != (p,) or cov.shape != (p, p):
+        n = 2 * p if complex_ else p
+        if est.shape != (p,) or cov.shape != (n, n):
             raise AccelcalError(
                 f"calibration record: {p} coefficients need estimates ({p},) and covariance "
-                f"({p}, {p}); got {est.shape} and {cov.shape}"
+                f"({n}, {n}); got {est.shape} and {cov.shape}"
             )
         if not np.isfinite(est).all():
             raise AccelcalError("calibration record: estimates must be finite")
@@ -163,7 +195,7 @@ class CalibrationRecord:
                 "(NaN marks an unknown one); the uncertainties could not be determined, check "
                 "the inputs for values out of range"
             )
-        _check_covariance(cov, self.names)
+        _check_covariance(cov, real_names(self.names) if complex_ else self.names)
         if not (self.coverage_factor > 0 and math.isfinite(self.coverage_factor)):
             raise AccelcalError("calibration record: coverage_factor must be positive")
         _parse_date(self.date, "calibration record")
@@ -173,14 +205,27 @@ class CalibrationRecord:
         object.__setattr__(self, "notes", tuple(self.notes))
 
     @property
+    def is_complex(self) -> bool:
+        """True for complex estimates (``format_version`` 2)."""
+        return self.estimates.dtype.kind == "c"
+
+    @property
     def std(self) -> np.ndarray:
-        """Standard uncertainties."""
+        """Standard uncertainties (of the magnitudes, for complex estimates)."""
+        if self.is_complex:
+            return self.polar().magnitude_std
         return np.sqrt(np.diag(self.covariance))
 
     @property
     def expanded(self) -> np.ndarray:
         """Expanded uncertainties, ``coverage_factor * std``."""
         return self.coverage_factor * self.std
+
+    def polar(self) -> Polar:
+        """Magnitudes and phases (rad) of complex estimates with first-order uncertainties."""
+        if not self.is_complex:
+            raise AccelcalError("calibration record: polar() is for complex estimates")
+        return polar(self.estimates, self.covariance)
 
     @classmethod
     def from_estimate(
@@ -209,9 +254,19 @@ class CalibrationRecord:
         )
 
     def to_dict(self) -> dict:
-        """The record as a JSON-ready dict in the current format."""
-        return {
-            "format_version": FORMAT_VERSION,
+        """The record as a JSON-ready dict (format 2 for complex estimates, else 1)."""
+        if self.is_complex:
+            version, coefficients = COMPLEX_FORMAT_VERSION, self._complex_coefficients()
+        else:
+            version, coefficients = FORMAT_VERSION, [
+                {"name": n, "unit": self.units.get(n, ""), "estimate": float(v),
+                 "std": float(s), "expanded": float(u)}
+                for n, v, s, u in zip(
+                    self.names, self.estimates, self.std, self.expanded, strict=True
+                )
+            ]
+        data = {
+            "format_version": version,
             "kind": KIND,
             "serial": self.serial,
             "method": self.method,
@@ -219,13 +274,7 @@ class CalibrationRecord:
             "software": self.software,
             "operator": self.operator,
             "coverage_factor": self.coverage_factor,
-            "coefficients": [
-                {"name": n, "unit": self.units.get(n, ""), "estimate": float(v),
-                 "std": float(s), "expanded": float(u)}
-                for n, v, s, u in zip(
-                    self.names, self.estimates, self.std, self.expanded, strict=True
-                )
-            ],
+            "coefficients": coefficients,
             "covariance": self.covariance.tolist(),
             "model": self.model.to_dict() if self.model is not None else None,
             "inputs": dict(self.inputs),
@@ -233,6 +282,22 @@ class CalibrationRecord:
             "dof": self.dof,
             "simulated": bool(self.simulated),
         }
+        if self.is_complex:
+            data["complex"] = True
+        return data
+
+    def _complex_coefficients(self) -> list[dict]:
+        """The ``coefficients`` of format 2: estimate as ``{"re", "im"}``, magnitude, phase."""
+        pol, k = self.polar(), self.coverage_factor
+        return [
+            {"name": n, "unit": self.units.get(n, ""), "estimate": {"re": v.real, "im": v.imag},
+             "std": float(s), "expanded": float(k * s), "magnitude": float(m),
+             "phase_deg": math.degrees(ph), "phase_std_deg": math.degrees(phs),
+             "phase_expanded_deg": math.degrees(k * phs)}
+            for n, v, m, s, ph, phs in zip(self.names, self.estimates.tolist(), pol.magnitude,
+                                           pol.magnitude_std, pol.phase, pol.phase_std,
+                                           strict=True)
+        ]
 
     def to_json(self) -> str:
         """The record as JSON text (NaN covariance entries written as null)."""
@@ -240,8 +305,8 @@ class CalibrationRecord:
         data["covariance"] = [[None if math.isnan(x) else x for x in row]
                               for row in data["covariance"]]
         for c in data["coefficients"]:
-            for key in ("std", "expanded"):
-                if math.isnan(c[key]):
+            for key in ("std", "expanded", *_POLAR_KEYS):
+                if key in c and math.isnan(c[key]):
                     c[key] = None
         return json.dumps(data, indent=2, allow_nan=False) + "\n"
 
@@ -294,11 +359,16 @@ def _from_dict(data, source: str) -> CalibrationRecord:
     if data["kind"] != KIND:
         raise fail(f"kind is {shown(data['kind'])}, expected {KIND!r}")
     version = data["format_version"]
-    if isinstance(version, bool) or version != FORMAT_VERSION:
+    if isinstance(version, bool) or version not in (FORMAT_VERSION, COMPLEX_FORMAT_VERSION):
         raise fail(
             f"format_version {shown(version)} is not supported (this accelcal reads "
-            f"{FORMAT_VERSION})"
+            f"{FORMAT_VERSION} and {COMPLEX_FORMAT_VERSION})"
         )
+    complex_ = data.get("complex", False)
+    if not isinstance(complex_, bool) or complex_ != (version == COMPLEX_FORMAT_VERSION):
+        raise fail(f'format_version {COMPLEX_FORMAT_VERSION} is that of complex coefficients, '
+                   f'with "complex": true (and only it); this record has format_version '
+                   f'{version} and complex {shown(complex_)}')
     for key in ("serial", "method", "date", "software", "operator"):
         if not isinstance(data[key], str):
             raise fail(f"{key} must be a string")
@@ -306,12 +376,19 @@ def _from_dict(data, source: str) -> CalibrationRecord:
     if not isinstance(coefficients, list) or not coefficients:
         raise fail("coefficients must be a non-empty list")
     names, units, values = [], {}, []
+    keys = _COEFFICIENT_KEYS | set(_POLAR_KEYS) if complex_ else _COEFFICIENT_KEYS
     for i, c in enumerate(coefficients):
-        if not isinstance(c, dict) or set(c) != _COEFFICIENT_KEYS:
-            raise fail(f"coefficients[{i}] must have exactly the keys {sorted(_COEFFICIENT_KEYS)}")
-        if not is_finite_number(c["estimate"]):
+        if not isinstance(c, dict) or set(c) != keys:
+            raise fail(f"coefficients[{i}] must have exactly the keys {sorted(keys)}")
+        if complex_:
+            x = c["estimate"]
+            if not (isinstance(x, dict) and set(x) == {"re", "im"}
+                    and is_finite_number(x["re"]) and is_finite_number(x["im"])):
+                raise fail(f'coefficients[{i}].estimate must be {{"re": number, "im": number}}'
+                           " of finite numbers")
+        elif not is_finite_number(c["estimate"]):
             raise fail(f"coefficients[{i}].estimate must be a finite number")
-        for key in ("std", "expanded"):
+        for key in ("std", "expanded", *(_POLAR_KEYS if complex_ else ())):
             if not (c[key] is None or is_finite_number(c[key])):
                 raise fail(f"coefficients[{i}].{key} must be a finite number or null")
         for key in ("name", "unit"):
@@ -319,7 +396,8 @@ def _from_dict(data, source: str) -> CalibrationRecord:
                 raise fail(f"coefficients[{i}].{key} must be a string")
         names.append(c["name"])
         units[c["name"]] = c["unit"]
-        values.append(float(c["estimate"]))
+        values.append(complex(c["estimate"]["re"], c["estimate"]["im"]) if complex_
+                      else float(c["estimate"]))
     rows = data["covariance"]
     if not (isinstance(rows, list) and all(
             isinstance(row, list) and all(x is None or is_finite_number(x) for x in row)

@@ -4,7 +4,10 @@ A report is built from structured results, never from printed text: one
 :class:`Section` per calibration or study, each with its calibration record
 (coefficients with standard and expanded uncertainties, covariance as
 correlations), notes (identifiability, assumptions), errata notes where a
-paper's method was corrected, and figures embedded as inline SVG. The page
+paper's method was corrected, and figures embedded as inline SVG. A complex
+coefficient (a frequency response's sensitivity) shows its magnitude and
+phase, each with its standard and expanded uncertainty, and its real and
+imaginary parts; its correlations are those of the real and imaginary parts. The page
 has no script and no external resource, so it reads offline and prints as
 it shows. Every string that came from a user (serial, operator, file names,
 notes) is HTML-escaped by the template engine (jinja2 autoescaping).
@@ -24,6 +27,7 @@ from accelcal.formatting import (
     format_value,
 )
 from accelcal.io.atomic import write_text_atomic
+from accelcal.polar import real_names
 
 
 @dataclass(frozen=True)
@@ -137,25 +141,44 @@ def _view(section: Section, number: int) -> dict:
     if rec is not None:
         std = rec.std
         k1 = _record_scale_factor(rec)
+        sd = np.sqrt(np.diag(rec.covariance)) if rec.is_complex else std  # of Re, Im
         with np.errstate(invalid="ignore", divide="ignore"):
-            corr = rec.covariance / np.outer(std, std)
+            corr = rec.covariance / np.outer(sd, sd)
         view["record"] = {
             "serial": rec.serial, "method": rec.method, "date": rec.date,
             "operator": rec.operator, "software": rec.software,
             "coverage_factor": rec.coverage_factor, "inputs": dict(rec.inputs),
             "dof": rec.dof, "simulated": rec.simulated,
             "notes": list(rec.notes),
-            "coefficients": [
+            "coefficients": _complex_coefficients(rec) if rec.is_complex else [
                 {"name": n, "unit": rec.units.get(n, ""), "estimate": float(v),
                  "std": float(s), "expanded": float(u),
                  "engineering": engineering_text(n, float(v), float(s), rec.units.get(n, ""),
-                                                 scale_factor=k1)}
+                                                 scale_factor=k1), "polar": None}
                 for n, v, s, u in zip(rec.names, rec.estimates, std, rec.expanded, strict=True)
             ],
-            "correlation": corr.tolist() if len(rec.names) <= 10 else None,
-            "names": list(rec.names),
+            "correlation": corr.tolist() if len(corr) <= 10 else None,
+            "names": list(real_names(rec.names) if rec.is_complex else rec.names),
         }
     return view
+
+
+def _complex_coefficients(rec) -> list[dict]:
+    """A complex record's coefficients: magnitude and phase (deg) with uncertainties.
+
+    ``estimate``, ``std`` and ``expanded`` are the magnitude's; ``polar``
+    adds the phase's and the real and imaginary parts.
+    """
+    pol, k = rec.polar(), rec.coverage_factor
+    return [
+        {"name": n, "unit": rec.units.get(n, ""), "estimate": float(m), "std": float(s),
+         "expanded": float(k * s), "engineering": "",
+         "polar": {"phase": float(np.degrees(ph)), "phase_std": float(np.degrees(phs)),
+                   "phase_expanded": float(np.degrees(k * phs)),
+                   "real": float(v.real), "imag": float(v.imag)}}
+        for n, v, m, s, ph, phs in zip(rec.names, rec.estimates, pol.magnitude,
+                                       pol.magnitude_std, pol.phase, pol.phase_std, strict=True)
+    ]
 
 
 def engineering_text(name, value, std, unit, *, scale_factor=None) -> str:
@@ -168,6 +191,8 @@ def engineering_text(name, value, std, unit, *, scale_factor=None) -> str:
 
 def _record_scale_factor(rec) -> float | None:
     """A record's scale factor in output unit per g: its K_I or K1, else its model's K1."""
+    if rec.is_complex:
+        return None
     for name in ("K_I", "K1"):
         if name in rec.names:
             return float(rec.estimates[rec.names.index(name)])

@@ -150,16 +150,20 @@ def with_record_numbers(reduction, records, order):
     """``reduction`` with each given record's estimates and covariance in its sensor's place.
 
     The re-reduced numbers agree with the record's to :data:`MATCH_RTOL`; the
-    record's are the ones reported, bit for bit.
+    record's are the ones reported, bit for bit. A complex coefficient takes
+    its two covariance rows (real and imaginary part, :mod:`accelcal.polar`).
     """
+    from accelcal.polar import stacked_index
+
     sensors = list(reduction.sensors)
     for rec, k in zip(records, order, strict=True):
         est = sensors[k]
         idx = [est.names.index(n) for n in rec.names]
-        values = np.array(est.values, dtype=float)
+        rows = stacked_index(idx) if est.is_complex else idx
+        values = np.array(est.values)
         cov = np.array(est.covariance, dtype=float)
         values[idx] = rec.estimates
-        cov[np.ix_(idx, idx)] = rec.covariance
+        cov[np.ix_(rows, rows)] = rec.covariance
         sensors[k] = dataclasses.replace(est, values=values, covariance=cov)
     return dataclasses.replace(reduction, sensors=tuple(sensors))
 

@@ -16,7 +16,7 @@ References
 
 import numpy as np
 
-from accelcal.formatting import format_engineering, format_unit, pm
+from accelcal.formatting import format_engineering, format_unit, pm, pm_polar
 from accelcal.report import Figure, Section, figure_svg
 
 ERRATA_SEE = "Details, checks and the code that implements each correction: docs/errata.md"
@@ -112,6 +112,7 @@ def overview_rows(reduction, records) -> list[dict]:
     """Coefficient x sensor table: ``value ± std``, the first engineering unit below it.
 
     The sensors' own sections show every engineering unit (e.g. arcsec beside µrad).
+    A complex coefficient shows ``magnitude ± std ∠ phase ± std°``.
     """
     from accelcal.outputs import reduction_rows
 
@@ -131,8 +132,12 @@ def overview_rows(reduction, records) -> list[dict]:
             if r["status"] == "not identifiable":
                 row[head] = "not identifiable"
                 continue
-            cell = pm(r["estimate"], r["std"]) if r["status"] == "fitted" else \
-                f"{r['estimate']:.6g} (fixed)"
+            if "phase_deg" in r and r["status"] == "fitted":  # complex: magnitude and phase
+                cell = pm_polar(r["magnitude"], r["magnitude_std"], r["phase_deg"],
+                                r["phase_std_deg"])
+            else:
+                cell = pm(r["estimate"], r["std"]) if r["status"] == "fitted" else \
+                    f"{r['estimate']:.6g} (fixed)"
             eng = format_engineering(r["engineering"][:1])
             row[head] = f"{cell}\n({eng})" if eng and r["status"] == "fitted" else cell
         table.append(row)

@@ -19,7 +19,7 @@ they give (IEEE 952 Annex C, Eq. (C.1)-(C.5) [IEEE952]_)::
 
 exactly for Q, N and R; the sampled random walk adds ``K^2 tau0^2 / (6 tau)``
 (a white-noise share, ``(2 m^2 + 1) / (2 m^2)`` of ``K^2 tau / 3`` at
-``tau = m tau0``, derived in ``tests/test_noise_rig.py``).
+``tau = m tau0``, derived in ``tests/methods/noise/test_noise_rig.py``).
 
 Bias instability model (stated)
     A sum of first-order Gauss-Markov (AR(1)) processes with correlation

@@ -14,8 +14,10 @@ Tables (:mod:`accelcal.store.schema`): ``calibrations``, one row per record
 (``uid``, the SHA-256 of the record's JSON, unique, so the same record is
 stored once; ``serial``, ``method``, ``date`` in UTC, ``software``,
 ``record_json``, ``simulated``) and ``coefficients``, one row per
-coefficient. Listing reads only the columns it shows, and
-:meth:`Store.stats` reads the columns of its statistics once.
+coefficient (a complex one as its magnitude, with its real and imaginary
+parts beside; its full covariance is in the record's JSON). Listing reads
+only the columns it shows, and :meth:`Store.stats` reads the columns of its
+statistics once.
 
 References
 ----------
@@ -256,9 +258,10 @@ class Store:
                 if stored is None:
                     ids = dict(conn.execute(sa.insert(cal).returning(cal.c.uid, cal.c.id),
                                             rows).all())
+                    parts = any(record.is_complex for record in records)
                     conn.execute(sa.insert(coef), [
                         c for row, record in zip(rows, records, strict=True)
-                        for c in coefficient_rows(ids[row["uid"]], record)
+                        for c in coefficient_rows(ids[row["uid"]], record, parts=parts)
                     ])
         except sa.exc.IntegrityError:
             # Another writer stored one of these records meanwhile (PostgreSQL; SQLite

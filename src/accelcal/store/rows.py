@@ -56,11 +56,28 @@ def former_uids(row: dict) -> tuple[str, ...]:
         for old in spellings(row["method"])[1:])
 
 
-def coefficient_rows(row_id: int, record: CalibrationRecord) -> list[dict]:
-    """The ``coefficients`` rows of a record stored as calibration ``row_id``."""
-    return [{"calibration_id": row_id, "name": n, "unit": record.units.get(n, ""),
+def coefficient_rows(row_id: int, record: CalibrationRecord, *, parts: bool = False
+                     ) -> list[dict]:
+    """The ``coefficients`` rows of a record stored as calibration ``row_id``.
+
+    A complex coefficient's ``estimate`` and ``std`` are its magnitude's and
+    ``estimate_re``, ``estimate_im`` its parts (schema 4). Those two keys are
+    in every row with ``parts`` (None for real coefficients: one batch's rows
+    must have the same keys), and in none without it (a batch of real
+    records inserts as before).
+    """
+    if record.is_complex:
+        return [{"calibration_id": row_id, "name": n, "unit": record.units.get(n, ""),
+                 "estimate": float(abs(v)), "std": None if math.isnan(s) else float(s),
+                 "estimate_re": float(v.real), "estimate_im": float(v.imag)}
+                for n, v, s in zip(record.names, record.estimates, record.std, strict=True)]
+    rows = [{"calibration_id": row_id, "name": n, "unit": record.units.get(n, ""),
              "estimate": float(v), "std": None if math.isnan(s) else float(s)}
             for n, v, s in zip(record.names, record.estimates, record.std, strict=True)]
+    if parts:
+        for row in rows:
+            row.update(estimate_re=None, estimate_im=None)
+    return rows
 
 
 def utc(date: str) -> str:

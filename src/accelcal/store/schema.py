@@ -11,9 +11,15 @@ Schema versions:
    ``coefficients (calibration_id, id)`` for the coefficients of each
    calibration in their order. The single-column ``calibrations (serial)``
    index of schemas 1-2 is dropped: ``(serial, date)`` serves its look-ups.
+4. ``coefficients.estimate_re`` and ``coefficients.estimate_im`` (nullable):
+   the real and imaginary parts of a complex coefficient (a frequency
+   response's sensitivity), NULL for a real one. A complex coefficient's
+   ``estimate`` and ``std`` are its magnitude and the magnitude's standard
+   uncertainty, so ``history`` and ``stats`` follow the magnitude; its full
+   covariance is in ``record_json``.
 """
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 
 INDEXES = {
     "calibrations": {
@@ -59,6 +65,8 @@ def tables(sa) -> dict:
             sa.Column("unit", sa.String(40), nullable=False),
             sa.Column("estimate", sa.Float, nullable=False),
             sa.Column("std", sa.Float, nullable=True),
+            sa.Column("estimate_re", sa.Float, nullable=True),
+            sa.Column("estimate_im", sa.Float, nullable=True),
         ),
     }
     for table, indexes in INDEXES.items():
@@ -104,7 +112,20 @@ def _migrate_to_3(conn, meta) -> None:
         conn.execute(sa.text(f"DROP INDEX IF EXISTS {name}"))
 
 
-MIGRATIONS = {1: _migrate_to_1, 2: _migrate_to_2, 3: _migrate_to_3}
+def _migrate_to_4(conn, meta) -> None:
+    """Schema 4: ``coefficients.estimate_re`` and ``estimate_im`` (complex coefficients).
+
+    A store of schema 3 gains both columns, NULL for its records (all real).
+    """
+    import sqlalchemy as sa
+
+    columns = {c["name"] for c in sa.inspect(conn).get_columns("coefficients")}
+    for name in ("estimate_re", "estimate_im"):
+        if name not in columns:
+            conn.execute(sa.text(f"ALTER TABLE coefficients ADD COLUMN {name} FLOAT"))
+
+
+MIGRATIONS = {1: _migrate_to_1, 2: _migrate_to_2, 3: _migrate_to_3, 4: _migrate_to_4}
 """Schema version -> function bringing the previous version to it."""
 
 

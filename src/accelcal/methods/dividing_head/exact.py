@@ -23,7 +23,7 @@ smooth integral evaluated by the trapezoidal rule in ``log t``. Uniform
 head errors enter the formal SDs as Gaussian errors of the same variance,
 an approximation: where they dominate a method's residuals (``single``,
 ``four`` with Dong2014's 2 arcsec head) the mean formal SD differs from the
-uniform model's by up to about 1 % (``tests/test_dividing_head_exact.py``).
+uniform model's by up to about 1 % (``tests/methods/dividing_head/test_dividing_head_exact.py``).
 Four's formal SD pools the sensors' noise variances in a trial where an
 unbiased one comes out negative (a few % of the trials); the closed form
 takes the unpooled variances, within about 1 % of the study's mean.

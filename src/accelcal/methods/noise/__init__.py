@@ -18,6 +18,8 @@ The package:
     :func:`stream_deviation`, :func:`stream_fit`: long records in bounded memory.
 :mod:`~accelcal.methods.noise.stability`
     :func:`run_to_run`: turn-on to turn-on repeatability beside in-run stability.
+:mod:`~accelcal.methods.noise.export`
+    :func:`noise_yaml`: N and K as Kalibr's imu.yaml (``noise fit --export``).
 :mod:`~accelcal.methods.noise.figures`
     :func:`figures`: deviation plot with bars and fitted terms, PSD plot.
 
@@ -70,6 +72,18 @@ def report_text(reduction) -> ReportText:
     stability = reduction.assumed("run_to_run")
     extra = (f" Turn-on to turn-on bias repeatability {stability:.3g} {prov.get('unit', '')} "
              "(SD of the run means) beside the in-run stability B." if stability else "")
+    fits = reduction.assumed("model_fits", True)
+    gof = reduction.assumed("goodness_of_fit")
+    bound = reduction.assumed("at_bound", ())
+    if gof is not None:
+        extra += (f" Goodness of fit chi^2 = {gof[0]:.3g} on {gof[1]} dof (Birge ratio "
+                  f"{reduction.assumed('birge_ratio'):.3g}): "
+                  + ("the noise model describes the record." if fits else
+                     "the noise model does NOT describe the record; the uncertainties are "
+                     "multiplied by the Birge ratio, and the figure shows where the fitted "
+                     "curve leaves the measured intervals."))
+    if bound:
+        extra += f" At the bound 0 (not resolved by the data): {', '.join(bound)}."
     return ReportText(
         title="noise and stability (still recording)",
         summary=(f"Still recording of {hours:.3g} h at {prov.get('rate_hz', 0):g} Hz; "

@@ -60,7 +60,11 @@ def figures(reduction, **context) -> list[tuple]:
                 label="overlapping ADEV")
     grid = np.geomspace(tau[0], tau[-1], 200)
     values = {k: v for k, v in est.as_dict().items() if k in STYLES}
-    ax.plot(grid, np.sqrt(model_avar(values, grid)), "-", color="0.3", lw=1.5, label="fit")
+    gof = reduction.assumed("goodness_of_fit")
+    label = "fit" if gof is None else (
+        f"fit: χ² = {gof[0]:.3g} on {gof[1]} dof"
+        + ("" if reduction.assumed("model_fits", True) else " (model does not fit)"))
+    ax.plot(grid, np.sqrt(model_avar(values, grid)), "-", color="0.3", lw=1.5, label=label)
     for name, value in values.items():
         if value > 0:
             color, label = STYLES[name]

@@ -22,7 +22,7 @@ R      2 R^2 / (2 pi f)^3          ramp (IEEE 952's two-sided R^2/(2 pi f)^3, do
 
 So white noise of SD ``sigma`` at ``fs`` Hz has ``N = sigma / sqrt(fs)`` and a
 one-sided Welch level ``2 sigma^2 / fs = 2 N^2`` (the variance spread over
-0..fs/2), tested in ``tests/test_noise_fit.py``.
+0..fs/2), tested in ``tests/methods/noise/test_noise_fit.py``.
 
 References
 ----------

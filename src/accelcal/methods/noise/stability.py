@@ -95,7 +95,8 @@ def from_store(store, serial: str) -> Reduction:
     records = [rec for _, rec in pairs]
     if len(records) < 2:
         raise AccelcalError(f"the store holds {len(records)} noise fit(s) with bias and B of "
-                            f"{serial}; run-to-run repeatability needs two or more",
+                            f"{serial}; run-to-run repeatability needs two or more (fit "
+                            "each run with --terms N,B,K: the default N,K has no B)",
                             parameter="serial")
 
     def column(name):

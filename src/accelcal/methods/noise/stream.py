@@ -102,7 +102,7 @@ def phase_of(y) -> np.ndarray:
 def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None):  # noqa: PLR0917
     from accelcal.signal.allan.deviations import DIVISOR, Deviation
     from accelcal.signal.allan.edf import check_confidence, confidence_interval, edf
-    from accelcal.signal.allan.identify import noise_alphas
+    from accelcal.signal.allan.identify import interval_alphas
     from accelcal.signal.allan.kernels import lag_sumsq
     from accelcal.signal.allan.taus import tau_grid, taus_to_m
 
@@ -124,19 +124,14 @@ def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None):
     if not np.all(dev > 0):
         raise AccelcalError("the signal is constant; a deviation of 0 says nothing",
                             parameter="values")
-    # noise identification: taus with more than ID_POINTS averages use the record's start
-    # (one tau at a time); the rest, in one call on the whole phase (as in memory)
-    short = m * ID_POINTS < n
-    alphas = np.empty(m.size, dtype=np.int64)
-    for k in np.flatnonzero(short):
-        alphas[k] = noise_alphas(np.asarray(x[:int(m[k]) * ID_POINTS + 1]), m[k:k + 1], kind)[0]
-    if (~short).any():
-        alphas[~short] = noise_alphas(x, m[~short], kind)
+    # noise identification: taus with more than ID_POINTS averages use the record's start;
+    # the long taus carry the alpha of the longest identified ones (as in memory)
+    alphas, sources = interval_alphas(x, m, kind, cap=ID_POINTS)
     dof = edf(kind, alphas, m, n)
     lo, hi = confidence_interval(dev, dof, confidence)
     return Deviation(kind=kind, tau=m / rate, m=m, n=counts, dev=dev, alpha=alphas, edf=dof,
                      lo=lo, hi=hi, confidence=confidence, unit=str(unit), rate=float(rate),
-                     samples=n)
+                     samples=n, alpha_source=sources)
 
 
 def _psd_from_phase(x, rate):

@@ -14,7 +14,7 @@ Gravity norm (unknown orientations):
 
 Derivatives (``d(T^-1) = -T^-1 dT T^-1``; ``dT/da_yz = -e0 e1'``,
 ``dT/da_zy = e0 e2'``, ``dT/da_zx = -e1 e2'``) are written out below and
-checked against finite differences in ``tests/test_triad_calibrate.py``.
+checked against finite differences in ``tests/methods/triad/test_triad_calibrate.py``.
 
 References
 ----------

@@ -11,9 +11,12 @@ test's bias stability at a plateau):
 - :mod:`~accelcal.signal.allan.deviations`: :func:`deviation` (ADEV, OADEV,
   MDEV, HDEV, OHDEV, TOTDEV with intervals) and :func:`compute`;
 - :mod:`~accelcal.signal.allan.identify`: the power-law exponent per tau
-  (lag-1 autocorrelation, B1 ratio);
+  (lag-1 autocorrelation, B1 ratio) and the exponent the intervals use
+  (identified from 128 averages, carried past them);
 - :mod:`~accelcal.signal.allan.edf`: equivalent degrees of freedom
-  (Greenhall & Riley) and chi-square intervals.
+  (Greenhall & Riley) and chi-square intervals;
+- :mod:`~accelcal.signal.allan.exact`: the exact EDF of discrete white PM,
+  white FM and random-walk FM at short taus.
 
 References
 ----------

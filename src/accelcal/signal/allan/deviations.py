@@ -47,7 +47,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.resources import check_memory
 from accelcal.signal.allan.edf import check_confidence, confidence_interval, edf
-from accelcal.signal.allan.identify import alpha_range, noise_alphas
+from accelcal.signal.allan.identify import alpha_range, interval_alphas
 from accelcal.signal.allan.kernels import phase, variance_sums
 from accelcal.signal.allan.taus import (
     KINDS,
@@ -178,6 +178,12 @@ class Deviation:
         Sample rate, Hz.
     samples : int
         Samples in the recording.
+    alpha_source : tuple of str
+        Where each tau's alpha comes from: ``"identified"`` (at least 128
+        block averages), ``"carried"`` (the median of the longest identified
+        taus' alphas: the interval assumes the noise type does not change),
+        ``"guessed"`` (no tau had enough averages: the interval is not known
+        to hold) or ``"given"`` (:func:`~accelcal.signal.allan.identify.interval_alphas`).
     """
 
     kind: str
@@ -193,8 +199,11 @@ class Deviation:
     unit: str
     rate: float
     samples: int
+    alpha_source: tuple = ()
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "alpha_source", tuple(self.alpha_source)
+                           or ("identified",) * np.size(self.tau))
         for name in ("tau", "m", "n", "dev", "alpha", "edf", "lo", "hi"):
             arr = np.array(getattr(self, name))
             arr.setflags(write=False)
@@ -243,7 +252,11 @@ def deviation(y, rate: float, *, kind: str = "oadev", taus="octave", confidence:
     unit : str
         Unit of the samples, carried into the result.
     alpha : int, optional
-        Noise exponent to use at every tau instead of identifying it.
+        Noise exponent to use at every tau instead of identifying it. Without
+        it, taus of at least 128 block averages are identified and the longer
+        ones carry the median alpha of the three longest identified taus
+        (:func:`~accelcal.signal.allan.identify.interval_alphas`; the result's
+        ``alpha_source`` says which).
 
     Returns
     -------
@@ -259,9 +272,12 @@ def deviation(y, rate: float, *, kind: str = "oadev", taus="octave", confidence:
     given = None if alpha is None else _given_alpha(alpha, kind, len(m))
     x = phase(arr)
     dev, counts = _deviations(x, m, kind)
-    alphas = noise_alphas(x, m, kind) if given is None else given
+    if given is None:
+        alphas, sources = interval_alphas(x, m, kind)
+    else:
+        alphas, sources = given, ("given",) * len(m)
     dof = edf(kind, alphas, m, len(arr))
     lo, hi = confidence_interval(dev, dof, confidence)
     return Deviation(kind=kind, tau=m / rate, m=m, n=counts, dev=dev, alpha=alphas, edf=dof,
                      lo=lo, hi=hi, confidence=confidence, unit=str(unit), rate=rate,
-                     samples=len(arr))
+                     samples=len(arr), alpha_source=sources)

@@ -1,0 +1,121 @@
+"""The triad calibrations under the reduction contract (issue 12).
+
+Random triads (raw counts with offsets of hundreds of counts, or m/s^2)
+are turned through static positions by the rig (:mod:`accelcal.rigs.triad`,
+a full time series with motions), the static intervals' means taken over
+the rig's known sample ranges, and calibrated by both routes:
+
+- known orientations, the six Ferraris positions (dof 6);
+- known orientations, 18 positions (six + 12 random), sample-count weights;
+- gravity norm, 30 random orientations (dof 21);
+- gravity norm with quadratic terms, 40 random orientations.
+
+The coverage harness (tests/helpers/coverage.py) runs every class here.
+"""
+
+import numpy as np
+
+from accelcal.methods.triad import (
+    PARAMS,
+    QUADRATIC,
+    TriadCalibration,
+    calibrate_known,
+    calibrate_unknown,
+)
+from accelcal.rigs.triad import random_directions, simulate, six_positions
+from helpers.contract import ReductionContract
+
+G = 9.80665
+
+
+class _TriadContract(ReductionContract):
+    UNIT = "counts"
+    NOISE = 4.0  # per sample, input unit (counts: a 16-bit triad's few-count noise)
+    QUADRATIC = False
+
+    def directions(self, rng):
+        return random_directions(30, rng)
+
+    def truth(self, rng):
+        if self.UNIT == "counts":
+            bias, scale = rng.uniform(-500, 500, 3), rng.uniform(5.8e-4, 6.2e-4, 3)
+        else:
+            bias, scale = rng.uniform(-0.2, 0.2, 3), rng.uniform(0.97, 1.03, 3)
+        q = rng.uniform(-2e-4, 2e-4, 3) if self.QUADRATIC else None
+        return TriadCalibration(bias, scale, rng.uniform(-3e-3, 3e-3, 3), q, self.UNIT)
+
+    def simulate(self, truth, rng, noisy):
+        return simulate(truth, self.directions(rng), rate=50.0, dwell=2.0, motion=1.0,
+                        still=4.0, noise_sd=self.NOISE if noisy else 0.0, seed=rng, gravity=G)
+
+    def expected(self, truth):
+        names = PARAMS + (QUADRATIC if self.QUADRATIC else ())
+        return [dict(zip(names, truth.vector.tolist(), strict=True))]
+
+    def noise_free_tolerance(self, name, value):
+        # Noise-free readings carry their rounding (1e-16 relative, ~2e-12 counts at 1.6e4
+        # counts); the fits' conditioning (< 20) and the LM's convergence (xtol 1e-15) keep
+        # the estimates within 1e-9 relative; angles (~1e-3 rad) and q get 1e-12 absolute.
+        return 1e-9 * abs(value) + 1e-12
+
+
+class TestContractKnownSix(_TriadContract):
+    def directions(self, rng):
+        return six_positions()
+
+    def reduce(self, data):
+        # The first interval (still period + dwell) holds 3x the samples: weights by counts
+        means, counts = data.interval_means()
+        return calibrate_known(means, data.up, G, input_unit=data.input_unit, counts=counts)
+
+
+class TestContractKnownEighteen(_TriadContract):
+    UNIT = "m/s^2"
+    NOISE = 5e-3
+
+    def directions(self, rng):
+        return np.vstack([six_positions(), random_directions(12, rng)])
+
+    def reduce(self, data):
+        means, counts = data.interval_means()
+        return calibrate_known(means, data.up, G, input_unit=data.input_unit, counts=counts,
+                               labels=data.labels)
+
+
+class TestContractGravityNorm(_TriadContract):
+    def reduce(self, data):
+        means, counts = data.interval_means()
+        return calibrate_unknown(means, G, input_unit=data.input_unit, counts=counts)
+
+
+class TestContractGravityNormQuadratic(_TriadContract):
+    QUADRATIC = True
+
+    def directions(self, rng):
+        return random_directions(40, rng)
+
+    def reduce(self, data):
+        means, counts = data.interval_means()
+        return calibrate_unknown(means, G, input_unit=data.input_unit, counts=counts,
+                                 quadratic=True)
+
+
+def test_contract_reductions_carry_their_fields():
+    rng = np.random.default_rng(3)
+    t = TestContractKnownEighteen()
+    truth = t.truth(rng)
+    red = t.reduce(t.simulate(truth, rng, noisy=True))
+    assert red.assumed("noise") == "residuals"
+    assert red.assumed("weights") == "counts"
+    assert red.assumed("gravity") == G
+    assert red.dof == 3 * 18 - 12
+    assert red.identifiability.full_rank
+    assert red.identifiability.condition_number < 20
+    assert set(red.observations) >= {"means", "means_sd", "norm_before", "norm_after", "up",
+                                     "rotation"}
+    assert red.provenance["labels"][:6] == ["P1", "P2", "P3", "P4", "P5", "P6"]
+    u = TestContractGravityNorm()
+    red = u.reduce(u.simulate(u.truth(rng), rng, noisy=True))
+    assert red.dof == 30 - 9
+    assert np.isnan(red.observations["norm_before"]).all()
+    assert np.sqrt(np.mean(red.observations["norm_after"] ** 2)) < 1e-3

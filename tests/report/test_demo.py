@@ -1,0 +1,176 @@
+"""The end-to-end demo: simulate, reduce, record, store and report; the report in Chromium."""
+
+import re
+import time
+
+import numpy as np
+import pytest
+
+from accelcal.cli import main
+from accelcal.demo import SERIALS, TRIAD_SERIAL, run
+from accelcal.io.calibration_record import CalibrationRecord
+from accelcal.io.formats.dividing_head import read_head_record
+from accelcal.methods.dividing_head import HeadData, reduce
+from accelcal.methods.dividing_head.demo import head_models
+from accelcal.rigs.dividing_head import DONG2014_TABLE1, DividingHeadRig, simulate
+from accelcal.store import Store
+
+
+def test_demo_writes_everything_and_runs_twice(tmp_path):
+    db = tmp_path / "store.sqlite"
+    start = time.process_time()  # CPU time: wall time measures the machine's other load
+    first = run(tmp_path / "demo", db=str(db), seed=3, progress=False)
+    elapsed = time.process_time() - start
+    assert elapsed < 30  # the demo must finish well under a minute; it takes ~7 s of CPU
+    assert first.report.is_file()
+    assert first.report.stat().st_size > 100_000
+    # 4 head, shaker, vibrafuge, noise, thermal, centrifuge; the triad by two routes
+    assert len(first.records) == 11
+    assert all(p.is_file() for p in first.records)
+    assert all(p.exists() for p in first.data)
+    assert len(list((tmp_path / "demo" / "data" / "shaker").glob("*.csv"))) == 12
+    assert len(first.figures) >= 6
+    assert all(p.read_text().startswith("<svg") for p in first.figures)
+    records = [CalibrationRecord.load(p) for p in first.records]
+    assert sorted({r.serial for r in records}) == [*SERIALS, TRIAD_SERIAL]
+    assert {r.method for r in records} == {"dividing-head/joint", "transverse/2w", "vre/identify",
+                                           "noise/ieee952-fit", "thermal/wls", "centrifuge/joint",
+                                           "triad/known-orientations", "triad/gravity-norm"}
+    _new_stages_recover_their_truth(first, records)
+    # Reduced coefficients agree with the truth within 5 standard uncertainties.
+    # The truth, by an independent route: the same reduction of noise-free
+    # outputs of an error-free head, which is Dong2014 eq. (5)'s projection of
+    # each full model (the default's terms outside eq. (5), e.g. Koo, Kpp, K3
+    # and the asymmetry, fold into K_F, K_I, K_II by ~5e-6 V), plus
+    # K_O* = K_O + K_I (eta + d0) with eta = 0 and d0 the mean of the simulated
+    # head error ([DOMAIN] step 6). The joint reduction removes the head error
+    # to second order (~1e-9 V, docs/errata.md), far below the SDs (~1e-6 V).
+    d0 = np.mean(read_head_record(first.data[0]).simulation["angle_error_rad"])
+    rig = DividingHeadRig.uniform(24, head_models(), noise=0.0)
+    ideal = reduce(HeadData.build(rig.positions, simulate(rig).outputs, rig.mounts), "joint",
+                   first_harmonic=(0.0, 0.0))
+    head = {r.serial: r for r in records if r.method == "dividing-head/joint"}
+    for serial, est in zip(SERIALS, ideal.sensors, strict=True):
+        truth = est.values + np.array([0.0, 0.0, est.values[1] * d0, 0.0, 0.0])
+        np.testing.assert_array_less(np.abs(head[serial].estimates - truth),
+                                     5 * head[serial].std + 1e-9, err_msg=serial)
+    assert head["ACC-0002"].estimates[1] == pytest.approx(DONG2014_TABLE1[1]["K_I"], abs=5e-6)
+    with Store(str(db)) as store:
+        assert len(store.calibrations()) == 11
+    # Twice: a new date, so new and distinct records, no duplicate error.
+    second = run(tmp_path / "demo", db=str(db), seed=3, progress=False)
+    with Store(str(db)) as store:
+        assert len(store.calibrations()) == 22
+        assert len(store.calibrations("ACC-0001")) == 12
+    assert second.record_ids != first.record_ids
+    html = second.report.read_text(encoding="utf-8")
+    assert "calibration history by dividing-head/joint" in html
+    assert html.count("<svg") == len(second.figures)
+    _report_command_adds_history_from_the_store(first, str(db), tmp_path)
+
+
+def _report_command_adds_history_from_the_store(first, db, tmp_path):
+    """``accelcal report REC --history --db DB`` on a store holding two demo runs (checked on
+    the store of the test above: each demo run costs seconds)."""
+    out = tmp_path / "r.html"
+    with pytest.raises(SystemExit) as exc:
+        main(["report", str(first.records[0]), "--out", str(out), "--history", "--db", db])
+    assert exc.value.code == 0
+    html = out.read_text(encoding="utf-8")
+    assert "ACC-0001: calibration history by dividing-head/joint" in html
+    assert "2 stored calibration(s)" in html
+    with pytest.raises(SystemExit) as exc:
+        main(["report", str(first.records[0]), "--out", str(tmp_path / "x.html"), "--db", db])
+    assert exc.value.code == 2
+    assert not (tmp_path / "x.html").exists()
+
+
+def _within(record, name: str, truth: float) -> None:
+    """|estimate - truth| below the stated SD times the two-sided 1 - 1e-7 point of
+    Student's t for the record's dof (the normal's 5.33 where it is None: noise given):
+    a correct reduction fails this once in 1e7 values; 18 triad positions leave 9 dof,
+    where |z| > 5 happens once in 1,400."""
+    from scipy import stats
+
+    i = record.names.index(name)
+    k = stats.t.ppf(1 - 5e-8, record.dof) if record.dof else stats.norm.ppf(1 - 5e-8)
+    assert abs(record.estimates[i] - truth) < k * record.std[i], (record.method, name)
+
+
+def _new_stages_recover_their_truth(result, records):
+    """The still recording's N and K, the thermal test's first-order temperature
+    coefficients, the centrifuge's K2 and K3 and the triad's nine parameters agree with
+    the truth the simulators wrote into the data files (:func:`_within`)."""
+    from accelcal.io.formats import centrifuge, noise, thermal, triad
+
+    still = next(p for p in result.data if p.name.startswith("still"))
+    truth = noise.read(still).metadata["true"]
+    (fit,) = [r for r in records if r.method == "noise/ieee952-fit"]
+    for name in ("N", "K"):
+        _within(fit, name, truth[name])
+    chamber = thermal.read(next(p for p in result.data if p.name.startswith("thermal")))
+    true_tc = chamber.metadata["true_model"]["temperature"]["coefficients"]
+    (tc,) = [r for r in records if r.method == "thermal/wls"]
+    for name in ("K0_T1", "K1_T1"):
+        _within(tc, name, true_tc[name])
+    arm = centrifuge.read(next(p for p in result.data if p.name == "centrifuge.csv"))
+    true_model = arm.metadata["simulation"]["true_model"]
+    (spun,) = [r for r in records if r.method == "centrifuge/joint"]
+    for name in ("K2", "K3"):
+        _within(spun, name, true_model[name])
+    cal = triad.read(next(p for p in result.data if p.name.startswith("triad")))
+    params = cal.metadata["true_calibration"]["parameters"]
+    for rec in (r for r in records if r.method.startswith("triad/")):
+        for name in rec.names:
+            _within(rec, name, params[name])
+
+
+def test_demo_report_renders_in_headless_chromium(tmp_path, chromium):
+    result = run(tmp_path / "demo", db=str(tmp_path / "s.sqlite"), seed=5, progress=False)
+    shot = tmp_path / "report.png"
+    proc = chromium(result.report.resolve().as_uri(), shot, "1200,1800", "--hide-scrollbars")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [line for line in proc.stderr.splitlines() if "CONSOLE" in line] == []
+    # The first screen is not blank: its pixels vary (tables, two figures).
+    from PIL import Image
+
+    pixels = np.asarray(Image.open(shot).convert("L"), dtype=float)
+    assert pixels.shape == (1800, 1200)
+    assert pixels.std() > 20
+    # What a reader must find: coefficient tables with uncertainties, figures.
+    html = result.report.read_text(encoding="utf-8")
+    assert len(re.findall(r"<table class=\"coef\">", html)) == 11
+    assert "Expanded (k = 2)" in html
+    assert "± " in html
+    assert "Corrections to the published method" in html
+    assert "docs/errata.md" in html
+    # Self-contained: no script, no linked resource (SVG namespace URIs are names only).
+    assert "<script" not in html
+    assert "<link" not in html
+    assert not re.search(r"""(src|href)=["']?(https?:|//)""", html)
+
+
+def test_demo_command_prints_where_everything_is_and_never_touches_the_users_store(
+        tmp_path, capsys, monkeypatch):
+    # The lab's store (by $ACCELCAL_DB or the XDG default) must stay untouched: the
+    # demo's simulated calibrations go to a store inside its output directory.
+    lab_store = tmp_path / "lab.sqlite"
+    monkeypatch.setenv("ACCELCAL_DB", str(lab_store))
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg"))
+    with pytest.raises(SystemExit) as exc:
+        main(["demo", "--out", str(tmp_path / "d"), "--seed", "1"])
+    assert exc.value.code == 0
+    out = capsys.readouterr()
+    assert f"report:  {tmp_path / 'd' / 'report.html'}" in out.out
+    assert "records:" in out.out
+    assert "seed:    1" in out.out
+    assert "writing the report" in out.err  # the progress bar's last stage, on stderr
+    assert not lab_store.exists()
+    assert not (tmp_path / "xdg").exists()
+    own = tmp_path / "d" / "records.sqlite"
+    assert own.is_file()
+    (store_line,) = [line for line in out.out.splitlines() if line.startswith("store:")]
+    assert str(own) in store_line
+    with Store(str(own)) as store:
+        assert len(store.calibrations()) == 11

@@ -1,0 +1,209 @@
+"""One road to a report: ``accelcal report RECORDS`` gives the demo's sections for them."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from accelcal.demo import SERIALS
+from accelcal.report.inputs import report_sections
+from accelcal.report.sections import reduction_sections
+from helpers.cli import refused, run_cli
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    """The demo's campaign: every method that writes calibration records."""
+    from accelcal.demo import stages
+    from accelcal.pipeline import run_campaign
+
+    return run_campaign(stages(), tmp_path_factory.mktemp("campaign"), seed=11, progress=False,
+                        title="road")
+
+
+def _demo_sections(result):
+    return [s for o in result.outcomes for s in reduction_sections(o.reduction, o.records,
+                                                                   **o.context)]
+
+
+def _same_section(a, b):
+    assert a.title == b.title
+    assert a.summary == b.summary
+    assert a.rows == b.rows
+    assert a.notes == b.notes
+    assert a.errata == b.errata
+    assert [f.title for f in a.figures] == [f.title for f in b.figures]
+    assert [f.caption for f in a.figures] == [f.caption for f in b.figures]
+    assert (a.record is None) == (b.record is None)
+    if a.record is not None:
+        assert a.record.names == b.record.names
+        np.testing.assert_array_equal(a.record.estimates, b.record.estimates)
+        assert a.record.notes == b.record.notes
+
+
+def test_report_of_the_records_is_the_demos_report(campaign):
+    demo = _demo_sections(campaign)
+    road = report_sections(campaign.records)  # inputs found in the campaign's data/
+    assert [s.title for s in road] == [s.title for s in demo]
+    for a, b in zip(road, demo, strict=True):
+        _same_section(a, b)
+    assert sum(len(s.figures) for s in road) >= 8
+    assert any(s.errata for s in road)
+    # the engineering column is filled (µg, ppm, arcsec ...)
+    assert any("\n(" in str(v) for s in road for row in s.rows or () for v in row.values())
+
+
+def test_report_command_draws_the_figures(campaign, capsys, tmp_path):
+    head = [p for p in campaign.records if p.name.endswith("-head.json")]
+    out = tmp_path / "r.html"
+    code, _, err = run_cli(["report", *head, "--out", out], capsys)
+    assert code == 0, err
+    html = out.read_text(encoding="utf-8")
+    assert html.count("<figure") == len(campaign.outcomes[0].reduction.figures()) > 0
+    assert "No figures" not in html
+    assert "Corrections to the published method" in html
+    assert html.count("<h2>") == 5  # the overview and the four sensors
+
+
+def test_inputs_next_to_the_record_or_given_with_data(campaign, tmp_path):
+    head = [p for p in campaign.records if p.name.endswith("-head.json")]
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    for p in head:
+        shutil.copy(p, alone)
+    copies = sorted(alone.glob("*.json"))
+    (missing,) = report_sections(copies[:1])
+    assert missing.notes[0].startswith("No figures: input file(s) indexing_head.csv")
+    assert not missing.figures
+    assert missing.summary.startswith("Reported from the calibration record(s) alone")
+    assert missing.title == f"{SERIALS[0]}: Indexing head (dividing-head/joint)"
+    assert "--data" in missing.notes[0]
+    found = report_sections(copies, search=[campaign.out / "data"])
+    demo = reduction_sections(campaign.outcomes[0].reduction, campaign.outcomes[0].records,
+                              **campaign.outcomes[0].context)
+    for a, b in zip(found, demo, strict=True):
+        _same_section(a, b)
+    shutil.copy(campaign.out / "data" / "indexing_head.csv", alone)
+    assert report_sections(copies)[0].figures  # found next to the record
+
+
+def test_one_sensor_of_a_head_run_keeps_the_overview(campaign):
+    one = next(p for p in campaign.records if p.name == f"{SERIALS[1]}-head.json")
+    sections = report_sections([one])
+    assert [s.record.serial for s in sections if s.record is not None] == [SERIALS[1]]
+    overview = sections[0]
+    assert overview.figures
+    heads = list(overview.rows[0])
+    assert heads == ["coefficient", "unit", "U1", f"{SERIALS[1]} (U2)", "U3", "U4"]
+
+
+def test_a_record_the_files_do_not_reproduce_is_reported_without_figures(campaign, tmp_path):
+    src = next(p for p in campaign.records if p.name.endswith("-noise.json"))
+    data = json.loads(src.read_text(encoding="utf-8"))
+    data["coefficients"][0]["estimate"] *= 1.001
+    changed = tmp_path / "records" / src.name
+    changed.parent.mkdir()
+    changed.write_text(json.dumps(data), encoding="utf-8")
+    (section,) = report_sections([changed], search=[campaign.out / "data"])
+    assert not section.figures
+    assert "do not give the record's estimates" in section.notes[0]
+    assert section.record.estimates[0] == data["coefficients"][0]["estimate"]
+
+
+def test_other_accelcal_files_are_named_in_one_line(campaign, capsys, tmp_path):
+    from accelcal.defaults import default_model
+    from accelcal.io.model_file import dumps, model_to_dict
+
+    model = tmp_path / "model.json"
+    model.write_text(dumps(model_to_dict(default_model())), encoding="utf-8")
+    refused(["report", model, "--out", tmp_path / "r.html"], capsys,
+            "model.json is an error model file", "report takes calibration records")
+    reduction = tmp_path / "reduction.json"
+    reduction.write_text(campaign.outcomes[0].reduction.to_json(), encoding="utf-8")
+    refused(["report", reduction, "--out", tmp_path / "r.html"], capsys,
+            "reduction's JSON output")
+    refused(["report", campaign.out / "data" / "triad.csv", "--out", tmp_path / "r.html"],
+            capsys, "record file of data (kind 'triad')", "--record")
+    refused(["report", campaign.records[0], "--out", tmp_path / "r.html", "--data",
+             tmp_path / "nowhere"], capsys, "--data", "not a directory")
+    assert not (tmp_path / "r.html").exists()
+
+
+def test_triad_calibration_file_gets_its_section(campaign, capsys, tmp_path):
+    from accelcal.methods.triad.model import TriadCalibration
+
+    cal = TriadCalibration(bias=(310.0, -245.0, 120.0), scale=(6e-4, 6.02e-4, 5.95e-4),
+                           angles=(1e-3, -2e-3, 5e-4), input_unit="counts")
+    path = tmp_path / "cal.json"
+    cal.save(path)
+    imucal = tmp_path / "imucal.json"
+    imucal.write_text(json.dumps(cal.to_imucal()), encoding="utf-8")
+    refused(["report", imucal, "--out", tmp_path / "r.html"], capsys,
+            "imucal.json is a triad calibration in imucal's layout", "--out")
+    (section,) = report_sections([path])
+    assert section.title == "cal.json: triad calibration"
+    values = {r["parameter"]: r["value"] for r in section.rows}
+    assert values["b_y"] == -245.0
+    assert values["a_zy"] == -2e-3
+    out = tmp_path / "r.html"
+    code, _, err = run_cli(["report", path, campaign.records[-1], "--out", out], capsys)
+    assert code == 0, err
+    html = out.read_text(encoding="utf-8")
+    assert "cal.json: triad calibration" in html
+    assert "IMU-0001" in html
+
+
+def test_the_records_numbers_are_reported_bit_for_bit(campaign, tmp_path):
+    # a record whose estimate differs from the re-reduced one by rounding (another BLAS)
+    src = next(p for p in campaign.records if p.name.endswith("-vibrafuge.json"))
+    data = json.loads(src.read_text(encoding="utf-8"))
+    value = data["coefficients"][0]["estimate"] * (1 + 1e-12)
+    data["coefficients"][0]["estimate"] = value
+    moved = tmp_path / "records" / src.name
+    moved.parent.mkdir()
+    moved.write_text(json.dumps(data), encoding="utf-8")
+    from accelcal.io.calibration_record import CalibrationRecord
+    from accelcal.report.rebuild import rebuild
+
+    record = CalibrationRecord.load(moved)
+    built = rebuild([record], [moved], [campaign.out / "data"])
+    assert not built.unavailable  # the files reproduce the record to rounding
+    name = data["coefficients"][0]["name"]
+    again = next(o for o in campaign.outcomes if o.tag == "vibrafuge").reduction
+    assert again.value(name) != value
+    assert built.reduction.value(name) == value  # the record's number, not the re-reduced one
+    np.testing.assert_array_equal(built.reduction.sensors[0].covariance, record.covariance)
+
+
+def test_every_demo_method_has_a_rebuild():
+    from accelcal.catalog import demo_methods
+    from accelcal.methods import package
+    from accelcal.report.rebuild import family_of
+
+    assert all(callable(package(m.family).from_inputs) for m in demo_methods())
+    assert family_of("ieee952-fit") == "noise"
+    assert family_of("dividing-head/joint") == "dividing-head"
+    assert family_of("transverse-2w") == "transverse"
+    assert family_of("made-up/x") is None
+
+
+def test_records_of_the_commands_defaults_get_their_figures(capsys, tmp_path, monkeypatch):
+    # the gravity-norm route as `triad calibrate` runs it: the factor chosen by the residual
+    monkeypatch.chdir(tmp_path)
+    for args in (["triad", "simulate", "--out", "t.csv", "--positions", "18"],
+                 ["triad", "calibrate", "t.csv", "--orientations", "unknown", "--out", "c.json",
+                  "--record", "norm.json", "--serial", "T1"]):
+        code, _, err = run_cli(args, capsys)
+        assert code == 0, err
+    (section,) = report_sections(["norm.json"])
+    assert not section.notes[0].startswith("No figures"), section.notes[0]
+    assert section.figures
+
+
+def test_a_record_given_twice_is_reported_once(campaign, tmp_path):
+    src = next(p for p in campaign.records if p.name.endswith("-vibrafuge.json"))
+    copy = tmp_path / "copy.json"
+    shutil.copy(src, copy)
+    (section,) = report_sections([src, copy, src])
+    assert section.figures
