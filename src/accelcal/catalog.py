@@ -211,6 +211,16 @@ METHODS: tuple[Method, ...] = (
         report="accelcal.methods.centrifuge.report_text", docs="docs/centrifuge.md",
         paper="IEEE836", demo="accelcal.methods.centrifuge.demo", demo_order=6,
         demo_sensors="one", demo_test="centrifuge"),
+    Method(
+        name="response", family="response", title="frequency response",
+        package=_m("response"), kinds=("response",), formats=("accelcal.io.formats.response",),
+        rig="accelcal.rigs.shaker_response", cli="accelcal.cli.response",
+        cli_help=("Frequency response of an accelerometer by comparison with a reference on a "
+                  "shaker (ISO 16063-21): simulate stepped-sine records, reduce them to "
+                  "magnitude and phase, fit the transfer function."),
+        verbs=("simulate", "reduce"),
+        report="accelcal.methods.response.report_text", docs="docs/response.md",
+        paper="ISO16063-21"),
 )
 """Every test method, in the order ``accelcal --help`` lists their groups."""
 
