@@ -93,6 +93,9 @@ BASE: dict[str, list[str]] = {
     "centrifuge simulate": ["--out", "{out}/c.csv", "--levels", "5:50:15"],
     "centrifuge reduce": ["{centrifuge}"],
     "centrifuge plan": ["--levels", "5:50:15", "--positions", "IA-in,IA-out,IA-tan"],
+    "response simulate": ["--out", "{out}/r.csv", "--frequencies", "20,80,315"],
+    "response reduce": ["{response}"],
+    "response fit": ["{response}"],
     "thermal simulate": ["--out", "{out}/th.csv", "--points", "8", "--dwell", "20", "--warmup",
                          "0", "--setpoints", "-20,10,40,25,-5"],
     "thermal reduce": ["{examples}/thermal.csv"],
@@ -109,8 +112,9 @@ BASE: dict[str, list[str]] = {
 }
 """A valid invocation of each command (placeholders: ``{out}`` a fresh directory per run,
 ``{examples}`` examples/data, ``{record}`` a calibration record, ``{tumble}`` a tumble
-record, ``{centrifuge}`` a centrifuge record, ``{store}`` a store holding the record and two
-noise fits). Commands without required parameters may be left out (their base is empty)."""
+record, ``{centrifuge}`` a centrifuge record, ``{response}`` a response record, ``{store}``
+a store holding the record and two noise fits). Commands without required parameters may be
+left out (their base is empty)."""
 
 LONG_BY_DESIGN: dict[tuple[str, str, str], str] = {
     ("dividing-head study", "trials", "1000000000000"):
@@ -452,7 +456,9 @@ def _fill(tmp: Path) -> dict:
     record = EXAMPLES / "calibration_record.json"
     tumble, store = tmp / "tumble.csv", tmp / "store.sqlite"
     centrifuge = tmp / "centrifuge.csv"
-    runs = [["tumble", "simulate", "--out", str(tumble), "--points", "12"],
+    response = tmp / "response.csv"
+    runs = [["response", "simulate", "--out", str(response), "--frequencies", "20,80,315,630"],
+            ["tumble", "simulate", "--out", str(tumble), "--points", "12"],
             ["centrifuge", "simulate", "--out", str(centrifuge), "--levels", "5:50:15",
              "--readings", "2"],
             ["records", "add", str(record), "--db", str(store)]]
@@ -468,7 +474,7 @@ def _fill(tmp: Path) -> dict:
             main(args)
         assert info.value.code == 0, args
     return {"record": str(record), "tumble": str(tumble), "store": str(store),
-            "centrifuge": str(centrifuge)}
+            "centrifuge": str(centrifuge), "response": str(response)}
 
 
 def _matrix():
