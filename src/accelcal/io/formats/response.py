@@ -154,6 +154,60 @@ def check_header(rate, unit, where) -> None:
                             f"{', '.join(OUTPUT_UNITS)}")
 
 
+def _numbers(value, where: str, what: str, size: int | None = None) -> list[float]:
+    """A list of finite numbers up to :data:`MAX_VALUE` (of ``size`` entries, if given)."""
+    ok = isinstance(value, list) and all(
+        isinstance(x, int | float) and not isinstance(x, bool) and abs(x) <= MAX_VALUE
+        for x in value)
+    if not ok or (size is not None and len(value) != size):
+        count = f"{size} " if size is not None else ""
+        raise AccelcalError(f"{where}: {what} must be a list of {count}finite numbers; got "
+                            f"{shown(value)}")
+    return [float(x) for x in value]
+
+
+def check_metadata(meta: dict, where, steps: int) -> None:
+    """Check the optional ``amplitudes_g``, ``daq`` and ``reference`` of a record's metadata.
+
+    Raises
+    ------
+    AccelcalError
+        Naming the file and the field: ``amplitudes_g`` not one positive
+        number per step; ``daq`` not an object of a positive ``gain_ratio``
+        and a ``delay_s`` within 1 s; ``reference`` not an object of lists of
+        finite numbers of one length (at least two), ``frequency_hz`` and
+        ``magnitude`` positive.
+    """
+    if "amplitudes_g" in meta:
+        amps = _numbers(meta["amplitudes_g"], where, "amplitudes_g (one per step)", steps)
+        if not all(a > 0 for a in amps):
+            raise AccelcalError(f"{where}: amplitudes_g must be positive (g)")
+    if "daq" in meta:
+        daq = meta["daq"]
+        if not isinstance(daq, dict) or not set(daq) <= {"gain_ratio", "delay_s"}:
+            raise AccelcalError(f"{where}: daq must be an object of gain_ratio and delay_s; "
+                                f"got {shown(daq)}")
+        gain, delay = _numbers([daq.get("gain_ratio", 1.0), daq.get("delay_s", 0.0)], where,
+                               "daq's gain_ratio and delay_s")
+        if not (0 < gain <= 1e6 and abs(delay) <= 1.0):
+            raise AccelcalError(f"{where}: daq gain_ratio must be in (0, 1e6] and delay_s "
+                                "within 1 s")
+    if "reference" in meta:
+        ref = meta["reference"]
+        keys = [k for k in REFERENCE_KEYS if isinstance(ref, dict) and k in ref]
+        if not isinstance(ref, dict) or not set(REFERENCE_KEYS[:3]) <= set(keys) or \
+                not set(ref) <= set(REFERENCE_KEYS):
+            raise AccelcalError(f"{where}: reference must be an object of lists "
+                                f"{', '.join(REFERENCE_KEYS[:3])} (and optionally "
+                                f"{', '.join(REFERENCE_KEYS[3:])})")
+        size = len(ref["frequency_hz"]) if isinstance(ref["frequency_hz"], list) else None
+        cols = {k: _numbers(ref[k], where, f"reference {k}", size) for k in keys}
+        if size is None or size < 2 or not all(f > 0 for f in cols["frequency_hz"]) or \
+                not all(m > 0 for m in cols["magnitude"]):
+            raise AccelcalError(f"{where}: reference needs at least two positive frequencies "
+                                "and positive magnitudes")
+
+
 def write(path, data: ResponseRecord) -> None:
     """Write a response record file (atomically; CSV, or Parquet for ``.parquet``)."""
     units = {"step": "-", "frequency": "Hz", "t": "s", "ref": "V", "dut": data.output_unit}
@@ -171,12 +225,15 @@ def read(path) -> ResponseRecord:
     AccelcalError
         Naming the file: see :func:`accelcal.io.records.read_record`; a bad
         rate or unit, a corrupt value, a step column out of order, malformed
-        laboratory metadata.
+        laboratory metadata, ``amplitudes_g``, ``daq`` or ``reference``
+        (:func:`check_metadata`).
     """
     meta, cols = read_record(path, KIND, required_metadata=("sample_rate_hz", "output_unit"),
                              required_columns=COLUMNS)
     check_header(meta["sample_rate_hz"], meta["output_unit"], path)
     check_lab_metadata(meta, path)
+    steps = int(np.count_nonzero(np.diff(cols["step"]))) + 1 if cols["step"].size else 0
+    check_metadata(meta, path, steps)
     try:
         return ResponseRecord(**{c: cols[c] for c in COLUMNS},
                               sample_rate_hz=meta["sample_rate_hz"],

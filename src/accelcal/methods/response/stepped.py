@@ -109,6 +109,8 @@ def step_ratio(ref, dut, fs: float, f: float, *, t0: float, where: str):
         raise AccelcalError(f"{where}: {f:g} Hz is not found in the data (a sine at it "
                             f"explains {100 * explained:.3g} % of the reference channel's "
                             f"variance, at least {100 * MIN_EXPLAINED:g} % is needed)")
+    if u_dut == 0:
+        raise AccelcalError(f"{where}: the DUT channel holds no signal at {f:g} Hz")
     flip = np.diag([1.0, -1.0])  # (a, b) -> (Re P, Im P) = (a, -b)
     cov = fit.covariance[:, 1:3, 1:3]
     v_ref, v_dut = (flip @ c @ flip for c in cov)
