@@ -42,6 +42,10 @@ DEFAULT_FREQUENCIES = (10.0, 20.0, 40.0, 80.0, 160.0, 315.0, 500.0, 630.0, 800.0
 """Steps of the default campaign, Hz (ISO 266 preferred frequencies up to 1.25 kHz)."""
 
 
+MAX_SAMPLES = 5e7
+"""Most samples per channel of a simulated campaign (two channels of 400 MB in memory)."""
+
+
 @dataclass(frozen=True)
 class ReferenceTable:
     """A reference accelerometer's certificate: complex sensitivity against frequency.
@@ -164,10 +168,15 @@ class DutResponse:
     delay_s: float = 0.0
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.S0) and self.S0 != 0 and self.fn_hz > 0 and self.zeta > 0):
-            raise AccelcalError("a DUT needs a finite non-zero S0, fn > 0 and zeta > 0")
-        if self.pole_hz is not None and not self.pole_hz > 0:
-            raise AccelcalError("the DUT's extra pole must be above 0 Hz")
+        checks = (("s0", self.S0, 0 < abs(self.S0) <= 1e6, "non-zero, magnitude up to 1e6"),
+                  ("fn", self.fn_hz, 1e-3 <= self.fn_hz <= 1e7, "from 1e-3 to 1e7 Hz"),
+                  ("zeta", self.zeta, 1e-6 <= self.zeta <= 1e3, "from 1e-6 to 1e3"),
+                  ("pole", self.pole_hz,
+                   self.pole_hz is None or 1e-3 <= self.pole_hz <= 1e7, "from 1e-3 to 1e7 Hz"),
+                  ("delay", self.delay_s, abs(self.delay_s) <= 1.0, "within 1 s"))
+        for name, value, ok, text in checks:
+            if not ok:
+                raise AccelcalError(f"must be {text}, got {value!r}", parameter=name)
 
     def __call__(self, f) -> np.ndarray:
         """Complex sensitivity at frequencies ``f``, Hz."""
@@ -218,7 +227,16 @@ class ResponseRig:
 
     def __post_init__(self) -> None:
         f = np.asarray(self.frequencies, dtype=float)
-        if f.size == 0 or not np.all(f > 0) or np.any(f * 3 >= self.sample_rate / 2):
+        if not 1.0 <= self.sample_rate <= 1e7:
+            raise AccelcalError(f"must be from 1 Hz to 1e7 Hz, got {self.sample_rate!r}",
+                                parameter="sample_rate")
+        if not (0 < self.gain_ratio <= 1e6 and abs(self.delay_s) <= 1.0):
+            raise AccelcalError("the DAQ's gain ratio must be in (0, 1e6] and its delay within "
+                                "1 s", parameter="gain_ratio")
+        if len(self.distortion) != 2 or not all(0 <= d < 1 for d in self.distortion):
+            raise AccelcalError("give two harmonic fractions d2,d3 from 0 to below 1",
+                                parameter="distortion")
+        if f.size == 0 or not np.all(f > 0) or np.any(f >= self.sample_rate / 6):
             raise AccelcalError(f"step frequencies must be above 0 Hz and their third harmonic "
                                 f"below the Nyquist frequency {self.sample_rate / 2:g} Hz",
                                 parameter="frequencies")
@@ -227,7 +245,12 @@ class ResponseRig:
                                 parameter="amplitudes")
         if int(self.periods) != self.periods or self.periods < 1:
             raise AccelcalError("must be a whole number of periods >= 1", parameter="periods")
-        if not (self.noise >= 0 and np.isfinite(self.noise)):
+        samples = float(np.sum(self.periods * self.sample_rate / f))
+        if samples > MAX_SAMPLES:
+            raise AccelcalError(f"the steps would hold {samples:.3g} samples per channel, more "
+                                f"than {MAX_SAMPLES:g}: fewer periods or a lower rate",
+                                parameter="periods")
+        if not 0 <= self.noise <= 1e6:
             raise AccelcalError("must be >= 0 (V rms)", parameter="noise")
         self.reference.sensitivity(f)  # the band is covered
 

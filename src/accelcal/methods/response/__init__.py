@@ -40,6 +40,9 @@ __all__ = ["ERRATA", "FAMILY", "METHOD", "derived", "figures", "fit_model", "fit
 ERRATA = ()
 """No corrections of the references are shown."""
 
+MAX_REFERENCE_BYTES = 2**20
+"""Largest reference certificate table read (1 MiB: tens of thousands of rows)."""
+
 
 def report_text(reduction) -> ReportText:
     """Title and summary of a frequency response's report section."""
@@ -88,14 +91,16 @@ def read_reference(path):
     from pathlib import Path
 
     from accelcal.errors import AccelcalError
+    from accelcal.io.limits import read_bounded
     from accelcal.rigs.shaker_response import ReferenceTable
     from accelcal.validation import shown_path
 
     path = Path(path)
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            rows = list(csv.DictReader(row for row in fh if not row.startswith("#")))
-    except (OSError, UnicodeDecodeError) as exc:
+        text = read_bounded(path, MAX_REFERENCE_BYTES, "reference table").decode("utf-8")
+        lines = [row for row in text.splitlines() if not row.startswith("#")]
+        rows = list(csv.DictReader(lines))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise AccelcalError(f"cannot read {shown_path(path)}: {exc.__class__.__name__}",
                             parameter="reference") from None
     columns = {k: [r.get(k) for r in rows] for k in

@@ -239,6 +239,10 @@ def derived(fit: Reduction, phase_at=()) -> list[dict]:
         standard uncertainties by first-order propagation of the parameters'
         covariance through numerical gradients [GUM]_.
     """
+    bad = [f for f in phase_at if not (isinstance(f, int | float) and 0 < f <= 1e9)]
+    if bad:
+        raise AccelcalError(f"frequencies must be above 0 and up to 1e9 Hz, got {bad[0]!r}",
+                            parameter="phase_at")
     est = fit.estimate
     names, x, cov = est.names, np.asarray(est.values, float), est.covariance
     f_hi = 100.0 * x[names.index("fn")]

@@ -220,8 +220,11 @@ def reduce_stepped(records, reference=None, *, reference_frequency: float | None
     unit = f"{records[0].output_unit}/g"
     est = Estimate(names, np.asarray(values)[order], covariance, dict.fromkeys(names, unit),
                    METHOD, dof=int(min(dofs)))
-    f_ref = REFERENCE_FREQUENCY if reference_frequency is None else float(reference_frequency)
-    ref_name = names[int(np.argmin(np.abs(np.log(freqs / f_ref))))] if f_ref > 0 else names[0]
+    f_ref = REFERENCE_FREQUENCY if reference_frequency is None else reference_frequency
+    if not (isinstance(f_ref, int | float) and 1e-6 <= f_ref <= 1e9):
+        raise AccelcalError(f"must be a frequency from 1e-6 to 1e9 Hz, got {f_ref!r}",
+                            parameter="reference_frequency")
+    ref_name = names[int(np.argmin(np.abs(np.log(freqs / f_ref))))]
     source = "the records' own" if reference is None else "given"
     return Reduction(
         family=FAMILY, method=METHOD, sensors=(est,), sensor_names=("dut",), dof=int(min(dofs)),
