@@ -132,7 +132,7 @@ def test_api_md_adding_a_method_is_the_checklist():
     steps = _section(_text("docs/api.md"), "## Adding a method")
     for item in ("a package", "a format", "a rig", "a contract subclass", "one descriptor",
                  "`IMPORT`", "(ReductionContract)", "`accelcal.catalog.METHODS`",
-                 "docs/errata.md", "documentation page", "tests/test_descriptors.py"):
+                 "docs/errata.md", "documentation page", "tests/project/test_descriptors.py"):
         assert item in steps, item
 
 

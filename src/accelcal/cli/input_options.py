@@ -14,9 +14,10 @@ import typer
 
 INPUT_FORMAT = typer.Option(
     "auto", "--input-format",
-    help="auto, csv, parquet, imucal (acc_x,acc_y,acc_z in m/s^2 with a 'part' column or "
-         "--regions), imu_tk ('t x y z' rows separated by spaces), record (an accelcal "
-         "record), tdms (NI, channels group/channel), hdf5 (datasets by path, path[k] for a "
+    help="auto, csv, parquet, imucal (acc_x,acc_y,acc_z with a 'part' column or --regions; "
+         "m/s^2 unless --unit says otherwise, e.g. counts for a raw session), imu_tk "
+         "('t x y z' rows separated by spaces), record (an accelcal record), tdms (NI, "
+         "channels group/channel), hdf5 (datasets by path, path[k] for a "
          "column) or mat (MATLAB v5 or v7.3, var[k] for a column); auto tells them apart "
          "from the file's first bytes.")
 COLUMNS = typer.Option(
@@ -32,9 +33,9 @@ RATE = typer.Option(None, "--rate", help="Sample rate in Hz, for files without a
 UNIT = typer.Option(
     None, "--unit",
     help="Unit of the values: counts, V, mV (raw outputs) or m/s^2, g, mg, ug; required for "
-         "files that do not state it (imucal sessions are in m/s^2, records, TDMS "
-         "unit_string and HDF5 unit attributes say theirs); with --scale, the unit of file "
-         "value x scale.")
+         "files that do not state it (records, TDMS unit_string and HDF5 unit attributes "
+         "say theirs; imucal sessions are taken as m/s^2 unless given: a raw session in ADC "
+         "counts needs --unit counts); with --scale, the unit of file value x scale.")
 SCALE = typer.Option(
     None, "--scale",
     help="File value x scale = value in --unit (e.g. counts to g: the g per count).")

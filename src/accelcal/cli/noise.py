@@ -77,14 +77,14 @@ def adev(
     else:
         dev = _in_memory(file, opts, kind, _taus(taus), confidence)
     emit(dev.rows(), fmt, title=f"{kind} of {file.name} ({dev.unit}; {confidence:.1%} intervals)")
-    for note in interval_notes(dev):
-        print(f"note: {note}", file=sys.stderr)
-    if plot is not None:
+    if plot is not None:  # before the notes: a figure that cannot be written is the one line
         from accelcal.methods.noise.figures import deviation_figure
         from accelcal.plotting import save_figure
 
         for p in save_figure(deviation_figure(dev), plot, f"noise_{kind}"):
             print(f"wrote {p}", file=sys.stderr)
+    for note in interval_notes(dev):
+        print(f"note: {note}", file=sys.stderr)
 
 
 FEW_EDF = 5

@@ -6,7 +6,7 @@ import typer
 
 from accelcal.cli import record_options
 from accelcal.cli.common import check_format, check_writable, emit, load_model, parse_grid
-from accelcal.cli.input_options import DELIMITER, INPUT_FORMAT, TIME, TIME_UNIT
+from accelcal.cli.input_options import DELIMITER, INPUT_FORMAT, SCALE, TIME, TIME_UNIT
 from accelcal.errors import AccelcalError
 
 app = typer.Typer(
@@ -162,6 +162,7 @@ def compensate(
         None, "--temperature-unit", help="degC or K (default: the file's, e.g. a record's)."),
     unit: str | None = typer.Option(
         None, "--unit", help="Unit of the output column (default: the model's output unit)."),
+    scale: float | None = SCALE,
     input_format: str = INPUT_FORMAT, time: str | None = TIME, time_unit: str = TIME_UNIT,
     delimiter: str | None = DELIMITER,
     allow_extrapolation: bool = typer.Option(
@@ -185,6 +186,7 @@ def compensate(
         input_format=input_format, columns=(column, temperature_column), time=time,
         time_unit=time_unit, unit=unit or stated.get(column) or comp.output_unit,
         units={temperature_column: t_unit} if t_unit in TEMPERATURE_UNITS else None,
+        scales=None if scale is None else {column: scale},
         delimiter="\t" if delimiter == "\\t" else delimiter)
     try:
         prov, _ = describe(file, opts, need_rate=False, what="recording to compensate",

@@ -12,6 +12,7 @@ from accelcal.cli.input_options import (
     INPUT_FORMAT,
     RATE,
     REGIONS,
+    SCALE,
     TIME,
     TIME_UNIT,
     UNIT,
@@ -51,7 +52,7 @@ def detect(
     *,
     input_format: str = INPUT_FORMAT, columns: str | None = COLUMNS, time: str | None = TIME,
     time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
-    delimiter: str | None = DELIMITER,
+    scale: float | None = SCALE, delimiter: str | None = DELIMITER,
     init_static: float = INIT_STATIC, window: float = WINDOW,
     factor: float = typer.Option(
         2.0, "--factor", help="Threshold: this many times the initial period's variance "
@@ -74,7 +75,8 @@ def detect(
     check_settings(init_static=init_static, window=window, factor=factor,
                    min_length=min_length)
     opts = input_options(input_format=input_format, columns=columns, time=time,
-                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter)
+                         time_unit=time_unit, rate=rate, unit=unit, scale=scale,
+                         delimiter=delimiter)
     prov, sample_rate = describe(file, opts, channels=3, what="triad recording", digest=False)
     blocks = iter_blocks(file, opts, channels=3, what="triad recording")
     with DelayedProgress(f"static intervals of {file.name}") as progress:
@@ -99,7 +101,7 @@ def calibrate(
     *,
     input_format: str = INPUT_FORMAT, columns: str | None = COLUMNS, time: str | None = TIME,
     time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
-    delimiter: str | None = DELIMITER, regions: Path | None = REGIONS,
+    scale: float | None = SCALE, delimiter: str | None = DELIMITER, regions: Path | None = REGIONS,
     orientations: str | None = typer.Option(
         None, "--orientations",
         help="known (imucal labels or --regions, a triad record's positions, or --positions) "
@@ -114,6 +116,17 @@ def calibrate(
         None, "--latitude", help="Geodetic latitude, deg (WGS84 normal gravity)."),
     height: float | None = typer.Option(None, "--height", help="Height, m (with --latitude)."),
     quadratic: bool = typer.Option(False, "--quadratic", help="Fit per-axis quadratic terms."),
+    estimator: str | None = typer.Option(
+        None, "--estimator",
+        help="Known orientations: least-squares (all positions), pairs (Ferraris's per-axis "
+             "pairs on six positions, as imucal: a tilted fixture moves the biases only at "
+             "second order) or gls (weighs each reading by the noise and --fixture-tilt); "
+             "default gls with --fixture-tilt, else least-squares."),
+    fixture_tilt: str | None = typer.Option(
+        None, "--fixture-tilt",
+        help="Known orientations: standard uncertainty of each position's tilt (Type B), "
+             "with its unit, e.g. 5mrad, 0.3deg, 60arcsec; the interval means' noise is then "
+             "their samples' SD / sqrt(n)."),
     init_static: float = INIT_STATIC, window: float = WINDOW,
     factor: float | None = typer.Option(
         None, "--factor",
@@ -150,14 +163,17 @@ def calibrate(
         raise AccelcalError("--imucal-out: imucal's layout has no quadratic terms; drop "
                             "--quadratic")
     monte_carlo = uncertainty_options.check(uncertainty, trials, seed)
+    tilt = None if fixture_tilt is None else parse_angle(fixture_tilt, "--fixture-tilt")
     for path in (out, imucal_out, record_out):
         check_writable(path)
     opts = input_options(input_format=input_format, columns=columns, time=time,
-                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
+                         time_unit=time_unit, rate=rate, unit=unit, scale=scale,
+                         delimiter=delimiter,
                          regions=regions)
     lab = run(file, options=opts, orientations=orientations, positions=positions,
               gravity=gravity, latitude=latitude, height=height, quadratic=quadratic,
-              init_static=init_static, window=window, factor=factor, min_length=min_length)
+              init_static=init_static, window=window, factor=factor, min_length=min_length,
+              estimator=estimator, fixture_tilt=tilt)
     red, rec, found = lab.reduction, lab.recording, lab.intervals
     files = [file] if rec.provenance.get("input_format") == "record" else []
     info = record_options.lab_info_for(record_out, files, serial=serial, operator=None)
@@ -187,6 +203,23 @@ def calibrate(
         for p in save_records(red.to_records(info, input_files=[file]), record_out):
             typer.echo(f"wrote {p}", err=True)
     _print_calibration(lab, rows, fmt=fmt, file=file)
+
+
+ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "µrad": 1e-6, "deg": 0.017453292519943295,
+               "arcmin": 2.908882086657216e-4, "arcsec": 4.84813681109536e-6}
+"""Units of an angle given on the command line, in rad."""
+
+
+def parse_angle(text: str, option: str) -> float:
+    """An angle with its unit (``5mrad``, ``0.3 deg``), in rad."""
+    import re
+
+    match = re.fullmatch(r"\s*([0-9.eE+-]+)\s*([a-zµ]+)\s*", text)
+    try:
+        return float(match.group(1)) * ANGLE_UNITS[match.group(2)]
+    except (AttributeError, KeyError, ValueError):
+        raise AccelcalError(f"{option} {text[:40]!r} is not an angle with its unit (e.g. 5mrad, "
+                            "0.3deg; units " + ", ".join(ANGLE_UNITS) + ")") from None
 
 
 def _print_calibration(lab, rows, *, fmt: str, file: Path) -> None:
@@ -224,7 +257,7 @@ def apply(
     unit: str | None = typer.Option(
         None, "--unit", help="Unit of the values (default: the calibration's input unit; an "
                              "acceleration unit is converted to it)."),
-    delimiter: str | None = DELIMITER,
+    scale: float | None = SCALE, delimiter: str | None = DELIMITER,
     output_unit: str = typer.Option("m/s^2", "--output-unit", help="m/s^2 or g (g_n)."),
     out: Path = typer.Option(..., "--out", help="CSV file to write."),
 ) -> None:
@@ -248,7 +281,8 @@ def apply(
     if unit is None and source.input_format in ("csv", "parquet", "imu_tk"):
         unit = cal.input_unit
     opts = input_options(input_format=input_format, columns=columns, time=time,
-                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter)
+                         time_unit=time_unit, rate=rate, unit=unit, scale=scale,
+                         delimiter=delimiter)
     prov, _ = describe(file, opts, channels=3, need_rate=False, what="triad recording",
                        digest=False)
     factor = 1.0
@@ -257,12 +291,12 @@ def apply(
             raise AccelcalError(f"the calibration maps {cal.input_unit}, the recording is in "
                                 f"{prov['unit']}; give --unit {cal.input_unit} if it is")
         factor = ACCELERATION_UNITS[prov["unit"]] / ACCELERATION_UNITS[cal.input_unit]
-    scale = 1.0 / ACCELERATION_UNITS[output_unit]
+    out_scale = 1.0 / ACCELERATION_UNITS[output_unit]
     channels = prov["columns"]
     frame = "reference" if cal.rotation is not None else "body"
     blocks = iter_blocks(file, opts, channels=3, need_rate=False, what="triad recording")
     apply_stream(blocks, source, channels, out,
-                 lambda u: cal.apply(u * factor, frame=frame) * scale)
+                 lambda u: cal.apply(u * factor, frame=frame) * out_scale)
     typer.echo(f"wrote {out}", err=True)
 
 

@@ -27,8 +27,9 @@ from accelcal.validation import check_rate, shown, shown_name
 
 INPUT_FORMATS = ("auto", "csv", "parquet", "imucal", "imu_tk", "record", "tdms", "hdf5", "mat")
 """Formats :func:`accelcal.io.recordings.read_recording` reads: ``csv`` and ``parquet``
-(any columns), ``imucal`` (imucal sessions: ``acc_x, acc_y, acc_z`` in m/s^2,
-labels in a ``part`` column or a regions JSON), ``imu_tk`` (whitespace-separated
+(any columns), ``imucal`` (imucal sessions: ``acc_x, acc_y, acc_z``, taken as
+m/s^2 unless a unit is given (raw sessions hold ADC counts), labels in a
+``part`` column or a regions JSON), ``imu_tk`` (whitespace-separated
 ``t x y z`` rows without a header), ``record`` (an accelcal record file),
 ``tdms`` (NI TDMS, channels ``group/channel``), ``hdf5`` (datasets by path,
 ``path[k]`` for column k of a 2-D dataset), ``mat`` (MATLAB v5 or v7.3
@@ -104,8 +105,8 @@ class InputOptions:
         ``wf_increment`` gives it; a rate given must agree with it).
     unit : str, optional
         Unit of the values, one of :data:`UNITS`; required for files that do not
-        carry it (csv, parquet, imu_tk, mat; imucal sessions are in m/s^2,
-        records say theirs).
+        carry it (csv, parquet, imu_tk, mat; records say theirs; imucal
+        sessions state none and are taken as m/s^2 unless it is given).
     delimiter : str, optional
         Field delimiter of a CSV file (one character; default ``,``).
     regions : path-like, optional
@@ -181,16 +182,26 @@ class InputOptions:
                                             for col, s in (self.scales or {}).items()} or None)
 
 
+SCALE_RANGE = (1e-15, 1e15)
+"""Smallest and largest magnitude of a scale: a 32-bit ADC's counts to g are ~1e-9; far
+beyond either end the scaled values leave the range where a fit's arithmetic holds
+(5e-324 makes every sample a subnormal number)."""
+
+
 def check_scale(value, parameter: str) -> float:
-    """Check a scale (finite, non-zero): the file's numbers times it are values in the unit."""
+    """Check a scale (finite, non-zero, magnitude within :data:`SCALE_RANGE`).
+
+    The file's numbers times it are values in the unit.
+    """
     try:
         scale = float(value)
     except (TypeError, ValueError, OverflowError):
         scale = math.nan
-    if isinstance(value, bool) or not (math.isfinite(scale) and scale != 0.0):
-        raise AccelcalError(f"scale {shown(value)} must be a finite non-zero number (the "
-                            "file's values times it are values in the unit)",
-                            parameter=parameter)
+    low, high = SCALE_RANGE
+    if isinstance(value, bool) or not (math.isfinite(scale) and low <= abs(scale) <= high):
+        raise AccelcalError(f"scale {shown(value)} must be a finite number of magnitude "
+                            f"{low:g} to {high:g} (the file's values times it are values in "
+                            "the unit)", parameter=parameter)
     return scale
 
 

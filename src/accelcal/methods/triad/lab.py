@@ -84,7 +84,8 @@ class TriadRun:
 def run(source, *, options=None, orientations: str | None = None, positions=None,
         gravity: float | None = None, latitude: float | None = None,
         height: float | None = None, quadratic: bool = False, init_static: float = 30.0,
-        window: float = 1.0, factor: float | None = None, min_length: float = 2.0) -> TriadRun:
+        window: float = 1.0, factor: float | None = None, min_length: float = 2.0,
+        estimator: str | None = None, fixture_tilt: float | None = None) -> TriadRun:
     """Calibrate a triad from a recording, as ``accelcal triad calibrate`` does.
 
     Parameters
@@ -115,6 +116,18 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         Threshold factor of the detection; default: with unknown orientations
         the one of 2..10 whose calibration leaves the smallest norm residual
         [Tedaldi2014]_, else 2.
+    estimator : {"least-squares", "pairs", "gls"}, optional
+        Known orientations: the linear estimator
+        (:mod:`accelcal.methods.triad.pairs`): least squares, per-axis pairs
+        [Ferraris1995]_ (six positions; robust to a tilted fixture) or
+        generalised least squares weighing each reading by the noise and
+        the fixture tilt; default gls with ``fixture_tilt``, else least
+        squares.
+    fixture_tilt : float, optional
+        Known orientations: standard uncertainty of each position's
+        orientation about each horizontal axis, rad (Type B). The noise of
+        each interval mean is then its samples' SD over the square root of
+        their number (white noise), and the tilt's covariance is added.
 
     Returns
     -------
@@ -133,10 +146,15 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
     if positions is not None and orientations == "unknown":
         raise AccelcalError("a positions file gives known orientations; drop orientations "
                             "unknown", parameter="positions")
+    for name, value in (("estimator", estimator), ("fixture_tilt", fixture_tilt)):
+        if value is not None and orientations == "unknown":
+            raise AccelcalError("applies to known orientations (the gravity norm does not "
+                                "use them)", parameter=name)
     check_settings(init_static=init_static, window=window, min_length=min_length,
                    factor=2.0 if factor is None else factor)
     rec = read(source, options)
     g = local_gravity(rec, gravity=gravity, latitude=latitude, height=height)
+    check_magnitude(rec, g)
     detect = (init_static, window, 2.0 if factor is None else factor, min_length)
     known, found = (None, None) if orientations == "unknown" else _known(rec, positions, detect)
     if orientations == "known" and known is None:
@@ -146,9 +164,16 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
     if known is not None:
         from accelcal.methods.triad.known import calibrate_known
 
+        noise = (None if fixture_tilt is None
+                 else known.noise_sd / np.sqrt(known.counts)[:, None])
         red = calibrate_known(known.means, known.up, g, input_unit=rec.unit, quadratic=quadratic,
-                              labels=known.labels, counts=known.counts)
+                              labels=known.labels, counts=known.counts, noise_sd=noise,
+                              estimator=estimator, fixture_tilt=fixture_tilt)
         return TriadRun(red, rec, found)
+    if estimator is not None or fixture_tilt is not None:
+        raise AccelcalError("applies to known orientations; the recording gives none (imucal "
+                            "labels or regions, a triad record's positions, or a positions "
+                            "file)", parameter="estimator" if estimator else "fixture_tilt")
     from accelcal.methods.triad.unknown import calibrate_unknown
 
     if factor is None:
@@ -171,6 +196,35 @@ def read(source, options=None):
     from accelcal.io.recordings import read_recording
 
     return read_recording(source, options, channels=3, what="triad recording")
+
+
+PLAUSIBLE_RATIO = 2.0
+"""The median magnitude of a recording in an acceleration unit must lie within this
+factor of the local gravity: a still or slowly turned triad reads about 1 g, raw ADC
+counts read as m/s^2 (imucal's raw sessions: some 2,000 per g) thousands."""
+
+
+def check_magnitude(rec, gravity: float) -> None:
+    """Refuse values in an acceleration unit whose median magnitude is not about ``gravity``.
+
+    A raw output taken for an acceleration (counts read as m/s^2) would
+    otherwise calibrate to a scale factor near -100 % and biases of
+    thousands of g; a raw unit (counts, V, mV) is not checked: the
+    calibration finds its scale.
+    """
+    from accelcal.io.recordings.options import ACCELERATION_UNITS
+
+    if rec.unit not in ACCELERATION_UNITS or not len(rec.values):
+        return
+    step = max(1, len(rec.values) // 100_000)
+    norm = np.linalg.norm(rec.values[::step], axis=1)
+    median = float(np.median(norm)) * ACCELERATION_UNITS[rec.unit]
+    if not gravity / PLAUSIBLE_RATIO <= median <= gravity * PLAUSIBLE_RATIO:
+        raise AccelcalError(
+            f"the recording's median magnitude is {median:.6g} m/s^2 as {rec.unit}, not about "
+            f"the local gravity {gravity:.6g} m/s^2: the values are not in {rec.unit}; give "
+            "their unit (counts, V or mV for a raw output, e.g. an imucal raw session in ADC "
+            "counts; scale for a known conversion)", parameter="unit")
 
 
 def detect_intervals(rec, init_static: float, window: float, factor: float, min_length: float):

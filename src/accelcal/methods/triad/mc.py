@@ -8,9 +8,12 @@ Synthetic sets of interval means are drawn from the fitted calibration:
   (``a_k`` the calibrated mean: its direction, with the exact local gravity),
 
 plus Gaussian noise with the SD of each interval mean (observation
-``means_sd``: given, or at the residual level). Each set is re-reduced by
-the same estimator as the measured means (linear least squares and RQ
-split, or Levenberg-Marquardt from the fitted values); the sampler returns
+``means_sd``: given, or at the residual level) and, with a stated fixture
+tilt, the readings of a fixture turned by a random small rotation at each
+position (:mod:`accelcal.methods.triad.pairs`). Each set is re-reduced by
+the same estimator as the measured means (per-axis pairs or linear least
+squares and RQ split, or Levenberg-Marquardt from the fitted values); the
+sampler returns
 the errors ``x* - x``, which :func:`accelcal.uncertainty.propagate` turns
 into standard uncertainties and coverage intervals. The re-reductions are
 nonlinear, one per trial (about 0.1 ms for known orientations, a few ms for
@@ -58,6 +61,15 @@ class TriadSampler:
         Parameters reported (9 or 12).
     given : bool
         The noise SD was given (the gravity-norm estimator then reweights with it).
+    estimator : str
+        The known-orientation estimator (``pairs`` or ``least-squares``).
+    up : numpy.ndarray or None
+        The positions' up vectors (known orientations).
+    tilt : numpy.ndarray or None
+        ``(n, 3, 3)`` maps of a standard normal 3-vector to each position's
+        reading error from the fixture tilt (None: no tilt stated).
+    tilt_sd : float or None
+        The stated fixture tilt, rad (the gls estimator weighs with it).
 
     Calling ``sampler(rng, t)`` returns the errors ``(t, p)``.
     """
@@ -72,6 +84,10 @@ class TriadSampler:
     quadratic: bool
     p: int
     given: bool = False
+    estimator: str = "least-squares"
+    up: np.ndarray | None = None
+    tilt: np.ndarray | None = None
+    tilt_sd: float | None = None
 
     def __call__(self, rng: np.random.Generator, t: int) -> np.ndarray:
         """Errors of ``t`` re-reduced synthetic sets, shape ``(t, p)``."""
@@ -79,11 +95,15 @@ class TriadSampler:
         from accelcal.methods.triad.unknown import estimate_unknown
 
         noise = rng.standard_normal((t, *self.clean.shape)) * self.sd
+        if self.tilt is not None:
+            z = rng.standard_normal((t, *self.clean.shape))
+            noise = noise + np.einsum("kij,tkj->tki", self.tilt, z)
         out = np.empty((t, self.p))
         for r in range(t):
             u = self.clean + noise[r]
             if self.route == "known":
-                x = estimate_known(u, self.force, self.weights, self.quadratic)[2]
+                x = estimate_known(u, self.force, self.weights, self.quadratic, self.up,
+                                   estimator=self.estimator, tilt=self.tilt_sd)[1]
             else:
                 x = estimate_unknown(u, self.gravity, self.quadratic, self.weights,
                                      self.sd if self.given else None, x0=self.values)[0]
@@ -112,8 +132,17 @@ def sampler_of(reduction) -> TriadSampler:
         force = prov["gravity"] * obs["up"]
         clean = known_model(values, rot0, force, quadratic)[0]
         weights = sd if given else np.repeat(rel[:, None], 3, axis=1)
+        tilt = None
+        if prov.get("fixture_tilt"):
+            from accelcal.methods.triad.pairs import tilt_blocks
+
+            pred = known_model(values, rot0, np.vstack([np.zeros(3), np.eye(3)]), False)[0]
+            tilt = tilt_blocks((pred[1:] - pred[0]).T, obs["up"], prov["gravity"],
+                               prov["fixture_tilt"])
         return TriadSampler("known", clean, sd, values, weights, force, prov["gravity"],
-                            quadratic, est.values.size)
+                            quadratic, est.values.size, estimator=prov.get(
+                                "estimator", "least-squares"), up=obs["up"], tilt=tilt,
+                            tilt_sd=prov.get("fixture_tilt"))
     cal = TriadCalibration.from_vector(est.values, prov["input_unit"])
     a = cal.apply(means)
     clean = cal.readings(prov["gravity"] * a / np.linalg.norm(a, axis=1)[:, None])
@@ -152,6 +181,9 @@ def triad_uncertainty(reduction, *, trials: int, seed: int, shortest: bool = Fal
     inputs = [("interval-mean noise N(0, u_k) as given" if given else
                "interval-mean noise N(0, u_k) at the residual level")
               + f" ({reduction.provenance['input_unit']})"]
+    if reduction.provenance.get("fixture_tilt"):
+        inputs.append(f"fixture tilt N(0, {reduction.provenance['fixture_tilt']:.3g} rad) about "
+                      "each horizontal axis at each position (Type B)")
     return propagate(sampler, est.values, est.std, names=est.names, trials=trials, seed=seed,
                      units=dict(est.units), shortest=shortest, inputs=inputs, progress=progress,
                      workers=workers, scheduler=scheduler)

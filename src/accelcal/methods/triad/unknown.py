@@ -21,8 +21,12 @@ quadratic terms) degrees of freedom, or 1 when ``noise_sd`` is given.
 
 Initial guess (unless given): an axis-aligned ellipsoid ``sum_i alpha_i
 u_i^2 + beta_i u_i = 1`` fitted linearly (centre: the biases; semi-axes:
-``g / s_i``), which holds for raw outputs with large offsets; when it is
-degenerate, zero bias and the scale of the mean norm.
+``g / s_i``), which holds for raw outputs with large offsets (16-bit counts
+about mid-scale); when it is degenerate, a sphere about the mid-range of
+the means on each axis (bias: the mid-range; scale: ``g`` over the mean
+distance from it). The distinct orientations are counted on the means less
+that centre, so an offset of many g does not make every mean point the same
+way.
 
 References
 ----------
@@ -74,9 +78,20 @@ def initial_guess(means, gravity: float) -> np.ndarray:
                 scale = gravity * np.sqrt(alpha / c) / spread
                 if np.isfinite(bias).all() and np.isfinite(scale).all():
                     return np.concatenate([bias, scale, np.zeros(3)])
-    norm = float(np.mean(np.linalg.norm(u, axis=1)))
+    centre = midrange(u)
+    norm = float(np.mean(np.linalg.norm(u - centre, axis=1)))
     scale = gravity / norm if norm > 0 else 1.0
-    return np.concatenate([np.zeros(3), np.full(3, scale), np.zeros(3)])
+    return np.concatenate([centre, np.full(3, scale), np.zeros(3)])
+
+
+def midrange(u) -> np.ndarray:
+    """The mid-range of the means on each axis, ``(max + min) / 2``.
+
+    The offset of a raw output whose positions turn each axis up and down
+    (about zero for means in an acceleration unit).
+    """
+    u = np.asarray(u, dtype=float)
+    return 0.5 * (u.max(axis=0) + u.min(axis=0))
 
 
 def positive_polarity(values: np.ndarray, quadratic: bool) -> np.ndarray:
@@ -156,8 +171,8 @@ def calibrate_unknown(means, gravity, *, input_unit="m/s^2", quadratic=False, la
             f"{p if given else p + 1} ({p} parameters"
             f"{'' if given else ' and one residual degree of freedom'}); "
             "12-40 well-spread orientations in practice", parameter="means")
-    _check_distinct(u, p)
     x0 = _start(initial, u, g, quadratic, unit)
+    _check_distinct(u - x0[0:3], p)
     _check_design(x0, u, g, quadratic, rel, names=names)
     x, sd = estimate_unknown(u, g, quadratic, rel, noise, x0=x0)
     r, jac = norm_model(x, u, g, quadratic)
@@ -223,9 +238,14 @@ def distinct_orientations(u, limit: int, *, degrees: float = DISTINCT_DEG) -> in
 
     Repeats of one position add samples, not orientations. Greedy: a
     direction joins the first kept one within ``degrees``, else is kept.
-    Linear in the positions (at most ``limit`` kept directions).
+    Linear in the positions (at most ``limit`` kept directions). ``u`` must
+    be free of offsets (a raw output less its bias estimate): the directions
+    of means about a mid-scale offset all point near the offset's. A zero
+    vector counts as a direction of its own.
     """
-    d = u / np.linalg.norm(u, axis=1)[:, None]
+    u = np.asarray(u, dtype=float)
+    norm = np.linalg.norm(u, axis=1)
+    d = u / np.where(norm > 0, norm, 1.0)[:, None]
     cos = np.cos(np.radians(degrees))
     kept = d[:1]
     for row in d[1:]:
