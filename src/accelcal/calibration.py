@@ -35,8 +35,8 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.io.lab_metadata import LabInfo, read_lab_metadata
-from accelcal.io.limits import file_type, shown, shown_path
-from accelcal.results import Estimate
+from accelcal.io.limits import file_type
+from accelcal.validation import shown, shown_path
 
 
 def now() -> str:
@@ -202,7 +202,9 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
                 f"the {reduction.method} reduction determined no coefficient of sensor {name}; "
                 "there is nothing to record"
             )
-        sub = Estimate(
+        # The sensor's Estimate class, taken from the reduction: this module needs no import
+        # of accelcal.results, whose Reduction.to_records calls records.
+        sub = type(est)(
             tuple(est.names[j] for j in keep), est.values[keep],
             est.covariance[np.ix_(keep, keep)],
             {est.names[j]: est.units.get(est.names[j], "") for j in keep},

@@ -107,7 +107,7 @@ def detect(
 
 
 def _gravity(gravity: float | None, latitude: float | None, height: float | None, rec) -> float:
-    from accelcal.methods.triad.gravity import check_gravity, normal_gravity
+    from accelcal.physics.gravity import check_gravity, normal_gravity
 
     if gravity is not None:
         if latitude is not None or height is not None:

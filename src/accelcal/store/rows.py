@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
-from accelcal.io.limits import shown_path
+from accelcal.validation import shown_path
 
 
 def labels(records: list, sources: Sequence[str] | None) -> list[str]:
