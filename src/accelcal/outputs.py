@@ -22,7 +22,10 @@ def _num(x) -> float | None:
 def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
     """One row per sensor and coefficient, then one per fixed coefficient.
 
-    Keys: ``sensor, coefficient, estimate, std, unit, status, dof``; with
+    Keys: ``sensor, coefficient, plain, estimate, std, unit, status, dof``
+    (``coefficient`` is the row's name, a combination name such as
+    ``K0+Kpp`` where the row estimates one; ``plain`` the coefficient's own
+    name); with
     ``engineering`` also ``eng_estimate, eng_std, eng_unit`` (the first
     engineering unit, or NaN and '' where none applies) and ``engineering``
     (every engineering unit: a list of ``{"estimate", "std", "unit"}``).
@@ -33,15 +36,16 @@ def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
         k1 = reduction.scale_factor(k)
         for c, v, s in zip(est.names, est.values, est.std, strict=True):
             unit = est.units.get(c, "")
-            row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": float(s),
-                   "unit": unit, "status": reduction.status(c, k), "dof": int(est.dof)}
+            row = {"sensor": name, "coefficient": est.label(c), "plain": c,
+                   "estimate": float(v), "std": float(s), "unit": unit,
+                   "status": reduction.status(c, k), "dof": int(est.dof)}
             if engineering:
                 row.update(_engineering_columns(reduction, c, float(v), float(s), unit, k1, k))
             rows.append(row)
         for c, v in reduction.fixed.items():
             unit = _fixed_unit(c, est)
-            row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": 0.0,
-                   "unit": unit, "status": "fixed", "dof": int(est.dof)}
+            row = {"sensor": name, "coefficient": c, "plain": c, "estimate": float(v),
+                   "std": 0.0, "unit": unit, "status": "fixed", "dof": int(est.dof)}
             if engineering:
                 row.update(_engineering_columns(reduction, c, float(v), 0.0, unit, k1, k))
             rows.append(row)
@@ -76,7 +80,8 @@ def _matrix(a) -> list | None:
 def _estimate_dict(est, name: str | None = None) -> dict:
     out = {
         "coefficients": [
-            {"name": c, "unit": est.units.get(c, ""), "estimate": _num(v), "std": _num(s)}
+            {"name": est.label(c), "unit": est.units.get(c, ""), "estimate": _num(v),
+             "std": _num(s), **({"plain": c} if est.label(c) != c else {})}
             for c, v, s in zip(est.names, est.values, est.std, strict=True)
         ],
         "covariance": _matrix(est.covariance),
@@ -93,13 +98,15 @@ def to_dict(reduction) -> dict:
     coefficients, covariance, dof, residual_sigma`` and ``engineering`` rows),
     ``shared`` (or None), ``combinations``, ``identifiability`` (rank,
     condition numbers, identifiable, not identifiable, tolerance; or None),
-    ``assumptions``, ``fixed``, ``provenance``, ``notes``.
+    ``assumptions``, ``fixed``, ``provenance``, ``notes``, ``type_b`` (the
+    itemised Type B contributions), ``aliases`` (the alias-matrix entries of
+    the unestimated terms) and ``priors`` (:mod:`accelcal.aliasing`).
     """
     rows = reduction_rows(reduction)
     sensors = []
     for name, est in zip(reduction.sensor_names, reduction.sensors, strict=True):
         d = _estimate_dict(est, name)
-        d["engineering"] = {r["coefficient"]: r["engineering"] for r in rows
+        d["engineering"] = {r["plain"]: r["engineering"] for r in rows
                             if r["sensor"] == name and r["engineering"]}
         sensors.append(d)
     ident = reduction.identifiability
@@ -125,6 +132,9 @@ def to_dict(reduction) -> dict:
                     for k, v in reduction.nominal.items()},
         "provenance": dict(reduction.provenance),
         "notes": list(reduction.notes),
+        "type_b": [c.as_dict() for c in reduction.type_b],
+        "aliases": [a.as_dict() for a in reduction.aliases],
+        "priors": [p.as_dict() for p in reduction.priors],
     }
 
 
@@ -146,5 +156,24 @@ def describe(reduction) -> list[str]:
     for c in reduction.combinations:
         lines.append(f"determined combination {c.label} = {format_value(c.value, c.std)} "
                      f"+- {format_std(c.std)} {c.unit}".rstrip())
+    lines += _type_b_lines(reduction)
     lines += list(reduction.notes)
     return list(dict.fromkeys(lines))
+
+
+def _type_b_lines(reduction) -> list[str]:
+    """Type B contributions, by input, and the aliases of the terms without a prior."""
+    from accelcal.aliasing import alias_text
+
+    lines = []
+    for p in reduction.priors:
+        parts = [c for c in reduction.type_b if c.input == p.name]
+        if parts:
+            lines.append(
+                f"{p.name} taken as zero, bounded by a {p.source} prior ({p.distribution}, "
+                f"{'+-' if p.distribution == 'rectangular' else 'u = '}{p.value:.3g} {p.unit}), "
+                "Type B: " + ", ".join(f"{c.row} +- {c.contribution:.3g} {c.unit}".rstrip()
+                                       for c in parts))
+    with_prior = {p.name for p in reduction.priors}
+    lines += alias_text([a for a in reduction.aliases if a.term not in with_prior])
+    return lines

@@ -113,6 +113,11 @@ class CalibrationRecord:
         level was given, or unknown in an older record).
     simulated : bool
         True when the input data were simulated.
+    plain : dict
+        The plain coefficient name of each row that estimates a combination
+        (row name -> plain name, e.g. ``"K0+Kpp" -> "K0"``); written as the
+        coefficient's ``plain`` key. A record made before combinations were
+        named has none, and reads as before.
     """
 
     serial: str
@@ -130,6 +135,7 @@ class CalibrationRecord:
     notes: tuple[str, ...] = ()
     dof: int | None = None
     simulated: bool = False
+    plain: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.serial, str) or not self.serial.strip():
@@ -217,7 +223,8 @@ class CalibrationRecord:
             "coverage_factor": self.coverage_factor,
             "coefficients": [
                 {"name": n, "unit": self.units.get(n, ""), "estimate": float(v),
-                 "std": float(s), "expanded": float(u)}
+                 "std": float(s), "expanded": float(u),
+                 **({"plain": self.plain[n]} if n in self.plain else {})}
                 for n, v, s, u in zip(
                     self.names, self.estimates, self.std, self.expanded, strict=True
                 )
@@ -301,20 +308,22 @@ def _from_dict(data, source: str) -> CalibrationRecord:
     coefficients = data["coefficients"]
     if not isinstance(coefficients, list) or not coefficients:
         raise fail("coefficients must be a non-empty list")
-    names, units, values = [], {}, []
+    names, units, values, plain = [], {}, [], {}
     for i, c in enumerate(coefficients):
-        if not isinstance(c, dict) or set(c) != _COEFFICIENT_KEYS:
+        if not isinstance(c, dict) or set(c) - {"plain"} != _COEFFICIENT_KEYS:
             raise fail(f"coefficients[{i}] must have exactly the keys {sorted(_COEFFICIENT_KEYS)}")
         if not is_finite_number(c["estimate"]):
             raise fail(f"coefficients[{i}].estimate must be a finite number")
         for key in ("std", "expanded"):
             if not (c[key] is None or is_finite_number(c[key])):
                 raise fail(f"coefficients[{i}].{key} must be a finite number or null")
-        for key in ("name", "unit"):
-            if not isinstance(c[key], str):
+        for key in ("name", "unit", "plain"):
+            if key in c and not isinstance(c[key], str):
                 raise fail(f"coefficients[{i}].{key} must be a string")
         names.append(c["name"])
         units[c["name"]] = c["unit"]
+        if "plain" in c:
+            plain[c["name"]] = c["plain"]
         values.append(float(c["estimate"]))
     rows = data["covariance"]
     if not (isinstance(rows, list) and all(
@@ -351,7 +360,7 @@ def _from_dict(data, source: str) -> CalibrationRecord:
             software=data["software"], operator=data["operator"],
             coverage_factor=float(data["coverage_factor"]), model=model,
             inputs=dict(data["inputs"]), notes=tuple(data["notes"]), dof=dof,
-            simulated=simulated,
+            simulated=simulated, plain=plain,
         )
     except AccelcalError as exc:
         raise fail(str(exc)) from None
