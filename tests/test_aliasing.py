@@ -32,7 +32,8 @@ def test_alias_matrix_is_the_weighted_least_squares_formula():
     xtw = x.T * w
     assert np.allclose(a, np.linalg.solve(xtw @ x, xtw @ z), atol=1e-12)
     # a_p^2 = 1 - a_i^2: Kpp moves K0 by +1 and K2 by -1 per unit, nothing else
-    assert a[0, 0] == pytest.approx(1.0) and a[2, 0] == pytest.approx(-1.0)
+    assert a[0, 0] == pytest.approx(1.0)
+    assert a[2, 0] == pytest.approx(-1.0)
     assert np.allclose(np.delete(a[:, 0], [0, 2]), 0.0, atol=1e-9)
 
 
@@ -59,7 +60,8 @@ def test_propagation_adds_a_u2_at_and_itemises_each_row():
     k0 = [c for c in parts if c.row == "K0"]
     assert {c.input for c in k0} == {"K1_asym"}  # sgn(a_i)/2 has no constant part here
     assert k0[0].contribution == pytest.approx(abs(a[0, 1]) * 2e-6)
-    assert k0[0].unit == "g" and k0[0].dof == 8
+    assert k0[0].unit == "g"
+    assert k0[0].dof == 8
     assert sum(c.contribution**2 for c in parts if c.row == "K1") == pytest.approx(cov[1, 1])
     entries = aliases(a, rows, ("K0_asym", "K1_asym"))
     assert all(abs(e.sensitivity) > 1e-9 for e in entries)
@@ -77,14 +79,15 @@ def test_welch_satterthwaite_is_the_gum_formula():
 def test_priors_are_checked_and_defaults_come_from_the_default_accelerometer():
     import accelcal
 
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="not a finite non-negative"):
         Prior("K0_asym", -1.0)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="distribution"):
         Prior("K0_asym", 1.0, distribution="triangular")
     pri = default_priors(("K0_asym", "K4", "Kpp"))
     assert set(pri) == {"K0_asym", "Kpp"}  # K4 is zero in the default model
     assert pri["K0_asym"].value == pytest.approx(2 * abs(accelcal.default_model().K0_asym))
-    assert pri["K0_asym"].source == "default" and pri["K0_asym"].unit == "g"
+    assert pri["K0_asym"].source == "default"
+    assert pri["K0_asym"].unit == "g"
 
 
 def test_records_carry_the_combination_name_and_old_records_stay_readable(tmp_path):
@@ -96,11 +99,13 @@ def test_records_carry_the_combination_name_and_old_records_stay_readable(tmp_pa
         units={"K0+Kpp": "g", "K1": "V/g"}, date="2026-01-01", software="accelcal",
         plain={"K0+Kpp": "K0"})
     back = CalibrationRecord.from_json(rec.to_json())
-    assert back.names == ("K0+Kpp", "K1") and back.plain == {"K0+Kpp": "K0"}
+    assert back.names == ("K0+Kpp", "K1")
+    assert back.plain == {"K0+Kpp": "K0"}
     old = rec.to_dict()
     old["coefficients"][0] = {k: v for k, v in old["coefficients"][0].items() if k != "plain"}
     old["coefficients"][0]["name"] = "K0"
     import json
 
     before = CalibrationRecord.from_json(json.dumps(old).replace('"K0+Kpp"', '"K0"'))
-    assert before.names == ("K0", "K1") and before.plain == {}
+    assert before.names == ("K0", "K1")
+    assert before.plain == {}
