@@ -89,7 +89,7 @@ def test_contract_reductions_carry_their_fields():
     assert red.assumed("rotation_axis") == "PA"
     assert red.assumed("noise") == "residuals"
     assert red.assumed("repeats") == 3
-    assert red.dof == red.estimate.dof == 20 - 7
+    assert red.dof == red.estimate.dof == 20 - 9  # the seven default terms, K0' and K1'
     assert red.identifiability.full_rank
     assert red.estimate["K1"] == red.models[0].K1
     assert red.scale_factor() == red.estimate["K1"]

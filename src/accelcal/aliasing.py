@@ -122,7 +122,7 @@ class Alias:
     sensitivity : float
         d(row) / d(term), row unit per term unit.
     unit : str
-        Unit of the sensitivity, ``"<row unit>/<term unit>"``.
+        Unit of the sensitivity, ``"<row unit> per <term unit>"``.
     sensor : int
         Index of the sensor.
     """
@@ -223,8 +223,8 @@ def aliases(matrix, rows, terms, *, row_units=None, term_units=None,
     for i, row in enumerate(rows):
         for j, term in enumerate(terms):
             if abs(a[i, j]) > ALIAS_ATOL:
-                unit = f"{row_units.get(row, '')}/{term_units.get(term, '')}"
-                out.append(Alias(row, term, float(a[i, j]), "" if unit == "/" else unit, sensor))
+                unit = f"{row_units.get(row, '')} per {term_units.get(term, '')}"
+                out.append(Alias(row, term, float(a[i, j]), unit.strip(), sensor))
     return tuple(out)
 
 
@@ -318,6 +318,6 @@ def alias_text(entries) -> list[str]:
     by_term: dict[str, list[Alias]] = {}
     for e in entries:
         by_term.setdefault(e.term, []).append(e)
-    return [f"{term} (no prior) would move " + ", ".join(
-        f"{e.row} by {e.sensitivity:.4g} {e.unit}".rstrip() for e in group) + " per unit"
+    return [f"{term} taken as zero, no prior: it would move " + ", ".join(
+        f"{e.row} by {e.sensitivity:.4g} {e.unit}".rstrip() for e in group)
         for term, group in by_term.items()]

@@ -22,7 +22,7 @@ def _num(x) -> float | None:
 def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
     """One row per sensor and coefficient, then one per fixed coefficient.
 
-    Keys: ``sensor, coefficient, plain, estimate, std, unit, status, dof``
+    Keys: ``sensor, coefficient, estimate, std, unit, status, dof, plain``
     (``coefficient`` is the row's name, a combination name such as
     ``K0+Kpp`` where the row estimates one; ``plain`` the coefficient's own
     name); with
@@ -36,16 +36,16 @@ def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
         k1 = reduction.scale_factor(k)
         for c, v, s in zip(est.names, est.values, est.std, strict=True):
             unit = est.units.get(c, "")
-            row = {"sensor": name, "coefficient": est.label(c), "plain": c,
-                   "estimate": float(v), "std": float(s), "unit": unit,
-                   "status": reduction.status(c, k), "dof": int(est.dof)}
+            row = {"sensor": name, "coefficient": est.label(c), "estimate": float(v),
+                   "std": float(s), "unit": unit, "status": reduction.status(c, k),
+                   "dof": int(est.dof), "plain": c}
             if engineering:
                 row.update(_engineering_columns(reduction, c, float(v), float(s), unit, k1, k))
             rows.append(row)
         for c, v in reduction.fixed.items():
             unit = _fixed_unit(c, est)
-            row = {"sensor": name, "coefficient": c, "plain": c, "estimate": float(v),
-                   "std": 0.0, "unit": unit, "status": "fixed", "dof": int(est.dof)}
+            row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": 0.0,
+                   "unit": unit, "status": "fixed", "dof": int(est.dof), "plain": c}
             if engineering:
                 row.update(_engineering_columns(reduction, c, float(v), 0.0, unit, k1, k))
             rows.append(row)
