@@ -45,11 +45,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-DISTRIBUTIONS = ("normal", "rectangular")
-"""How a prior's ``value`` reads: a standard uncertainty, or the half-width of a bound."""
+DISTRIBUTIONS = ("normal", "rectangular", "two-point")
+"""How a prior's ``value`` reads: a standard uncertainty, the half-width of a bound
+(uniform within it), or the magnitude of a value known but for its sign (+-a with
+equal odds: standard uncertainty a)."""
 
-SOURCES = ("user", "default")
-"""Where a prior came from: given by the user, or the embedded default accelerometer's."""
+SOURCES = ("user", "default", "estimate")
+"""Where a prior came from: given by the user, the embedded default accelerometer's, or
+the reduction's own estimate of the term (e.g. the magnitude of K0' whose sign at a
+position is unknown)."""
 
 ALIAS_ATOL = 1e-9
 """An alias-matrix entry below this (row unit per term unit) is no alias."""
@@ -68,14 +72,15 @@ class Prior:
     name : str
         The term (an error-model coefficient, e.g. ``"K0_asym"``).
     value : float
-        A standard uncertainty (``"normal"``) or the half-width of a bound
-        (``"rectangular"``), in ``unit``.
+        A standard uncertainty (``"normal"``), the half-width of a bound
+        (``"rectangular"``) or the magnitude of a value of unknown sign
+        (``"two-point"``), in ``unit``.
     unit : str
         Unit of the term.
-    distribution : {"normal", "rectangular"}
+    distribution : {"normal", "rectangular", "two-point"}
     dof : float
         Degrees of freedom of the standard uncertainty (``inf``: exactly known).
-    source : {"user", "default"}
+    source : {"user", "default", "estimate"}
     """
 
     name: str
@@ -99,8 +104,8 @@ class Prior:
 
     @property
     def standard(self) -> float:
-        """The standard uncertainty (GUM 4.3.7: a / sqrt 3 for a bound of half-width a)."""
-        return self.value if self.distribution == "normal" else self.value / math.sqrt(3.0)
+        """Standard uncertainty: a / sqrt 3 for a bound of half-width a (GUM 4.3.7), a for +-a."""
+        return self.value / math.sqrt(3.0) if self.distribution == "rectangular" else self.value
 
     def as_dict(self) -> dict:
         """JSON-ready form."""
@@ -159,7 +164,7 @@ class Contribution:
         Degrees of freedom of ``u`` (``inf``: exactly known).
     unit : str
         Unit of the contribution (the row's).
-    source : {"user", "default"}
+    source : {"user", "default", "estimate"}
         Where the prior came from.
     sensor : int
         Index of the sensor.

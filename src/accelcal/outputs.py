@@ -161,6 +161,10 @@ def describe(reduction) -> list[str]:
     return list(dict.fromkeys(lines))
 
 
+_SOURCE_TEXT = {"user": "the user's prior", "default": "the default prior",
+                "estimate": "a prior from the reduction's own estimate"}
+
+
 def _type_b_lines(reduction) -> list[str]:
     """Type B contributions, by input, and the aliases of the terms without a prior."""
     from accelcal.aliasing import alias_text
@@ -170,7 +174,7 @@ def _type_b_lines(reduction) -> list[str]:
         parts = [c for c in reduction.type_b if c.input == p.name]
         if parts:
             lines.append(
-                f"{p.name} taken as zero, bounded by a {p.source} prior ({p.distribution}, "
+                f"{p.name} taken as zero, bounded by {_SOURCE_TEXT[p.source]} ({p.distribution}, "
                 f"{'+-' if p.distribution == 'rectangular' else 'u = '}{p.value:.3g} {p.unit}), "
                 "Type B: " + ", ".join(f"{c.row} +- {c.contribution:.3g} {c.unit}".rstrip()
                                        for c in parts))

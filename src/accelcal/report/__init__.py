@@ -148,8 +148,8 @@ def _view(section: Section, number: int) -> dict:
             "coefficients": [
                 {"name": n, "unit": rec.units.get(n, ""), "estimate": float(v),
                  "std": float(s), "expanded": float(u),
-                 "engineering": engineering_text(n, float(v), float(s), rec.units.get(n, ""),
-                                                 scale_factor=k1)}
+                 "engineering": engineering_text(rec.plain.get(n, n), float(v), float(s),
+                                                 rec.units.get(n, ""), scale_factor=k1)}
                 for n, v, s, u in zip(rec.names, rec.estimates, std, rec.expanded, strict=True)
             ],
             "correlation": corr.tolist() if len(rec.names) <= 10 else None,
