@@ -9,19 +9,21 @@ errors and noise; the coverage harness (tests/coverage_harness.py) runs both.
 import numpy as np
 import pytest
 
+import accelcal
 from accelcal.errors import AccelcalError
 from accelcal.methods.centrifuge import reduce_centrifuge, reduce_joint
 from accelcal.model import ErrorModel
 from accelcal.rigs.centrifuge import CentrifugeRig, simulate
 from accelcal.rigs.tumble import simulate as simulate_tumble
 from accelcal.rigs.tumble import uniform_positions
-from contract import ReductionContract
+from contract import ReductionContract, default_terms, true_value
 
 POSITIONS = ("IA-in", "IA-out", "OA-in", "OA-out", "PA-in", "PA-out", "IA-tan")
 LEVELS = np.arange(5.0, 55.0, 5.0)
 TERMS = ("K0", "K1", "K2", "K3", "K4", "Ko", "Kp", "Koo", "Kpp", "Kio", "Kip", "K0_asym",
          "K1_asym")
-"""Every term these positions separate (Kop is aliased with Ko and Kio: the truth has none)."""
+"""Every term these positions separate (Kop is aliased with Ko and Kio: the rows Ko-Kop and
+Kio+Kop; the truth has Kop at the default accelerometer's magnitude)."""
 RADIUS_SD = 3e-4
 """Spread of the true radius error (relative)."""
 SURVEY_SD = 1e-4
@@ -35,9 +37,14 @@ ORDER = {"K0": 0, "K1": 1, "K2": 2, "K3": 3, "K4": 4, "Ko": 1, "Kp": 1, "Koo": 2
 """Power of the level each term multiplies (for the rounding tolerance)."""
 
 
+ROWS = {"Ko": "Ko-Kop", "Kio": "Kio+Kop"}
+"""Kop is aliased with Ko and Kio in these positions: the rows are named so."""
+
+
 def random_model(rng):
     k1 = rng.uniform(0.5, 3.0) * rng.choice([-1.0, 1.0])
-    return ErrorModel(K1=k1, **{t: rng.uniform(-s, s) for t, s in SIZES.items()})
+    return ErrorModel(K1=k1, **{t: rng.uniform(-s, s) for t, s in SIZES.items()},
+                      **default_terms(accelcal.default_model(), rng, ("Kop",)))
 
 
 class TestContractAlone(ReductionContract):
@@ -61,14 +68,21 @@ class TestContractAlone(ReductionContract):
         return reduce_centrifuge(rec, terms=TERMS, rig_errors=given)
 
     def expected(self, truth):
-        return [{t: getattr(truth["model"], t) for t in TERMS}]
+        return [{ROWS.get(t, t): true_value(truth["model"], ROWS.get(t, t)) for t in TERMS}]
+
+    def default_case(self):
+        model = accelcal.default_model()
+        truth = {"model": model, "radius_error": 0.0}
+        rec = simulate(model, POSITIONS, LEVELS, rig=CentrifugeRig(radius=1.5), readings=2,
+                       noise=0.0, seed=1)
+        return (rec, {"radius_error": (0.0, SURVEY_SD)}), self.expected(truth)
 
     def noise_free_tolerance(self, name, value):
         # Outputs up to |K1| 50 g ~ 150 V are rounded to ~3e-14 V; a term of order n is fitted
         # from levels up to 50 g, so its rounding error is ~3e-14 / (|K1| 50^n) g/g^n, amplified
         # by the design's conditioning (equilibrated, ~1e4 with the 50 g range and 4th powers):
         # 1e-9 / 50^n, plus 1e-9 relative. The Gauss-Newton steps stop at 1e-13.
-        return 1e-9 * abs(value) + 1e-9 / 50.0 ** ORDER[name]
+        return 1e-9 * abs(value) + 1e-9 / 50.0 ** ORDER[name.split("-")[0].split("+")[0]]
 
 
 class TestContractJoint(TestContractAlone):
@@ -83,6 +97,11 @@ class TestContractJoint(TestContractAlone):
     def reduce(self, data):
         rec, one = data
         return reduce_joint(rec, one, terms=TERMS)
+
+    def default_case(self):
+        (rec, _), expected = super().default_case()
+        one = simulate_tumble(uniform_positions(24), accelcal.default_model(), noise=0.0)
+        return (rec, one), expected
 
 
 def test_joint_estimates_the_radius_error_within_its_uncertainty():
