@@ -174,7 +174,8 @@ def coverage(contract: ReductionContract, n: int | None = None, *,
                     # k of the row's Welch-Satterthwaite dof: its Type B priors meet the
                     # reduction's Type A dof (the reduction's dof where it has no Type B)
                     dof = red.dof_eff(coef, s) if red.type_b else red.dof
-                    rows.append((coef, est[coef] - value, sd, coverage_factor(dof)))
+                    want_row = contract.row_truth(truth, est.label(coef), value)
+                    rows.append((coef, est[coef] - want_row, sd, coverage_factor(dof)))
         except Exception as exc:  # a defect to report, not to hide
             failures.append((seed, f"{type(exc).__name__}: {exc}"[:300]))
             continue

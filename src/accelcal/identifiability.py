@@ -313,20 +313,33 @@ def combination_name(plain: str, shares: dict) -> str:
     return text
 
 
-def inseparable(design, unestimated, names, *, sigma=None) -> tuple[str, ...]:
+def inseparable(design, unestimated, names, *, sigma=None, rtol=None) -> tuple[str, ...]:
     """The unestimated terms that the design cannot separate from the estimated ones.
 
     A term of ``unestimated`` (columns ``Z``, named ``names``) is
     inseparable when adding its column to ``design`` does not raise the
     rank (decided as in :func:`analyse`): the rows then estimate
-    combinations that include it, named by :func:`combination_name`.
+    combinations that include it, named by :func:`combination_name`. With
+    ``rtol``, also when the design reproduces the column to within ``rtol``
+    of its norm (the part of it orthogonal to the design's columns is
+    smaller): separable in exact arithmetic, but only through differences
+    the data cannot see (e.g. a few microradians of misalignment), so the
+    rows are named after the combination and the rest is bounded by the
+    term's prior.
     """
     x = np.asarray(design, dtype=float)
     z = np.asarray(unestimated, dtype=float).reshape(x.shape[0], -1)
-    base = numerical_rank(small_svd(_equilibrate(x, sigma)[0])[0])
+    if sigma is not None:
+        w = 1.0 / np.broadcast_to(np.asarray(sigma, dtype=float), (x.shape[0],))[:, None]
+        x, z = x * w, z * w
+    base = numerical_rank(small_svd(_equilibrate(x)[0])[0])
     out = []
     for j, name in enumerate(names):
         both = np.column_stack([x, z[:, j]])
-        if numerical_rank(small_svd(_equilibrate(both, sigma)[0])[0]) == base:
+        if numerical_rank(small_svd(_equilibrate(both)[0])[0]) == base:
             out.append(name)
+        elif rtol is not None:
+            rest = z[:, j] - x @ np.linalg.lstsq(x, z[:, j], rcond=None)[0]
+            if np.linalg.norm(rest) <= rtol * np.linalg.norm(z[:, j]):
+                out.append(name)
     return tuple(out)

@@ -13,7 +13,9 @@ Two kinds of term move the estimates without being estimated:
   takes ``sgn(a_i) = 0`` there (Eq. (C4) of
   :mod:`~accelcal.methods.centrifuge.core`), but a sensor misaligned on the
   arm by theta sees ``a_i = theta A``, and the model then holds
-  ``s (K0' + K1' |a_i|)/2`` with ``s = +-1`` the unknown sign. The term
+  ``s (K0' + K1' |a_i|)/2`` with ``s = +-1`` the sign, unknown unless a
+  survey gives the misalignment with a certain sign (the reduction then
+  models it, :mod:`~accelcal.methods.centrifuge.core`, Eq. (C4)). The term
   ``s K0'`` (g) is bounded by a two-point prior of standard uncertainty
   ``|K0'| + |K1'| theta_max A_max`` (the estimates plus two of their SDs
   when K0' and K1' are estimated, else the default priors;
@@ -41,8 +43,14 @@ import numpy as np
 
 from accelcal.aliasing import Alias, Contribution, Prior, aliases, default_priors, propagate
 from accelcal.identifiability import combination_name, inseparable
+from accelcal.methods.centrifuge.core import asymmetry_sign
 from accelcal.model import term_unit
 from accelcal.physics.centrifuge import ASYMMETRY_TERMS, FULL_TERMS, regressors
+
+ALIAS_RTOL = 1e-3
+"""A term whose column the design reproduces to this fraction of its norm is named in the
+rows (:func:`accelcal.identifiability.inseparable`): Kop beside Ko and Kio stays aliased
+through a misalignment of tens of microradians, which separates it only in exact arithmetic."""
 
 NAME_ATOL = 1e-3
 """A weight below this (row unit per term unit) is left out of a combination's name."""
@@ -65,13 +73,17 @@ class Unestimated:
     named: tuple[str, ...]
 
 
-def tangential_positions(blocks) -> tuple[str, ...]:
-    """Positions of the centrifuge blocks whose nominal a_i is zero (sign taken as 0)."""
+def tangential_positions(blocks, sign_at=None) -> tuple[str, ...]:
+    """Positions of the centrifuge blocks whose asymmetry sign is taken as 0 (Eq. (C4)).
+
+    Their a_i is zero at the nominal set-up and no surveyed misalignment of
+    certain sign gives it one (:func:`~accelcal.methods.centrifuge.core.sign_rig`).
+    """
     out = []
     for blk in blocks:
         if blk.fixed is not None:
             continue
-        sign = np.sign(blk.forces({})[0])
+        sign = asymmetry_sign(blk, sign_at or {})
         for k, name in enumerate(blk.position_names):
             at = blk.position == k
             if at.any() and np.all(sign[at] == 0) and name not in out:
@@ -106,11 +118,11 @@ def analyse_unestimated(sol, blocks, *, values, cov, output_unit: str,
     terms, p = sol.terms, len(sol.terms)
     rows_all = (*terms, *sol.estimated)
     q_terms = [t for t in (*FULL_TERMS, *ASYMMETRY_TERMS) if t not in terms]
-    tangential = tangential_positions(blocks)
+    tangential = tangential_positions(blocks, sol.sign_at)
     cols, names = [], []
     for t in q_terms:
         cols.append(np.concatenate([regressors(*blk.forces(sol.rig), (t,),
-                                               sign=np.sign(blk.forces({})[0]))[:, 0]
+                                               sign=asymmetry_sign(blk, sol.sign_at))[:, 0]
                                     for blk in blocks]))
         names.append(t)
     for pos in tangential:
@@ -127,9 +139,12 @@ def analyse_unestimated(sol, blocks, *, values, cov, output_unit: str,
     sw = np.sqrt(count / var)
     z = np.column_stack(cols) * sw[:, None]
     # a sign term is never named: its sign is what is unknown
-    named = tuple(n for n in inseparable(sol.design, z, names) if "@" not in n)
+    named = tuple(n for n in inseparable(sol.design, z, names, rtol=ALIAS_RTOL) if "@" not in n)
     k1 = float(values[terms.index("K1")])
-    a_b = np.linalg.lstsq(sol.design, z * k1, rcond=None)[0]  # per unit (g/g^n) of each term
+    est_design = sol.estimator_design
+    z_full = np.vstack([z, np.zeros((est_design.shape[0] - z.shape[0], z.shape[1]))])
+    # per unit (g/g^n) of each term; the given rig errors' rows are marginalised
+    a_b = np.linalg.lstsq(est_design, z_full * k1, rcond=None)[0][:n_rows]
     jac = np.eye(n_rows)
     i1 = terms.index("K1")
     jac[:p, :p] /= k1
