@@ -43,11 +43,6 @@ CROSS = {"OA": "Kpp", "PA": "Koo"}
 """The cross-axis nonlinearity a rotation about each axis cannot separate from K0 and K2."""
 
 
-def row_names(axis, route):
-    """Rows of a tumble reduction: K0 and K2 carry the cross term; lsq estimates K0', K1'."""
-    names = [f"K0+{CROSS[axis]}" if t == "K0" else f"K2-{CROSS[axis]}" if t == "K2" else t
-             for t in DEFAULT_TERMS[axis]]
-    return names + (["K0_asym", "K1_asym"] if route == "lsq" else [])
 
 
 class _TumbleContract(ReductionContract):
@@ -75,7 +70,14 @@ class _TumbleContract(ReductionContract):
                              repeats=data.repeats > 1)
 
     def expected(self, truth):
-        return [{n: true_value(truth, n) for n in row_names(self.AXIS, self.ROUTE)}]
+        # by plain name; row_truth gives the truth of each row's name (K0+Kpp, ...)
+        names = [*DEFAULT_TERMS[self.AXIS], *(("K0_asym", "K1_asym") if self.ROUTE == "lsq"
+                                              else ())]
+        return [{n: getattr(truth, n) for n in names}]
+
+    def row_truth(self, truth, row, value):
+        return true_value(truth if isinstance(truth, ErrorModel) else accelcal.default_model(),
+                          row)
 
     def default_case(self):
         model = accelcal.default_model()
