@@ -25,6 +25,10 @@ KNOWN_MISSES: dict[tuple[str, str], str] = {
     ("thermal reduce, CLI default order auto", "*"):
         "intervals conditional on the F-test's choice of order; the output says so and "
         "recommends a fixed order for certificates (docs/thermal.md)",
+    ("test_thermal_contract.TestContractOrder2", "*"):
+        "conservative (SD ratio 0.83-0.90, coverage 0.97-0.99): the Birge ratio scales the "
+        "plateaus' covariance up only, and their noise carries the drift during each tumble "
+        "(docs/coverage.md, docs/thermal.md)",
 }
 """(case, coefficient) -> the reason, where the method's output and docs declare that it
 cannot meet the targets there (one line each; "*" for every coefficient of a case)."""
