@@ -142,8 +142,7 @@ def tumble(data: HeadData) -> Reduction:
         values, cov = _terms_to_dong2014(est)
         resid = est.residuals if est.residuals is not None and \
             np.shape(est.residuals) == u.shape else u - psi(b) @ values
-        labels = {c: combination_name(c, {"K_OO": w}) for c, plain, w in _CROSS
-                  if est.label(plain) != plain}
+        labels = {c: combination_name(c, {"K_OO": w}) for c, plain, w in _CROSS}
         sensors.append(Estimate(COEFFICIENTS, values, cov, units, "tumble", residuals=resid,
                                 dof=est.dof, labels=labels))
         notes.extend(n for n in est.notes if n not in notes)
