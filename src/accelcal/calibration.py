@@ -35,9 +35,9 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.io.lab_metadata import LabInfo, read_lab_metadata
-from accelcal.io.limits import file_type, shown, shown_path
+from accelcal.io.limits import file_type
 from accelcal.polar import stacked_index
-from accelcal.results import Estimate
+from accelcal.validation import shown, shown_path
 
 
 def now() -> str:
@@ -204,7 +204,9 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
                 "there is nothing to record"
             )
         rows = stacked_index(keep) if est.is_complex else keep  # complex: (Re, Im) rows
-        sub = Estimate(
+        # The sensor's Estimate class, taken from the reduction: this module needs no import
+        # of accelcal.results, whose Reduction.to_records calls records.
+        sub = type(est)(
             tuple(est.names[j] for j in keep), est.values[keep],
             est.covariance[np.ix_(rows, rows)],
             {est.names[j]: est.units.get(est.names[j], "") for j in keep},

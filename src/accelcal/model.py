@@ -33,19 +33,20 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io import model_file
-from accelcal.io.limits import shown
+from accelcal.physics.equation import MAX_SPECIFIC_FORCE_G, check_output, indicated_g
 from accelcal.terms import (
     TERMS,
     TemperatureTerms,
     Term,
     check_temperature,
     term_unit,
+    unknown_term,
     unknown_term_message,
 )
 from accelcal.units import OUTPUT_UNITS, OutputUnit
+from accelcal.validation import shown
 
-__all__ = ["TERMS", "ErrorModel", "TemperatureTerms", "Term", "term_unit",
+__all__ = ["MAX_SPECIFIC_FORCE_G", "TERMS", "ErrorModel", "TemperatureTerms", "Term", "term_unit",
            "unknown_term_message"]
 
 
@@ -63,11 +64,6 @@ _GUANTANG = {
     "k_ip": "Kip",
 }
 """GuanTang eq. (13) notation -> accelcal term names (no asymmetry terms)."""
-
-MAX_SPECIFIC_FORCE_G = 1e6
-"""Largest specific force (g) the model is evaluated at: beyond shock-test
-levels (about 1e5 g), and small enough that a polynomial term cannot
-overflow for any sensible coefficient."""
 
 _DONG2014 = ("K_F", "K_I", "K_O", "K_IO", "K_II")
 """Dong2014 eq. (5) coefficients, all in the output unit (volts)."""
@@ -210,16 +206,7 @@ class ErrorModel:
 
     @staticmethod
     def _output_g(c: dict, a_i, a_o, a_p, rng):
-        a_i, a_o, a_p = (_finite_array(v, n) for v, n in ((a_i, "a_i"), (a_o, "a_o"), (a_p, "a_p")))
-        with np.errstate(over="ignore", invalid="ignore"):
-            # Eq. (2) [Guan2021], with K4 [IEEE1293]; a_i polynomial in Horner form.
-            u = c["K0"] + a_i * (1.0 + a_i * (c["K2"] + a_i * (c["K3"] + a_i * c["K4"])))
-            u = u + a_o * (c["Ko"] + c["Koo"] * a_o + c["Kio"] * a_i + c["Kop"] * a_p)
-            u = u + a_p * (c["Kp"] + c["Kpp"] * a_p + c["Kip"] * a_i)
-            if c["K0_asym"] or c["K1_asym"]:
-                # Eq. (3) [Guan2021]; np.sign(0) == 0 exactly, as the paper defines sgn.
-                u = u + 0.5 * np.sign(a_i) * (c["K0_asym"] + c["K1_asym"] * a_i)
-        _check_output(u)
+        u = indicated_g(c, a_i, a_o, a_p)
         sigma = c["sigma"]
         if rng is not None and sigma > 0.0:
             u = u + rng.normal(0.0, sigma, size=np.shape(u))
@@ -238,7 +225,7 @@ class ErrorModel:
         c = self._coefficients(temperature)
         with np.errstate(over="ignore"):
             out = c["K1"] * self._output_g(c, a_i, a_o, a_p, rng)
-        return _check_output(out)
+        return check_output(out)
 
     def terms_at(self, temperature) -> dict:
         """Every coefficient at sensor temperature T (degC), by name (arrays for array T).
@@ -298,7 +285,7 @@ class ErrorModel:
         """
         for name in terms:
             if name not in TERMS:
-                raise AccelcalError(model_file.unknown_term(name))
+                raise AccelcalError(unknown_term(name))
         if base is not None:
             return cls(**{**base.terms(), **terms}, output_unit=base.output_unit,
                        temperature=base.temperature)
@@ -339,7 +326,7 @@ class ErrorModel:
         mapped = {}
         for name, value in coefficients.items():
             if name not in _GUANTANG:
-                raise AccelcalError(model_file.unknown_term(name, _GUANTANG))
+                raise AccelcalError(unknown_term(name, _GUANTANG))
             mapped[_GUANTANG[name]] = value
         return cls.from_terms({**mapped, "sigma": sigma}, output_unit=output_unit)
 
@@ -414,13 +401,17 @@ class ErrorModel:
         }
 
     # -------------------------------------------------------------- files
+    # The model file's format and its reading and writing belong to io
+    # (:mod:`accelcal.io.model_file`, which imports this module's floor, never
+    # the model): these entry points reach it only when called.
     def to_dict(self, description: str | None = None) -> dict:
         """The model as the JSON-ready contents of a model file (:mod:`accelcal.io.model_file`)."""
-        return model_file.model_to_dict(self, description)
+        return _model_file().model_to_dict(self, description)
 
     @classmethod
     def from_dict(cls, data, *, source: str = "<dict>") -> "ErrorModel":
         """Validate decoded model-file contents and build the model; errors name ``source``."""
+        model_file = _model_file()
         coefficients, unit = model_file.validate(data, source=source)
         try:
             model = cls.from_terms(coefficients, output_unit=unit)
@@ -433,21 +424,28 @@ class ErrorModel:
 
     def to_json(self) -> str:
         """The model as the text of a model file (JSON; floats round-trip exactly)."""
-        return model_file.dumps(self.to_dict())
+        return _model_file().dumps(self.to_dict())
 
     @classmethod
     def from_json(cls, text: str, *, source: str = "<string>") -> "ErrorModel":
         """Parse the text of a model file; errors name ``source``."""
-        return cls.from_dict(model_file.loads(text, source=source), source=source)
+        return cls.from_dict(_model_file().loads(text, source=source), source=source)
 
     def save(self, path) -> None:
         """Write the model file atomically (nothing half-written on failure)."""
-        model_file.write_text(path, self.to_json())
+        _model_file().write_text(path, self.to_json())
 
     @classmethod
     def load(cls, path) -> "ErrorModel":
         """Read and validate a model file."""
-        return cls.from_json(model_file.read_text(path), source=str(path))
+        return cls.from_json(_model_file().read_text(path), source=str(path))
+
+
+def _model_file():
+    """:mod:`accelcal.io.model_file`, imported when a model is read or written."""
+    from accelcal.io import model_file
+
+    return model_file
 
 
 def _real(name: str, value) -> float:
@@ -457,30 +455,6 @@ def _real(name: str, value) -> float:
     if not np.isfinite(value):
         raise AccelcalError(f"{name} = {value} is not finite; give a finite number")
     return value
-
-
-def _finite_array(value, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if not np.isfinite(arr).all():
-        raise AccelcalError(
-            f"input {name} has non-finite values (NaN or inf); give finite g values"
-        )
-    if arr.size and np.abs(arr).max() > MAX_SPECIFIC_FORCE_G:
-        raise AccelcalError(
-            f"specific force {name} of {np.abs(arr).max():.3g} g is beyond the "
-            f"{MAX_SPECIFIC_FORCE_G:.0e} g the model is evaluated at (its polynomial terms "
-            "would overflow or mean nothing there); give specific forces in g")
-    return arr
-
-
-def _check_output(u):
-    """``u`` if every value is finite; else the model overflows for these inputs."""
-    if not np.isfinite(u).all():
-        raise AccelcalError(
-            "the model's output overflows (is not finite) for these inputs: its "
-            "coefficients are too large for specific forces this size; check their units"
-        )
-    return u
 
 
 def _shown_repr(value, limit: int = 60) -> str:

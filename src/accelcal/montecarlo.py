@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown
+from accelcal.validation import shown
 
 DEFAULT_BLOCK_SIZE = 4096
 DEFAULT_MAX_KEPT = 2**17

@@ -221,8 +221,12 @@ def _array(rows, source: str, what: str) -> np.ndarray:
         raise _fail(source, f"{what} must be numbers or null") from None
 
 
-def estimate_from_dict(data: dict, *, method: str = "", source: str = "<dict>"):
+def estimate_from_dict(data: dict, *, method: str = "", source: str = "<dict>", estimate):
     """An :class:`~accelcal.results.Estimate` from its :func:`to_dict` form.
+
+    ``estimate`` is the class to build (:class:`~accelcal.results.Estimate`,
+    passed in by :meth:`~accelcal.results.Reduction.from_dict`, so that this
+    module, which :mod:`accelcal.results` calls, does not import it back).
 
     Values, units, covariance and dof are read back; the residuals are not
     in the JSON (only their ``residual_sigma``).
@@ -232,8 +236,6 @@ def estimate_from_dict(data: dict, *, method: str = "", source: str = "<dict>"):
     AccelcalError
         Naming ``source`` and what is malformed.
     """
-    from accelcal.results import Estimate
-
     if not isinstance(data, dict) or not isinstance(data.get("coefficients"), list):
         raise _fail(source, "an estimate needs a list of 'coefficients'")
     complex_ = data.get("complex", False) is True
@@ -249,7 +251,7 @@ def estimate_from_dict(data: dict, *, method: str = "", source: str = "<dict>"):
     if isinstance(dof, bool) or not isinstance(dof, int):
         raise _fail(source, "dof must be an integer")
     try:
-        return Estimate(tuple(names), np.array(values, dtype=complex if complex_ else float),
+        return estimate(tuple(names), np.array(values, dtype=complex if complex_ else float),
                         _array(data.get("covariance"), source, "covariance"), units,
                         method, dof=dof)
     except ValueError as exc:
@@ -274,40 +276,42 @@ def _is_number(x) -> bool:
     return isinstance(x, int | float) and not isinstance(x, bool)
 
 
-def from_dict(data: dict, *, source: str = "<dict>"):
+def from_dict(data: dict, *, source: str = "<dict>", reduction, estimate, assumption):
     """A :class:`~accelcal.results.Reduction` from its :func:`to_dict` form (JSON read back).
 
     Read back: family, method, dof, every sensor's estimate (real or
     complex), the shared estimate, assumptions, fixed and nominal values,
     provenance and notes. Not read back, because the JSON holds only their
     summary: residuals, identifiability, combinations, observations and
-    models; nor quantity overrides, which it does not hold.
+    models; nor quantity overrides, which it does not hold. ``reduction``,
+    ``estimate`` and ``assumption`` are the classes to build, passed in by
+    :meth:`~accelcal.results.Reduction.from_dict` (this module does not
+    import :mod:`accelcal.results`, which calls it).
 
     Raises
     ------
     AccelcalError
         Naming ``source`` and what is malformed.
     """
-    from accelcal.results import Assumption, Reduction
-
     if not isinstance(data, dict) or not isinstance(data.get("sensors"), list):
         raise _fail(source, "a reduction needs a list of 'sensors'")
     method = data.get("method")
     if not isinstance(method, str) or not isinstance(data.get("family"), str):
         raise _fail(source, "family and method must be strings")
-    sensors = [estimate_from_dict(d, method=method, source=f"{source}: sensors[{i}]")
+    sensors = [estimate_from_dict(d, method=method, source=f"{source}: sensors[{i}]",
+                                  estimate=estimate)
                for i, d in enumerate(data["sensors"])]
     shared = data.get("shared")
     try:
-        return Reduction(
+        return reduction(
             family=data["family"], method=method, sensors=tuple(sensors),
             sensor_names=tuple(str(d.get("sensor") or f"U{i + 1}")
                                for i, d in enumerate(data["sensors"])),
             shared=None if shared is None else estimate_from_dict(
-                shared, method=method, source=f"{source}: shared"),
+                shared, method=method, source=f"{source}: shared", estimate=estimate),
             dof=int(data.get("dof", 0)),
             assumptions=tuple(
-                Assumption(a["name"], tuple(a["value"]) if isinstance(a["value"], list)
+                assumption(a["name"], tuple(a["value"]) if isinstance(a["value"], list)
                            else a["value"], a.get("unit", ""), a.get("text", ""))
                 for a in data.get("assumptions", [])),
             fixed=dict(data.get("fixed", {})),

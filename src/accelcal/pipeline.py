@@ -145,8 +145,8 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
     CampaignResult
     """
     from accelcal.calibration import now
-    from accelcal.io.limits import shown
     from accelcal.store import Store
+    from accelcal.validation import shown
 
     start = time.perf_counter()
     out = Path(out)

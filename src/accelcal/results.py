@@ -450,7 +450,8 @@ class Reduction:
         """Read :meth:`to_dict` back: see :func:`accelcal.outputs.from_dict`."""
         from accelcal.outputs import from_dict
 
-        return from_dict(data, source=source)
+        return from_dict(data, source=source, reduction=cls, estimate=Estimate,
+                         assumption=Assumption)
 
     @classmethod
     def from_json(cls, text: str, *, source: str = "<string>") -> "Reduction":

@@ -1,8 +1,9 @@
 """Names, units and descriptions of the error model's coefficients.
 
-A leaf module: the model (:mod:`accelcal.model`), its file format
-(:mod:`accelcal.io.model_file`) and every method read the one table
-:data:`TERMS`.
+A module on the floor above the ground floor (it imports only
+:mod:`accelcal.errors` and :mod:`accelcal.validation`): the model
+(:mod:`accelcal.model`), its file format (:mod:`accelcal.io.model_file`),
+the physics and every method read the one table :data:`TERMS`.
 
 References
 ----------
@@ -19,6 +20,8 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+
+from accelcal.validation import shown
 
 
 class Term(NamedTuple):
@@ -62,6 +65,18 @@ def unknown_term_message(name: str, valid) -> str:
     close = [by_lower[c] for c in difflib.get_close_matches(name.lower(), list(by_lower), n=2)]
     hint = f" (did you mean {' or '.join(close)}?)" if close else ""
     return f"unknown term {name!r}{hint}; valid terms are: {', '.join(valid)}"
+
+
+def unknown_term(name, valid=TERMS) -> str:
+    """:func:`unknown_term_message`, with a user's name shown shortened.
+
+    A name from a file or the command line may be a megabyte long or not a
+    string at all; only a short printable one is matched to the valid names.
+    """
+    if isinstance(name, str) and len(name) <= 40 and name.isprintable():
+        return unknown_term_message(name, valid)
+    return f"unknown term {shown(name)}; valid terms are: {', '.join(valid)}"
+
 
 
 # ----------------------------------------------------------------- temperature

@@ -25,6 +25,7 @@ from accelcal.io.lab_metadata import read_metadata
 from accelcal.io.records import read_record, write_record
 from accelcal.model import ErrorModel
 from accelcal.store import Store
+from accelcal.validation import MAX_MESSAGE_LENGTH
 from helpers.cli import assert_one_line_error, leftovers, run
 from helpers.paths import EXAMPLES, FIXTURES
 from helpers.records import make_record
@@ -150,7 +151,7 @@ def test_the_cli_clips_any_message(capsys, monkeypatch):
     monkeypatch.setattr(model_cli, "load_model", loud)
     code, _, err = run(capsys, "model", "show")
     assert_one_line_error(code, err, "start yyy", " ... ", "yyy end")
-    assert len(err) <= len("accelcal: error: \n") + limits.MAX_MESSAGE_LENGTH
+    assert len(err) <= len("accelcal: error: \n") + MAX_MESSAGE_LENGTH
 
 
 def test_long_cells_and_column_names_are_quoted_shortened(tmp_path):

@@ -61,12 +61,12 @@ def _die(message: str) -> None:
     """Print ``message`` as one ``accelcal: error:`` line and exit with status 2.
 
     Whitespace runs (line breaks included) become one space, and a message
-    longer than :data:`accelcal.io.limits.MAX_MESSAGE_LENGTH` characters is
+    longer than :data:`accelcal.validation.MAX_MESSAGE_LENGTH` characters is
     cut, keeping its start and end around an ellipsis: a backstop behind the
     messages that quote values shortened, so no input can make the line
     unbounded.
     """
-    from accelcal.io.limits import MAX_MESSAGE_LENGTH
+    from accelcal.validation import MAX_MESSAGE_LENGTH
 
     one_line = " ".join(message.split())
     if len(one_line) > MAX_MESSAGE_LENGTH:

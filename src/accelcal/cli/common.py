@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown
+from accelcal.validation import shown
 
 FORMATS = ("table", "csv", "json")
 
@@ -98,7 +98,7 @@ def load_model(path: Path | None):
 
 def check_writable(path: Path | None) -> None:
     """Refuse an output in a missing directory or over a non-file before any work is done."""
-    from accelcal.io.limits import shown_path
+    from accelcal.validation import shown_path
 
     if path is None:
         return

@@ -8,7 +8,7 @@ import typer
 from accelcal.cli import record_options, uncertainty_options
 from accelcal.cli.common import check_format, emit, parse_grid, parse_number
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown, shown_name
+from accelcal.validation import shown, shown_name
 
 app = typer.Typer(
     help=(

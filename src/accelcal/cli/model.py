@@ -79,8 +79,8 @@ def new(
 ) -> None:
     """Write a new model file from NAME=VALUE settings."""
     from accelcal.cli.common import parse_number
-    from accelcal.io.limits import shown, shown_name
     from accelcal.model import ErrorModel
+    from accelcal.validation import shown, shown_name
 
     terms: dict[str, float] = {}
     for item in set_:
@@ -91,8 +91,7 @@ def new(
         if name in terms:
             raise AccelcalError(f"--set gives {shown_name(name)} twice; give each term once")
         terms[name] = parse_number(value, f"--set {shown_name(name)}")
-    from accelcal.io.model_file import unknown_term
-    from accelcal.terms import TEMPERATURE_TERMS, TERMS, TemperatureTerms
+    from accelcal.terms import TEMPERATURE_TERMS, TERMS, TemperatureTerms, unknown_term
 
     reference = terms.pop("T0", None)
     thermal = {n: terms.pop(n) for n in list(terms) if n in TEMPERATURE_TERMS}

@@ -14,8 +14,9 @@ MAX_POSITIONS = 100_000
 def _directions(positions: str, seed: int):
     import numpy as np
 
-    from accelcal.io.limits import load_json, read_bounded, shown, shown_name
+    from accelcal.io.limits import load_json, read_bounded
     from accelcal.rigs.triad import random_directions, six_positions
+    from accelcal.validation import shown, shown_name
 
     text = positions.strip()
     if text == "six":

@@ -24,7 +24,8 @@ import stat
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import file_type, shown_path
+from accelcal.io.limits import file_type
+from accelcal.validation import shown_path
 
 _ADVICE = {
     errno.EACCES: "permission denied; choose a location you can write to",

@@ -67,19 +67,11 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.atomic import write_text_atomic
-from accelcal.io.limits import (
-    MAX_JSON_BYTES,
-    check_label,
-    check_regular_file,
-    is_finite_number,
-    load_json,
-    read_bounded,
-    shown,
-    shown_name,
-)
+from accelcal.io.limits import MAX_JSON_BYTES, check_regular_file, load_json, read_bounded
 from accelcal.method_ids import canonical
 from accelcal.model import ErrorModel
 from accelcal.polar import Polar, polar, real_names
+from accelcal.validation import check_label, is_finite_number, shown, shown_name
 
 FORMAT_VERSION = 1
 COMPLEX_FORMAT_VERSION = 2

@@ -2,7 +2,7 @@
 
 Four optional metadata fields say who and what was calibrated, and where
 (serial numbers and operators are checked by
-:func:`accelcal.io.limits.check_label`: at most 200 characters, no control
+:func:`accelcal.validation.check_label`: at most 200 characters, no control
 characters, and no path separator in a serial number, which becomes part of
 file names):
 
@@ -35,21 +35,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import (
-    check_label,
-    check_regular_file,
-    is_finite_number,
-    one_line,
-    shown,
-)
+from accelcal.io.limits import check_regular_file
+from accelcal.physics.gravity import GRAVITY_RANGE
+from accelcal.validation import check_label, is_finite_number, one_line, shown
 
 FIELDS = ("serial", "operator", "date", "local_gravity", "simulated")
 """Metadata field names this module validates."""
-
-GRAVITY_RANGE = (9.7, 9.9)
-"""Accepted local gravity, m/s^2: Earth's surface gravity lies within it
-(9.78 at the equator to 9.83 at the poles, less with altitude), and a value
-given in g (about 1) or in ft/s^2 (about 32) falls outside."""
 
 
 @dataclass(frozen=True)

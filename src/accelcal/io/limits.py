@@ -1,8 +1,7 @@
-"""Input limits: bounded reads, one safe JSON loader, checked user strings.
+"""Input limits of files: bounded reads and one safe JSON loader.
 
-Every file accelcal reads and every string a user gives passes through
-here, so that no input can exhaust the stack, the memory or the time of a
-run, and no string can break a file name, a one-line message or a report:
+Every file accelcal reads passes through here, so that no input can
+exhaust the stack, the memory or the time of a run:
 
 - :func:`read_bounded` reads at most a stated number of bytes of a regular
   file, so a huge file ends at once with a message instead of filling the
@@ -15,11 +14,10 @@ run, and no string can break a file name, a one-line message or a report:
   per level and would raise ``RecursionError``), ``NaN``/``Infinity``,
   numbers that overflow to infinity and integers of more than
   :data:`MAX_INT_DIGITS` digits (``float()`` of such an integer raises
-  ``OverflowError``);
-- :func:`check_label` bounds a user string (serial number, operator,
-  method) to :data:`MAX_LABEL_LENGTH` characters without control
-  characters, and a string that becomes part of a file name to one without
-  path separators.
+  ``OverflowError``).
+
+Checked user strings and values shown in messages are the ground floor's
+(:mod:`accelcal.validation`), below every other floor.
 """
 
 import json
@@ -30,6 +28,7 @@ import stat
 from itertools import accumulate
 
 from accelcal.errors import AccelcalError
+from accelcal.validation import shown, shown_name, shown_path
 
 MAX_JSON_BYTES = 16 * 2**20
 """Largest JSON text read (16 MiB): a model file is about 1 kB, a calibration
@@ -47,56 +46,7 @@ to a float. An integer outside the int64 range but within this bound is
 decoded as a float (numpy cannot hold it as an integer; ``np.isfinite``
 would raise ``TypeError`` on it)."""
 
-MAX_MESSAGE_LENGTH = 500
-"""Longest error message printed, in characters (``accelcal.cli`` clips
-longer ones): values are quoted shortened (:func:`shown`), and this bound
-holds whatever a message quotes."""
-
-MAX_LABEL_LENGTH = 200
-"""Longest serial number, operator or method name, in characters: the width
-of the records store's ``serial`` and ``method`` columns, and well below the
-255-byte limit of a file name that a serial number becomes part of."""
-
-_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
-"""Control characters (C0, DEL, C1), line and paragraph separators and
-bidirectional overrides: none belongs in a label, a file name or a report."""
-
 _STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"', re.DOTALL)
-
-
-def shown(value, limit: int = 40) -> str:
-    """A value as a message shows it, cut to about ``limit`` characters.
-
-    A string is quoted (``'x'``), anything else is shown as JSON (``null``,
-    ``true``), so that a message stays one short line whatever the value.
-    """
-    text = repr(value) if isinstance(value, str) else json.dumps(value, default=repr)
-    if len(text) <= limit:
-        return text
-    size = f" ({len(value)} characters)" if isinstance(value, str) else ""
-    return f"{text[:limit]}...{size}"
-
-
-def shown_name(name, limit: int = 60) -> str:
-    """A name (a column, a term) for a message, bounded.
-
-    As it is when short and printable, else quoted and cut by :func:`shown`.
-    """
-    if isinstance(name, str) and len(name) <= limit and name.isprintable():
-        return name
-    return shown(name, limit)
-
-
-def shown_path(path) -> str:
-    """A path or address for a one-line message: a long one keeps its start and end."""
-    text = str(path)
-    return text if len(text) <= 160 else f"{text[:100]}...{text[-50:]}"
-
-
-def one_line(text, limit: int = 300) -> str:
-    """A message (such as an exception's text) on one line of at most about ``limit`` characters."""
-    flat = " ".join(str(text).split())
-    return flat if len(flat) <= limit else f"{flat[:limit]}..."
 
 
 def check_regular_file(path, what: str) -> None:
@@ -247,64 +197,6 @@ def json_depth(text: str) -> int:
     """
     brackets = re.findall(r"[\[\]{}]", _STRING.sub("", text))
     return max(accumulate(1 if b in "[{" else -1 for b in brackets), default=0)
-
-
-def check_label(value, what: str, *, file_name: bool = False, limit: int = MAX_LABEL_LENGTH,
-                parameter: str | None = None) -> str:
-    """Check a user string that goes into records, reports or file names.
-
-    Parameters
-    ----------
-    value : object
-        The string to check.
-    what : str
-        What it is, for the message (``"serial number"``).
-    file_name : bool
-        It becomes part of a file name: no path separator (slash or backslash) either.
-    limit : int
-        Longest length accepted, characters.
-    parameter : str, optional
-        The Python parameter that gave it, for the error.
-
-    Returns
-    -------
-    str
-        ``value`` unchanged.
-
-    Raises
-    ------
-    AccelcalError
-        For a non-string, an over-long string, a control character or (with
-        ``file_name``) a path separator.
-    """
-    if not isinstance(value, str):
-        raise AccelcalError(f"{what} must be a string, got {shown(value)}", parameter=parameter)
-    if len(value) > limit:
-        raise AccelcalError(
-            f"{what} {shown(value)} is longer than {limit} characters; shorten it",
-            parameter=parameter,
-        )
-    if _CONTROL.search(value):
-        raise AccelcalError(
-            f"{what} {shown(value)} contains a control character (such as a line break "
-            "or a tab); remove it", parameter=parameter,
-        )
-    if file_name and ("/" in value or "\\" in value):
-        raise AccelcalError(
-            f"{what} {shown(value)} contains a path separator (/ or \\), which cannot be "
-            "part of a file name; use another character", parameter=parameter,
-        )
-    return value
-
-
-def is_finite_number(value) -> bool:
-    """A JSON number that is a finite float (``true``/``false`` and huge integers are not)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return False
-    try:
-        return math.isfinite(value)
-    except OverflowError:  # an integer beyond the float range
-        return False
 
 
 def _size(n: int) -> str:

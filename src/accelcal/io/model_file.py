@@ -1,10 +1,10 @@
 """The model file: an :class:`~accelcal.model.ErrorModel` as JSON.
 
 This module knows the format, not the class: it validates decoded contents
-into plain coefficients and writes a model's terms, so that
-:mod:`accelcal.model` uses it without it importing the model back
-(``ErrorModel.to_dict/from_dict/to_json/from_json/save/load`` are the
-entry points).
+into plain coefficients and writes a model's terms. The model, on a floor
+below io, imports it only inside its file entry points
+(``ErrorModel.to_dict/from_dict/to_json/from_json/save/load``), and this
+module never imports the model.
 
 Format (``format_version`` 1)::
 
@@ -43,15 +43,16 @@ from pathlib import Path
 
 from accelcal.errors import AccelcalError, ModelFileError
 from accelcal.io.atomic import write_text_atomic
-from accelcal.io.limits import MAX_JSON_BYTES, is_finite_number, load_json, read_bounded, shown
+from accelcal.io.limits import MAX_JSON_BYTES, load_json, read_bounded
 from accelcal.terms import (
     TEMPERATURE_TERMS,
     TERMS,
     TemperatureTerms,
     term_unit,
-    unknown_term_message,
+    unknown_term,
 )
 from accelcal.units import OUTPUT_UNITS
+from accelcal.validation import is_finite_number, shown
 
 __all__ = ["FORMAT_VERSION", "KIND", "TEMPERATURE_FORMAT_VERSION", "ModelFileError", "dumps",
            "loads", "model_to_dict", "read_text", "temperature_terms", "unknown_term", "validate",
@@ -221,17 +222,6 @@ def temperature_terms(data, *, source: str = "<dict>") -> TemperatureTerms | Non
                                 None if span is None else tuple(span))
     except AccelcalError as exc:
         raise fail(exc.message) from None
-
-
-def unknown_term(name, valid=TERMS) -> str:
-    """:func:`~accelcal.terms.unknown_term_message`, with a user's name shown shortened.
-
-    A name from a file or the command line may be a megabyte long or not a
-    string at all; only a short printable one is matched to the valid names.
-    """
-    if isinstance(name, str) and len(name) <= 40 and name.isprintable():
-        return unknown_term_message(name, valid)
-    return f"unknown term {shown(name)}; valid terms are: {', '.join(valid)}"
 
 
 def loads(text: str, *, source: str = "<string>"):

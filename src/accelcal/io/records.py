@@ -39,15 +39,8 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.atomic import atomic_path
-from accelcal.io.limits import (
-    MAX_JSON_BYTES,
-    check_regular_file,
-    load_json,
-    one_line,
-    read_rest,
-    shown,
-    shown_name,
-)
+from accelcal.io.limits import MAX_JSON_BYTES, check_regular_file, load_json, read_rest
+from accelcal.validation import one_line, shown, shown_name
 
 MARKER = "# accelcal record"
 FORMAT_VERSION = 1

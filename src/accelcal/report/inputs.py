@@ -21,8 +21,8 @@ References
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown_path
 from accelcal.report import Section
+from accelcal.validation import shown_path
 
 TAKES = ("report takes calibration records (written by a reduction command's --record FILE) "
          "and triad calibration files (accelcal triad calibrate --out)")

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown_path
+from accelcal.validation import shown_path
 
 SEARCH_DEPTH = 2
 """How deep below a directory given for the input files they are looked for

@@ -2,7 +2,7 @@
 
 The sensor's reference point is at nominal radius R0 on an arm turning at
 rate Omega about a vertical axis; the sensor sits in one of the positions of
-:data:`accelcal.methods.centrifuge.geometry.POSITIONS` (or any orientation
+:data:`accelcal.physics.centrifuge.POSITIONS` (or any orientation
 by three angles). Each reading is the output averaged over one revolution,
 computed by quadrature over the arm's phase (:data:`QUADRATURE` points,
 time-weighted: exact for the trigonometric polynomials the model makes of
@@ -43,12 +43,12 @@ from accelcal.io.formats.centrifuge import (
     check_positions,
     check_survey,
 )
-from accelcal.methods.centrifuge.geometry import (
+from accelcal.model import ErrorModel
+from accelcal.physics.centrifuge import (
     misaligned,
     position_matrix,
     specific_force,
 )
-from accelcal.model import ErrorModel
 from accelcal.resources import check_memory, generator
 from accelcal.units import STANDARD_GRAVITY
 
@@ -220,7 +220,7 @@ def simulate(model: ErrorModel, positions: Sequence, levels, *, rig: CentrifugeR
     model : ErrorModel
         The accelerometer.
     positions : sequence
-        Position names (:data:`~accelcal.methods.centrifuge.geometry.POSITIONS`)
+        Position names (:data:`~accelcal.physics.centrifuge.POSITIONS`)
         or ``{"name": ..., "angles_deg": [yaw, pitch, roll]}``.
     levels : array_like
         Nominal levels, g (> 0); the recorded rate is ``sqrt(level g_n / R0)``.

@@ -38,8 +38,8 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.thermal import PHASES, ThermalRecord
-from accelcal.methods.tumble.geometry import specific_force
 from accelcal.model import ErrorModel
+from accelcal.physics.tumble import specific_force
 from accelcal.resources import check_memory, generator
 from accelcal.terms import TemperatureTerms, check_temperature
 

@@ -151,7 +151,7 @@ def simulate(calibration, up, *, rate: float = 100.0, dwell: float = 5.0, motion
         noise, a recording too long for memory or a record, or outputs beyond
         a record's range.
     """
-    from accelcal.methods.triad.gravity import check_gravity
+    from accelcal.physics.gravity import check_gravity
 
     rng = generator(seed)
     if isinstance(up, int | np.integer) and not isinstance(up, bool):

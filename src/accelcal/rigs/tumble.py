@@ -21,8 +21,8 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.tumble import MAX_ANGLE, MAX_OUTPUT, TumbleRecord
-from accelcal.methods.tumble.geometry import specific_force
 from accelcal.model import ErrorModel
+from accelcal.physics.tumble import specific_force
 from accelcal.resources import check_memory, generator
 
 MEMORY_FACTOR = 12

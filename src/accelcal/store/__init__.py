@@ -32,7 +32,6 @@ from pathlib import Path
 
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
-from accelcal.io.limits import check_label, shown, shown_path
 from accelcal.method_ids import ALIASES, spellings
 from accelcal.store.location import (
     DEFAULT_DB_ENV,
@@ -57,6 +56,7 @@ from accelcal.store.schema import sqlite_on_begin as _sqlite_on_begin
 from accelcal.store.schema import sqlite_on_connect as _sqlite_on_connect
 from accelcal.store.schema import tables as _tables
 from accelcal.store.stats import CoefficientStats, summarise
+from accelcal.validation import check_label, shown, shown_path
 
 __all__ = ["DEFAULT_DB_ENV", "SCHEMA_VERSION", "CoefficientStats", "Store", "default_url"]
 

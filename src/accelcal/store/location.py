@@ -7,7 +7,8 @@ import urllib.parse
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import file_type, shown, shown_path
+from accelcal.io.limits import file_type
+from accelcal.validation import shown, shown_path
 
 DEFAULT_DB_ENV = "ACCELCAL_DB"
 

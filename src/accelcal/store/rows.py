@@ -7,8 +7,8 @@ from collections.abc import Sequence
 
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
-from accelcal.io.limits import shown_path
 from accelcal.method_ids import spellings
+from accelcal.validation import shown_path
 
 
 def labels(records: list, sources: Sequence[str] | None) -> list[str]:

@@ -1,6 +1,6 @@
 """Centrifuge geometry and rig (issue 14 item 1), checked by independent routes.
 
-The specific force of :mod:`accelcal.methods.centrifuge.geometry` (DOMAIN
+The specific force of :mod:`accelcal.physics.centrifuge` (DOMAIN
 section 9, in the rotating arm frame) and the revolution means of
 :mod:`accelcal.rigs.centrifuge` (time-weighted quadrature over the phase)
 are compared with a time-domain simulation in the rig's inertial frame: the
@@ -14,14 +14,14 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from accelcal.errors import AccelcalError
-from accelcal.methods.centrifuge.geometry import (
+from accelcal.model import ErrorModel
+from accelcal.physics.centrifuge import (
     POSITIONS,
     misaligned,
     orientation,
     position_matrix,
     specific_force,
 )
-from accelcal.model import ErrorModel
 from accelcal.rigs.centrifuge import CentrifugeRig
 from accelcal.units import STANDARD_GRAVITY as GN
 

@@ -13,8 +13,8 @@ import pytest
 
 from accelcal.errors import AccelcalError
 from accelcal.methods.triad import PARAMS, QUADRATIC, TriadCalibration, calibrate_known
-from accelcal.methods.triad.gravity import GAMMA_E, GAMMA_P, normal_gravity
-from accelcal.methods.triad.model import angles_of, t_matrix
+from accelcal.methods.triad.frames import angles_of, t_matrix
+from accelcal.physics.gravity import GAMMA_E, GAMMA_P, normal_gravity
 
 G = 9.80665
 SIX = np.vstack([np.eye(3), -np.eye(3)])
@@ -261,7 +261,7 @@ def test_normal_gravity_ranges(args, parameter):
     assert exc.value.parameter == parameter
 
 
-@pytest.mark.parametrize("name", ["accelcal.methods.triad.gravity",
+@pytest.mark.parametrize("name", ["accelcal.physics.gravity",
                                   "accelcal.methods.triad.identify"])
 def test_doctests(name):
     import doctest

@@ -501,8 +501,9 @@ def test_module_doctests():
     import doctest
     import importlib
 
-    for name in ("geometry", "identify", "fourier", "reduce", "figures"):
-        mod = importlib.import_module(f"accelcal.methods.tumble.{name}")
+    for name in ("physics.tumble", "methods.tumble.identify", "methods.tumble.fourier",
+                 "methods.tumble.reduce", "methods.tumble.figures"):
+        mod = importlib.import_module(f"accelcal.{name}")
         assert doctest.testmod(mod, optionflags=doctest.ELLIPSIS).failed == 0, name
     import accelcal.rigs.tumble as rig
 

@@ -46,9 +46,9 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import check_lab_metadata
-from accelcal.io.limits import check_label, is_finite_number, shown
 from accelcal.io.records import read_record, write_record
 from accelcal.units import OUTPUT_UNITS, STANDARD_GRAVITY
+from accelcal.validation import check_label, is_finite_number, shown
 
 KIND = "centrifuge"
 

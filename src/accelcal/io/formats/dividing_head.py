@@ -43,9 +43,10 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import check_lab_metadata
-from accelcal.io.limits import MAX_JSON_BYTES, is_finite_number, shown, shown_name
+from accelcal.io.limits import MAX_JSON_BYTES
 from accelcal.io.records import MAX_RECORD_VALUES, read_record, write_record
 from accelcal.units import ARCSEC, DEG, OUTPUT_UNITS
+from accelcal.validation import is_finite_number, shown, shown_name
 
 KIND = "dividing-head"
 

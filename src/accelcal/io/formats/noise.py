@@ -40,8 +40,8 @@ from accelcal.errors import AccelcalError
 from accelcal.io.atomic import atomic_path
 from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
-from accelcal.io.limits import shown
 from accelcal.io.records import FORMAT_VERSION, MARKER, read_record, write_record, write_rows
+from accelcal.validation import shown
 
 KIND = "noise"
 """Record-file kind of still (noise) recordings."""

@@ -33,8 +33,8 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import check_lab_metadata, read_metadata
-from accelcal.io.limits import shown, shown_path
 from accelcal.io.records import read_record, write_record
+from accelcal.validation import shown, shown_path
 
 
 @dataclass(frozen=True)

@@ -45,10 +45,10 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
-from accelcal.io.limits import shown
 from accelcal.io.records import read_record, write_record
 from accelcal.terms import MAX_TEMPERATURE_DEGC, MIN_TEMPERATURE_DEGC
 from accelcal.units import OUTPUT_UNITS
+from accelcal.validation import shown
 
 KIND = "thermal"
 """Record-file kind of thermal-chamber tests."""

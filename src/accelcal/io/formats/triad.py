@@ -36,11 +36,12 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import ImportLayout
-from accelcal.io.lab_metadata import GRAVITY_RANGE, LabInfo, check_lab_metadata
-from accelcal.io.limits import check_label, is_finite_number, shown
+from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
 from accelcal.io.recordings.options import UNITS as INPUT_UNITS
 from accelcal.io.records import UNITS as RECORD_UNITS
 from accelcal.io.records import read_record, write_record
+from accelcal.physics.gravity import GRAVITY_RANGE
+from accelcal.validation import check_label, is_finite_number, shown
 
 KIND = "triad"
 """Record-file kind of triad records."""

@@ -41,9 +41,9 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import check_lab_metadata
-from accelcal.io.limits import shown
 from accelcal.io.records import read_record, write_record
 from accelcal.units import OUTPUT_UNITS
+from accelcal.validation import shown
 
 KIND = "vibrafuge"
 """Record-file kind of vibrafuge records."""

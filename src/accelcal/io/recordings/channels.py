@@ -1,4 +1,8 @@
-"""What a binary recording says about its channels: :class:`ChannelInfo` and helpers.
+"""What a recording says about itself: :class:`Source`, :class:`ChannelInfo` and helpers.
+
+:func:`~.sources.open_source` opens any recording as a :class:`Source` (its
+format, columns and metadata); the binary readers build theirs here too,
+below the module that dispatches to them, so that no reader imports it back.
 
 TDMS, HDF5 and MATLAB files name their channels (``group/channel``, a
 dataset's path, a variable) and carry properties with them (a unit, an
@@ -18,11 +22,12 @@ import contextlib
 import datetime as dt
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import one_line, shown_name
+from accelcal.validation import one_line, shown_name
 
 MAX_PROPERTIES = 64
 """Most properties of one channel (or of the file) kept in the provenance."""
@@ -61,6 +66,27 @@ class ChannelInfo:
     start: str | None = None
     properties: dict = field(default_factory=dict)
     dtype: str = "float64"
+
+
+@dataclass(frozen=True)
+class Source:
+    """A recording file: its format, columns and (for accelcal records) metadata.
+
+    Binary files (``backend`` ``tdms``, ``hdf5``, ``mat5``) also give each
+    channel's :class:`ChannelInfo` (``channels``), where it is
+    stored (``locations``) and the file's JSON-ready ``properties``.
+    """
+
+    path: Path
+    input_format: str
+    names: tuple[str, ...]
+    delimiter: str = ","
+    skip_rows: int = 0
+    metadata: dict = field(default_factory=dict)
+    channels: dict = field(default_factory=dict)
+    properties: dict = field(default_factory=dict)
+    locations: dict = field(default_factory=dict)
+    backend: str = "table"
 
 
 def json_ready(properties) -> dict:

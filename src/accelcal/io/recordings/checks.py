@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import load_json, read_bounded, shown, shown_name
+from accelcal.io.limits import load_json, read_bounded
+from accelcal.validation import shown, shown_name
 
 MAX_REGIONS_BYTES = 1 << 20
 """Largest regions JSON read (1 MiB)."""

@@ -36,10 +36,10 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import check_label, shown, shown_name, shown_path
 from accelcal.io.recordings.kinds import Layout, declared, layout, validator
 from accelcal.io.recordings.options import TEMPERATURE_UNITS, InputOptions
 from accelcal.io.recordings.read import DEFAULT_BLOCK_ROWS, describe, iter_blocks
+from accelcal.validation import check_label, shown, shown_name, shown_path
 
 RESERVED = ("format_version", "kind", "units", "provenance")
 """Metadata keys the import writes itself."""

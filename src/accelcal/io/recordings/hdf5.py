@@ -34,14 +34,15 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown_name
 from accelcal.io.recordings.channels import (
     ChannelInfo,
+    Source,
     column_name,
     json_ready,
     library_errors,
     numeric,
 )
+from accelcal.validation import shown_name
 
 MAGIC = b"\x89HDF\r\n\x1a\n"
 """The HDF5 signature."""
@@ -58,8 +59,6 @@ _UNIT_ATTRS = ("unit", "units", "unit_string")
 def open_hdf5(path: Path, *, matlab: bool = False):
     """The channels of an HDF5 file (or a MAT v7.3 file), as a :class:`~.sources.Source`."""
     import h5py
-
-    from accelcal.io.recordings.sources import Source
 
     what = "MATLAB v7.3" if matlab else "HDF5"
     channels, where, props, skipped = {}, {}, {}, {}

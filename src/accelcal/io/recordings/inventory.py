@@ -15,9 +15,9 @@ References
 """
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import one_line, shown_name
 from accelcal.io.recordings.read import sha256
 from accelcal.io.recordings.sources import BLOCK_BYTES, Source, open_source
+from accelcal.validation import one_line, shown_name
 
 
 def inventory(path, input_format: str = "auto", delimiter: str | None = None) -> dict:

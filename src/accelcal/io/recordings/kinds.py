@@ -34,8 +34,8 @@ from dataclasses import dataclass
 
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import ImportLayout
-from accelcal.io.limits import shown, shown_name
 from accelcal.units import STANDARD_GRAVITY
+from accelcal.validation import shown, shown_name
 
 _ACCEL_TO_G = {"g": 1.0, "mg": 1e-3, "ug": 1e-6, "m/s^2": 1.0 / STANDARD_GRAVITY}
 _TO_RECORD = {"g": ("g", 1.0), "mg": ("g", 1e-3), "ug": ("g", 1e-6), "m/s^2": ("m/s^2", 1.0),

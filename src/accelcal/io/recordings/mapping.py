@@ -36,7 +36,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import MAX_JSON_BYTES, load_json, read_bounded, shown, shown_name
+from accelcal.io.limits import MAX_JSON_BYTES, load_json, read_bounded
+from accelcal.validation import shown, shown_name
 
 OPTION_FIELDS = ("input_format", "rate", "time", "time_unit", "unit", "scale", "delimiter")
 """Fields that are :class:`~accelcal.io.recordings.InputOptions` parameters."""

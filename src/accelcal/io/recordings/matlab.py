@@ -27,14 +27,15 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown_name
 from accelcal.io.recordings.channels import (
     ChannelInfo,
+    Source,
     column_name,
     json_ready,
     library_errors,
     numeric,
 )
+from accelcal.validation import shown_name
 
 MAGIC_V5 = b"MATLAB 5.0 MAT-file"
 MAGIC_V73 = b"MATLAB 7.3 MAT-file"
@@ -73,8 +74,6 @@ def open_mat(path: Path, head: bytes):
 
 def _open_v5(path: Path):
     import scipy.io
-
-    from accelcal.io.recordings.sources import Source
 
     size = path.stat().st_size
     if size > MAX_MAT5_BYTES:

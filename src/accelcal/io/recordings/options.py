@@ -22,8 +22,8 @@ import math
 from dataclasses import dataclass
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown, shown_name
 from accelcal.units import STANDARD_GRAVITY
+from accelcal.validation import check_rate, shown, shown_name
 
 INPUT_FORMATS = ("auto", "csv", "parquet", "imucal", "imu_tk", "record", "tdms", "hdf5", "mat")
 """Formats :func:`accelcal.io.recordings.read_recording` reads: ``csv`` and ``parquet``
@@ -72,14 +72,6 @@ UNIT_ALIASES = {
 }
 """How DAQ software spells the units (case-insensitive): NI's ``unit_string``
 (``Volts``, ``m/s^2``, ``Deg C``), HDF5 ``unit`` attributes."""
-
-MAX_RATE_HZ = 1e9
-"""Highest sample rate accepted (1 GHz): beyond any accelerometer's DAQ."""
-
-MIN_RATE_HZ = 1e-6
-"""Lowest sample rate accepted (one sample in 11.6 days): slower is not a recording of
-an accelerometer, and averaging times of m / rate stay far inside the float range."""
-
 
 def file_unit(text) -> str | None:
     """A unit as a file spells it, in accelcal's spelling; None when it is not one we know."""
@@ -211,18 +203,6 @@ def check_scale(value, parameter: str) -> float:
                             f"{low:g} to {high:g} (the file's values times it are values in "
                             "the unit)", parameter=parameter)
     return scale
-
-
-def check_rate(rate) -> float:
-    """Check a sample rate in Hz (finite, :data:`MIN_RATE_HZ` to :data:`MAX_RATE_HZ`)."""
-    try:
-        value = float(rate)
-    except (TypeError, ValueError, OverflowError):
-        value = math.nan
-    if not (math.isfinite(value) and MIN_RATE_HZ <= value <= MAX_RATE_HZ):
-        raise AccelcalError(f"sample rate {shown(rate)} Hz must be a number from "
-                            f"{MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz", parameter="rate")
-    return value
 
 
 def to_si_factor(unit: str) -> float:

@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown, shown_name
 from accelcal.io.recordings.options import (
     CHANNEL_UNITS,
     TIME_UNITS,
@@ -42,6 +41,7 @@ from accelcal.io.recordings.sources import (
     Source,
     open_source,
 )
+from accelcal.validation import shown, shown_name
 
 RATE_RTOL = 1e-6
 """Relative difference between two statements of a rate (a file's and a given one, or two

@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown_name
 from accelcal.io.recordings.checks import (
     GAP_FACTOR,
     check_finite_time,
@@ -41,13 +40,9 @@ from accelcal.io.recordings.checks import (
     check_values,
     regions,
 )
-from accelcal.io.recordings.options import (
-    TIME_UNITS,
-    InputOptions,
-    check_rate,
-    to_si_factor,
-)
+from accelcal.io.recordings.options import TIME_UNITS, InputOptions, to_si_factor
 from accelcal.io.recordings.plan import Plan, make_plan
+from accelcal.validation import check_rate, shown_name
 
 DEFAULT_BLOCK_ROWS = 1 << 20
 """Rows per block when streaming (1 Mi rows: 24 MiB for three float64 channels)."""

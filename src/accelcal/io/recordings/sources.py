@@ -23,19 +23,14 @@ References
 
 import re
 from collections.abc import Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import (
-    MAX_LABEL_LENGTH,
-    check_regular_file,
-    one_line,
-    shown,
-    shown_name,
-)
+from accelcal.io.limits import check_regular_file
+from accelcal.io.recordings.channels import Source
+from accelcal.validation import MAX_LABEL_LENGTH, one_line, shown, shown_name
 
 MARKER = "# accelcal record"
 PARQUET_MAGIC = b"PAR1"
@@ -51,27 +46,6 @@ BLOCK_BYTES = 1 << 22
 """Bytes Arrow's CSV reader parses at a time (4 MiB)."""
 
 _NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
-
-
-@dataclass(frozen=True)
-class Source:
-    """A recording file: its format, columns and (for accelcal records) metadata.
-
-    Binary files (``backend`` ``tdms``, ``hdf5``, ``mat5``) also give each
-    channel's :class:`~.channels.ChannelInfo` (``channels``), where it is
-    stored (``locations``) and the file's JSON-ready ``properties``.
-    """
-
-    path: Path
-    input_format: str
-    names: tuple[str, ...]
-    delimiter: str = ","
-    skip_rows: int = 0
-    metadata: dict = field(default_factory=dict)
-    channels: dict = field(default_factory=dict)
-    properties: dict = field(default_factory=dict)
-    locations: dict = field(default_factory=dict)
-    backend: str = "table"
 
 
 def open_source(path, input_format: str, delimiter: str | None) -> Source:

@@ -28,14 +28,15 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import one_line, shown_name
 from accelcal.io.recordings.channels import (
     ChannelInfo,
+    Source,
     iso_time,
     json_ready,
     library_errors,
     numeric,
 )
+from accelcal.validation import one_line, shown_name
 
 MAGIC = b"TDSm"
 """First bytes of a TDMS file's lead-in (``TDSh`` starts an index file)."""
@@ -46,8 +47,6 @@ _OWN = ("wf_increment", "wf_start_time", "unit_string")
 def open_tdms(path: Path):
     """The channels of a TDMS file and its properties, as a :class:`~.sources.Source`."""
     from nptdms import TdmsFile
-
-    from accelcal.io.recordings.sources import Source
 
     channels, groups = {}, {}
     size = path.stat().st_size

@@ -4,8 +4,9 @@ The accelerometer sits on a horizontal arm in several positions (IA radial
 inward and outward, OA or PA radial, IA tangential, any orientation by
 three angles) at several levels ``Omega^2 R / g``. The package:
 
-:mod:`~accelcal.methods.centrifuge.geometry`
-    Specific force on the arm (DOMAIN section 9), positions, regressors.
+:mod:`~accelcal.physics.centrifuge`
+    Below the package, shared with the rig: specific force on the arm
+    (DOMAIN section 9), positions, regressors (re-exported here).
 :mod:`~accelcal.methods.centrifuge.core`
     Observation blocks and the Gauss-Newton weighted least squares with the
     rig errors given (propagated) or estimated.
@@ -36,7 +37,11 @@ References
 from accelcal.errors import AccelcalError
 from accelcal.methods import ReportText
 from accelcal.methods.centrifuge.figures import figures
-from accelcal.methods.centrifuge.geometry import (
+from accelcal.methods.centrifuge.identify import CentrifugeIdentifiability, identifiability
+from accelcal.methods.centrifuge.joint import read_one_g, reduce_joint
+from accelcal.methods.centrifuge.plan import CentrifugePlan, plan
+from accelcal.methods.centrifuge.reduce import FAMILY, reduce_centrifuge
+from accelcal.physics.centrifuge import (
     ASYMMETRY_TERMS,
     FULL_TERMS,
     POSITIONS,
@@ -44,10 +49,6 @@ from accelcal.methods.centrifuge.geometry import (
     orientation,
     specific_force,
 )
-from accelcal.methods.centrifuge.identify import CentrifugeIdentifiability, identifiability
-from accelcal.methods.centrifuge.joint import read_one_g, reduce_joint
-from accelcal.methods.centrifuge.plan import CentrifugePlan, plan
-from accelcal.methods.centrifuge.reduce import FAMILY, reduce_centrifuge
 
 __all__ = [
     "ASYMMETRY_TERMS", "ERRATA", "FAMILY", "FULL_TERMS", "POSITIONS", "RIG_ERRORS",

@@ -49,7 +49,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.identifiability import analyse
-from accelcal.methods.centrifuge.geometry import (
+from accelcal.physics.centrifuge import (
     MISALIGNMENT_AXES,
     RIG_ERRORS,
     gradients,

@@ -29,7 +29,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.identifiability import NULL_ATOL, Identifiability, analyse
 from accelcal.methods.centrifuge.core import design, unit_coefficients
-from accelcal.methods.centrifuge.geometry import FULL_TERMS, RIG_ERRORS
+from accelcal.physics.centrifuge import FULL_TERMS, RIG_ERRORS
 
 PRIORITY = ("K1", "K0", "Ko", "Kp", "K2", "Kio", "Kip", "K3", "K4", "Koo", "Kpp", "Kop",
             "K0_asym", "K1_asym")

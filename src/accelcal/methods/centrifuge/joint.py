@@ -23,13 +23,13 @@ References
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown
 from accelcal.methods.centrifuge.core import Block
 from accelcal.methods.centrifuge.reduce import (
     centrifuge_block,
     rig_parameters,
     solve_and_reduce,
 )
+from accelcal.validation import shown
 
 METHOD = "centrifuge/joint"
 ONE_G_KINDS = ("tumble", "dividing-head")
@@ -76,7 +76,7 @@ def one_g_block(one_g, *, sensor: str | None = None) -> tuple[Block, str]:
     from accelcal.io.formats.tumble import TumbleRecord
 
     if isinstance(one_g, TumbleRecord):
-        from accelcal.methods.tumble.geometry import specific_force
+        from accelcal.physics.tumble import specific_force
 
         a = specific_force(one_g.angles_rad, one_g.rotation_axis)
         y = one_g.outputs.mean(axis=1)

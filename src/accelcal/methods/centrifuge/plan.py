@@ -31,7 +31,9 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.centrifuge import MAX_RADIUS, MIN_RADIUS, MIN_SD
 from accelcal.methods.centrifuge.core import Block, design, unit_coefficients
-from accelcal.methods.centrifuge.geometry import (
+from accelcal.methods.centrifuge.identify import CentrifugeIdentifiability, identifiability
+from accelcal.model import term_unit
+from accelcal.physics.centrifuge import (
     ASYMMETRY_TERMS,
     FULL_TERMS,
     MISALIGNMENT_AXES,
@@ -40,8 +42,6 @@ from accelcal.methods.centrifuge.geometry import (
     misalignment_name,
     rig_unit,
 )
-from accelcal.methods.centrifuge.identify import CentrifugeIdentifiability, identifiability
-from accelcal.model import term_unit
 from accelcal.units import STANDARD_GRAVITY
 
 MAX_STEPS = 100_000
@@ -113,7 +113,7 @@ def plan_blocks(positions, levels, *, radius=1.0, readings=1, gravity=STANDARD_G
         raise AccelcalError(f"{one_g_positions} must be 0 (none) to {MAX_STEPS}",
                             parameter="one_g_positions")
     if one_g_positions:
-        from accelcal.methods.tumble.geometry import specific_force
+        from accelcal.physics.tumble import specific_force
         from accelcal.rigs.tumble import uniform_positions
 
         a = specific_force(uniform_positions(int(one_g_positions)), "OA")

@@ -30,9 +30,10 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.identifiability import analyse
 from accelcal.io.formats.centrifuge import MAX_OUTPUT, MIN_SD
-from accelcal.io.limits import shown
 from accelcal.methods.centrifuge.core import Block, solve
-from accelcal.methods.centrifuge.geometry import (
+from accelcal.methods.centrifuge.identify import identifiability
+from accelcal.model import ErrorModel, term_unit
+from accelcal.physics.centrifuge import (
     ASYMMETRY_TERMS,
     FULL_TERMS,
     MISALIGNMENT_AXES,
@@ -42,10 +43,9 @@ from accelcal.methods.centrifuge.geometry import (
     position_matrix,
     rig_unit,
 )
-from accelcal.methods.centrifuge.identify import identifiability
-from accelcal.model import ErrorModel, term_unit
 from accelcal.results import Assumption, Estimate, Reduction
 from accelcal.units import STANDARD_GRAVITY
+from accelcal.validation import shown
 
 FAMILY = "centrifuge"
 METHOD = "centrifuge/lsq"
@@ -133,7 +133,7 @@ def reduce_centrifuge(record, *, terms=None, estimate=(), rig_errors=None, sigma
         From :func:`accelcal.io.formats.centrifuge.read` or the rig.
     terms : sequence of str, optional
         Terms to estimate (K1 included); default the largest identifiable
-        subset of :data:`~accelcal.methods.centrifuge.geometry.FULL_TERMS`.
+        subset of :data:`~accelcal.physics.centrifuge.FULL_TERMS`.
         Terms left out are taken as zero (assumption ``terms_taken_zero``).
     estimate : sequence of str
         Rig errors to estimate (``proof_mass_offset``, ``arm_stretch``,

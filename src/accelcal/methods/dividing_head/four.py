@@ -23,7 +23,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown
 from accelcal.methods.dividing_head.data import HeadData
 from accelcal.methods.dividing_head.factors import FourFactors
 from accelcal.methods.dividing_head.joint import identifiability
@@ -38,6 +37,7 @@ from accelcal.methods.dividing_head.sizes import MAX_DENSE_POSITIONS
 from accelcal.methods.dividing_head.theory import COEFFICIENTS, coefficient_units
 from accelcal.resources import check_memory
 from accelcal.results import Assumption, Estimate, Reduction
+from accelcal.validation import shown
 
 
 def residual_noise_variances(operator: np.ndarray, residuals: np.ndarray, *,

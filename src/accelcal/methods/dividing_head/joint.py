@@ -29,7 +29,6 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.identifiability import Identifiability, analyse
 from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD, check_positions
-from accelcal.io.limits import shown
 from accelcal.methods.dividing_head.arrow import design_identifiability, solve_arrow
 from accelcal.methods.dividing_head.data import HeadData
 from accelcal.methods.dividing_head.result import (
@@ -48,6 +47,7 @@ from accelcal.methods.dividing_head.theory import (
 )
 from accelcal.resources import check_memory
 from accelcal.results import Assumption, Estimate, Reduction
+from accelcal.validation import shown
 
 ZERO_ENTRY = 1e-12
 """Design entries (sines and cosines, |x| <= 1) below this are taken as zero: rounding

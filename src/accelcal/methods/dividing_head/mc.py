@@ -40,7 +40,6 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD
-from accelcal.io.limits import shown
 from accelcal.methods.dividing_head.data import HeadData
 from accelcal.methods.dividing_head.factors import FourFactors
 from accelcal.methods.dividing_head.four import FourOperator, residual_noise_variances
@@ -54,6 +53,7 @@ from accelcal.methods.dividing_head.single import scale_factors, single_pinv
 from accelcal.methods.dividing_head.theory import COEFFICIENTS, method_name, psi
 from accelcal.results import Reduction
 from accelcal.uncertainty import McUncertainty, propagate
+from accelcal.validation import shown
 
 SAMPLER_BYTES = 2**28
 """Work memory of one batch of synthetic data sets (256 MiB)."""

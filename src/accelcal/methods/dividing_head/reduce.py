@@ -18,7 +18,6 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.dividing_head import HeadRecord
-from accelcal.io.limits import shown
 from accelcal.methods.dividing_head.data import HeadData
 from accelcal.methods.dividing_head.four import four
 from accelcal.methods.dividing_head.joint import joint
@@ -26,6 +25,7 @@ from accelcal.methods.dividing_head.result import K_O_STAR, head_reduction
 from accelcal.methods.dividing_head.single import single
 from accelcal.methods.dividing_head.theory import COEFFICIENTS, METHODS, coefficient_units, psi
 from accelcal.results import Estimate, Reduction
+from accelcal.validation import shown
 
 OPTIONS = {
     "single": (),

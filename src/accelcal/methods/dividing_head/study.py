@@ -59,12 +59,12 @@ import numpy as np
 from accelcal import montecarlo
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD
-from accelcal.io.limits import shown
 from accelcal.methods.dividing_head.four import FourOperator
 from accelcal.methods.dividing_head.joint import JointOperator
 from accelcal.methods.dividing_head.study_kernel import HeadStudy
 from accelcal.methods.dividing_head.theory import COEFFICIENTS
 from accelcal.rigs.dividing_head import DividingHeadRig
+from accelcal.validation import shown
 
 STUDY_METHODS = ("single", "four_unknown_h1", "four_known_h1", "joint_unknown_h1",
                  "joint_known_h1")

@@ -29,9 +29,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import is_finite_number, shown
 from accelcal.terms import TEMPERATURE_TERMS, TemperatureTerms, check_temperature, term_unit
 from accelcal.units import OUTPUT_UNITS
+from accelcal.validation import is_finite_number, shown
 
 KIND = "accelcal.ThermalCompensation"
 FORMAT_VERSION = 1

@@ -226,7 +226,7 @@ def _residual_notes(fits, plateaus) -> list[str]:
 
 def _warmup(record, plateaus, fits, t0):
     """Warm-up values (tau, amplitude g, settled K0 g), covariance and observations."""
-    from accelcal.methods.tumble.geometry import specific_force
+    from accelcal.physics.tumble import specific_force
 
     rows = record.rows("warm-up")
     t, y = record.t[rows], record.output[rows]

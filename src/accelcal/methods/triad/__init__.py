@@ -7,8 +7,9 @@ means of static intervals, by two routes:
     :class:`TriadCalibration` (``a = T (p + q ⊙ p²)``, ``p = K (u - b)``;
     Tedaldi's triangular ``T``), :data:`PARAMS`, :data:`QUADRATIC`; JSON and
     imucal's ``K_a, R_a, b_a`` layout both ways.
-:mod:`~accelcal.methods.triad.gravity`
-    :func:`normal_gravity` (WGS84, Somigliana, free-air height term).
+:mod:`~accelcal.physics.gravity`
+    Below the package, shared with the rig: :func:`normal_gravity` (WGS84,
+    Somigliana, free-air height term), re-exported here.
 :mod:`~accelcal.methods.triad.known`
     :func:`calibrate_known`: known orientations (six-position Ferraris,
     turntable), linear least squares and an RQ split (method
@@ -49,7 +50,6 @@ References
 from accelcal.methods import ReportText
 from accelcal.methods.triad.common import FAMILY, calibration_of, norm_residuals
 from accelcal.methods.triad.figures import figures
-from accelcal.methods.triad.gravity import normal_gravity
 from accelcal.methods.triad.identify import Plan, plan
 from accelcal.methods.triad.known import METHOD as KNOWN_METHOD
 from accelcal.methods.triad.known import calibrate_known
@@ -59,6 +59,7 @@ from accelcal.methods.triad.model import PARAMS, QUADRATIC, TriadCalibration
 from accelcal.methods.triad.result import GAUGE
 from accelcal.methods.triad.unknown import METHOD as UNKNOWN_METHOD
 from accelcal.methods.triad.unknown import calibrate_unknown
+from accelcal.physics.gravity import normal_gravity
 
 __all__ = [
     "ERRATA", "FAMILY", "GAUGE", "KNOWN_METHOD", "PARAMS", "QUADRATIC", "UNKNOWN_METHOD", "Plan",

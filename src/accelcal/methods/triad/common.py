@@ -9,7 +9,6 @@ References
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown
 from accelcal.methods.triad.model import (
     PARAMS,
     QUADRATIC,
@@ -18,6 +17,7 @@ from accelcal.methods.triad.model import (
     nominal_factor,
 )
 from accelcal.results import Assumption
+from accelcal.validation import shown
 
 FAMILY = "triad"
 """The family of every triad reduction (key of :data:`accelcal.methods.REGISTRY`)."""

@@ -23,7 +23,7 @@ References
 
 import numpy as np
 
-from accelcal.methods.triad.model import t_matrix
+from accelcal.methods.triad.frames import t_matrix
 
 
 def _skew(v: np.ndarray) -> np.ndarray:

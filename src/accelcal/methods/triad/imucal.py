@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown, shown_path
+from accelcal.validation import shown, shown_path
 
 IMUCAL_UP = {"x_p": (1.0, 0.0, 0.0), "x_a": (-1.0, 0.0, 0.0),
              "y_p": (0.0, 1.0, 0.0), "y_a": (0.0, -1.0, 0.0),

@@ -50,7 +50,6 @@ from accelcal.methods.triad.common import (
     spread_text,
 )
 from accelcal.methods.triad.forward import known_model, rotvec_matrix
-from accelcal.methods.triad.gravity import check_gravity
 from accelcal.methods.triad.pairs import (
     check_tilt,
     choose_estimator,
@@ -61,6 +60,7 @@ from accelcal.methods.triad.pairs import (
 )
 from accelcal.methods.triad.result import GAUGE, build_reduction
 from accelcal.methods.triad.split import rq_split, split_jacobian
+from accelcal.physics.gravity import check_gravity
 
 METHOD = "triad/known-orientations"
 """Method name of a known-orientation calibration (records, store)."""
@@ -115,7 +115,7 @@ def calibrate_known(means, up, gravity, *, input_unit="m/s^2", quadratic=False, 
         Unit gravity-opposing direction of each position in the fixture
         frame (``(1, 0, 0)``: x up, the x axis reading about +g).
     gravity : float
-        Local gravity, m/s^2 (:func:`accelcal.methods.triad.gravity.normal_gravity`).
+        Local gravity, m/s^2 (:func:`accelcal.physics.gravity.normal_gravity`).
     input_unit : str
         Unit of ``means``.
     quadratic : bool

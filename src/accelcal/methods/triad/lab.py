@@ -237,7 +237,7 @@ def detect_intervals(rec, init_static: float, window: float, factor: float, min_
 
 def local_gravity(rec, *, gravity=None, latitude=None, height=None) -> float:
     """The local gravity, m/s^2: given, WGS84 normal gravity [TR8350.2]_, or the record's."""
-    from accelcal.methods.triad.gravity import check_gravity, normal_gravity
+    from accelcal.physics.gravity import check_gravity, normal_gravity
 
     if gravity is not None:
         if latitude is not None or height is not None:

@@ -40,7 +40,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import MAX_JSON_BYTES, load_json, shown
+from accelcal.io.limits import MAX_JSON_BYTES, load_json
+from accelcal.methods.triad.frames import t_matrix
+from accelcal.validation import shown
 
 PARAMS = ("b_x", "b_y", "b_z", "s_x", "s_y", "s_z", "a_yz", "a_zy", "a_zx")
 """The nine parameters of the linear model, in the order of every vector and covariance."""
@@ -84,21 +86,6 @@ def units_of(input_unit: str, quadratic: bool = False) -> dict[str, str]:
     if quadratic:
         out.update(dict.fromkeys(QUADRATIC, "s^2/m"))
     return out
-
-
-def t_matrix(angles) -> np.ndarray:
-    """Tedaldi's upper-triangular non-orthogonality matrix ``T`` of (a_yz, a_zy, a_zx).
-
-    Eq. (8) [Tedaldi2014].
-    """
-    a_yz, a_zy, a_zx = (float(v) for v in angles)
-    return np.array([[1.0, -a_yz, a_zy], [0.0, 1.0, -a_zx], [0.0, 0.0, 1.0]])
-
-
-def angles_of(t) -> np.ndarray:
-    """(a_yz, a_zy, a_zx) of an upper-triangular unit-diagonal ``T`` (inverse of t_matrix)."""
-    t = np.asarray(t, dtype=float)
-    return np.array([-t[0, 1], t[0, 2], -t[1, 2]])
 
 
 def _vector(value, name: str, *, nonzero: bool = False) -> np.ndarray:
@@ -311,7 +298,8 @@ class TriadCalibration:
     @classmethod
     def load(cls, path) -> "TriadCalibration":
         """Read a calibration written by :meth:`save` (bounded read, one-line errors)."""
-        from accelcal.io.limits import read_bounded, shown_path
+        from accelcal.io.limits import read_bounded
+        from accelcal.validation import shown_path
 
         where = f"triad calibration {shown_path(path)}"
         try:

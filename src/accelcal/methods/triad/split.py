@@ -34,7 +34,7 @@ References
 
 import numpy as np
 
-from accelcal.methods.triad.model import angles_of
+from accelcal.methods.triad.frames import angles_of
 
 
 def rq_split(a) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -52,9 +52,10 @@ from accelcal.methods.triad.common import (
     spread_text,
 )
 from accelcal.methods.triad.forward import norm_model, norm_sd
-from accelcal.methods.triad.gravity import check_gravity
-from accelcal.methods.triad.model import PARAMS, QUADRATIC, TriadCalibration, t_matrix
+from accelcal.methods.triad.frames import t_matrix
+from accelcal.methods.triad.model import PARAMS, QUADRATIC, TriadCalibration
 from accelcal.methods.triad.result import build_reduction
+from accelcal.physics.gravity import check_gravity
 
 METHOD = "triad/gravity-norm"
 """Method name of a gravity-norm calibration (records, store)."""

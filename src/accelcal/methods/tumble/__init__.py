@@ -3,8 +3,9 @@
 The accelerometer is turned about one of its own axes (OA or PA) through N
 positions in the gravity field. The package:
 
-- :mod:`~accelcal.methods.tumble.geometry`: specific force at the positions
-  and the design of the output-unit coefficients ``b_t = K1 K_t``;
+- :mod:`~accelcal.physics.tumble` (below the package, shared with the
+  rigs): specific force at the positions and the design of the output-unit
+  coefficients ``b_t = K1 K_t``, re-exported here;
 - :mod:`~accelcal.methods.tumble.identify`: what a position set separates
   (:func:`identifiability`, on :mod:`accelcal.identifiability`);
 - :mod:`~accelcal.methods.tumble.fourier`: the harmonics A_k, B_k of a
@@ -37,7 +38,13 @@ References
 from accelcal.methods import ReportText
 from accelcal.methods.tumble.figures import figures
 from accelcal.methods.tumble.fourier import FourierCoefficients, fourier_coefficients
-from accelcal.methods.tumble.geometry import (
+from accelcal.methods.tumble.identify import (
+    IdentifiabilityReport,
+    combination_label,
+    identifiability,
+)
+from accelcal.methods.tumble.reduce import ROUTES, TumbleArrays, reduce_tumble, tumble_arrays
+from accelcal.physics.tumble import (
     ASYMMETRY_TERMS,
     AXES,
     DEFAULT_TERMS,
@@ -45,12 +52,6 @@ from accelcal.methods.tumble.geometry import (
     design_matrix,
     specific_force,
 )
-from accelcal.methods.tumble.identify import (
-    IdentifiabilityReport,
-    combination_label,
-    identifiability,
-)
-from accelcal.methods.tumble.reduce import ROUTES, TumbleArrays, reduce_tumble, tumble_arrays
 
 __all__ = [
     "ASYMMETRY_TERMS",

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.methods.tumble.geometry import check_angles, check_outputs, is_uniform
+from accelcal.physics.tumble import check_angles, check_outputs, is_uniform
 
 HARMONICS = ("A0", "A1", "B1", "A2", "B2", "A3", "B3", "A4")
 """The harmonic amplitudes the relations use, in the order of :func:`fourier_map`'s columns."""

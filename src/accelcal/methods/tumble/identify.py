@@ -28,7 +28,7 @@ from accelcal.identifiability import (
     analyse,
     estimable_combinations,
 )
-from accelcal.methods.tumble.geometry import (
+from accelcal.physics.tumble import (
     ASYMMETRY_TERMS,
     FULL_TERMS,
     check_angles,

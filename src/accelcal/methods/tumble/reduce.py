@@ -38,7 +38,14 @@ from accelcal.methods.tumble.fourier import (
     fourier_coefficients,
     fourier_solution,
 )
-from accelcal.methods.tumble.geometry import (
+from accelcal.methods.tumble.identify import (
+    IdentifiabilityReport,
+    identifiability,
+    output_unit_name,
+    report_of,
+)
+from accelcal.model import ErrorModel, term_unit
+from accelcal.physics.tumble import (
     ASYMMETRY_TERMS,
     DEFAULT_TERMS,
     FULL_TERMS,
@@ -48,13 +55,6 @@ from accelcal.methods.tumble.geometry import (
     check_terms,
     design_matrix,
 )
-from accelcal.methods.tumble.identify import (
-    IdentifiabilityReport,
-    identifiability,
-    output_unit_name,
-    report_of,
-)
-from accelcal.model import ErrorModel, term_unit
 from accelcal.results import Assumption, Estimate, Reduction
 from accelcal.units import OUTPUT_UNITS
 

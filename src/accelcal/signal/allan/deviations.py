@@ -45,8 +45,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown
-from accelcal.io.recordings.options import check_rate
 from accelcal.resources import check_memory
 from accelcal.signal.allan.edf import check_confidence, confidence_interval, edf
 from accelcal.signal.allan.identify import alpha_range, interval_alphas
@@ -58,6 +56,7 @@ from accelcal.signal.allan.taus import (
     tau_grid,
     taus_to_m,
 )
+from accelcal.validation import check_rate, shown
 
 __all__ = ["KINDS", "Deviation", "compute", "deviation"]
 

@@ -56,8 +56,8 @@ import math
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown
 from accelcal.signal.allan.taus import check_kind
+from accelcal.validation import shown
 
 J_MAX = 100
 """Terms summed exactly before the asymptotic tables take over [GR2003]_."""

@@ -41,8 +41,7 @@ References
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown
-from accelcal.io.recordings.options import check_rate
+from accelcal.validation import check_rate, shown
 
 KINDS = ("adev", "oadev", "mdev", "hdev", "ohdev", "totdev")
 """The deviations: Allan, overlapping Allan, modified Allan, Hadamard,

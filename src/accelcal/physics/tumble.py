@@ -28,7 +28,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.model import TERMS
+from accelcal.terms import TERMS
 
 AXES = ("OA", "PA")
 """Rotation axes: the accelerometer's output axis or pendulum axis."""

@@ -40,9 +40,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import shown
-from accelcal.model import TERMS
+from accelcal.terms import TERMS
 from accelcal.units import STANDARD_GRAVITY
+from accelcal.validation import shown
 
 _ROWS = {
     "IA-in": ((1, 0, 0), (0, 1, 0), (0, 0, 1)),

@@ -40,6 +40,11 @@ HEIGHT_RANGE = (-1000.0, 20000.0)
 """Heights accepted, m: from below the Dead Sea shore (-430 m) to above any laboratory
 or aircraft test; the linear free-air correction stays within 1e-5 relative there."""
 
+GRAVITY_RANGE = (9.7, 9.9)
+"""Accepted local gravity, m/s^2: Earth's surface gravity lies within it
+(9.78 at the equator to 9.83 at the poles, less with altitude), and a value
+given in g (about 1) or in ft/s^2 (about 32) falls outside."""
+
 
 def normal_gravity(latitude_deg, height_m=0.0) -> float:
     """WGS84 normal gravity at a geodetic latitude and height, m/s^2.
@@ -84,8 +89,6 @@ def normal_gravity(latitude_deg, height_m=0.0) -> float:
 
 def check_gravity(gravity, name: str = "gravity") -> float:
     """A local gravity value in m/s^2 (within the 9.7..9.9 of Earth's surface)."""
-    from accelcal.io.lab_metadata import GRAVITY_RANGE
-
     g = _number(gravity, name)
     if not GRAVITY_RANGE[0] <= g <= GRAVITY_RANGE[1]:
         raise AccelcalError(f"{g:g} must be the local gravity in m/s^2, within "
