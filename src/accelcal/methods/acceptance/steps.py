@@ -114,8 +114,8 @@ def reduce_steps(record, *, settle: float = 0.0, max_error: float = MAX_ERROR,
                             f"(the largest, {sizes[-1] * 1e6:.4g} ug, gives "
                             f"{ratio[-1]:.0%}): the {record.test} is above the ladder")
     j = int(passed[0])
-    p = ndtr(-RULE / sd[: j + 1]) if np.all(sd > 0) else np.zeros(j + 1)
-    p_wrong = float(1.0 - np.prod(1.0 - p))
+    p = ndtr(-RULE / sd) if np.all(sd > 0) else np.zeros(sd.size)
+    p_wrong = float(1.0 - np.prod(1.0 - p[: j + 1]))
     kept = float(np.median(dw.kept))
     z = float(ndtri(1.0 - (1.0 - (1.0 - target) ** (1.0 / (j + 1)))))
     dwell = settle + kept * float(np.max((sd[: j + 1] * z / RULE) ** 2))
