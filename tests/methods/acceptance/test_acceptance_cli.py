@@ -102,3 +102,12 @@ def test_an_angle_only_recording_reads_as_sin_of_the_angle(files, tmp_path):
                  {"t": rec.t, "angle": rec.angle, "output": rec.output})
     back = steps_format.read(tmp_path / "angle.csv")
     np.testing.assert_allclose(back.input, rec.input, rtol=1e-12, atol=1e-15)
+
+
+def test_import_layout_keeps_the_input_in_g_and_the_output_in_its_unit():
+    from accelcal.io.recordings.kinds import layout
+
+    got = layout("steps", {"input": "A", "output": "U"}, {"A": "mg", "U": "V"}, 10.0)
+    assert got.units == {"input": "g", "output": "V", "t": "s"}
+    assert got.factors["input"] == 1e-3
+    assert got.metadata == {"output_unit": "V"}

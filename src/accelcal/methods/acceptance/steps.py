@@ -61,8 +61,8 @@ def responses(dwells, scale_factor: float):
             coef[i + 1] += w
             coef[i] -= w
         ratio = float(np.sum(dm[idx] / (scale_factor * da[idx])) / idx.size)
-        out.append((float(size[idx].mean()), ratio, float(np.sqrt(np.sum((coef * dwells.se) ** 2))),
-                    idx.size))
+        sd = float(np.sqrt(np.sum((coef * dwells.se) ** 2)))
+        out.append((float(np.median(size[idx])), ratio, sd, idx.size))
     if not out:
         raise AccelcalError("the record holds a single input: no step to decide on")
     return out
