@@ -51,6 +51,9 @@ from accelcal.errors import AccelcalError
 from accelcal.io.formats.acceptance import TESTS, StepRecord
 from accelcal.resources import generator
 
+MAX_SAMPLES = 20_000_000
+"""Most samples a simulated test may hold."""
+
 LADDER_ARCSEC = (0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
 """Default increments, arc-seconds (1 arcsec ~ 4.85 ug at null)."""
 
@@ -138,16 +141,21 @@ def simulate(test: str = "threshold", *, scale_factor: float = 1.0, bias: float 
     """
     if test not in TESTS:
         raise AccelcalError(f"test {test!r} is not one of {', '.join(TESTS)}")
-    if not (dwell > 0 and rate > 0 and dwell * rate >= 2):
-        raise AccelcalError("dwell * rate must give at least two samples per dwell")
-    if noise < 0 or breakaway < 0 or friction < 0 or hysteresis_span <= 0:
-        raise AccelcalError("noise, breakaway and friction must be >= 0, the hysteresis span "
-                            "> 0")
+    _check_settings(set_point=set_point, reversals=reversals, cycle_step=cycle_step,
+                    dwell=dwell, rate=rate, noise=noise, breakaway=breakaway,
+                    friction=friction, hysteresis=hysteresis, hysteresis_span=hysteresis_span,
+                    scale_factor=scale_factor, bias=bias)
     rng = generator(seed)
     theta0 = (30.0 if test == "resolution" else 0.0) if set_point is None else set_point
     increments = np.asarray(increments, dtype=float)
-    if test != "hysteresis" and not (np.all(increments > 0) and np.all(np.diff(increments) > 0)):
-        raise AccelcalError("the increments must be positive and ascending")
+    if test != "hysteresis" and not (np.all(increments > 0) and np.all(np.diff(increments) > 0)
+                                     and increments.size and increments[-1] <= 3600.0):
+        raise AccelcalError("the increments must be positive and ascending, at most 3600 "
+                            "arcsec")
+    if angles_count(test, increments.size, reversals, cycle_step) * round(dwell * rate) > \
+            MAX_SAMPLES:
+        raise AccelcalError(f"the test would take more than {MAX_SAMPLES:g} samples: shorten "
+                            "the dwell, the rate or the ladder")
     angles = programme(test, set_point=theta0, increments=increments, reversals=reversals,
                        cycle_step=cycle_step)
     applied = np.sin(np.radians(angles))
@@ -180,6 +188,34 @@ def simulate(test: str = "threshold", *, scale_factor: float = 1.0, bias: float 
                       angle=np.repeat(angles, n), metadata=meta)
 
 
+def angles_count(test: str, increments: int, reversals: int, cycle_step: float) -> int:
+    """Number of dwells of a programme (:func:`programme`)."""
+    if test == "hysteresis":
+        return 4 * int(np.ceil(90.0 / cycle_step)) + 1
+    return 1 + 2 * reversals * increments
+
+
+def _check_settings(**values) -> None:
+    """Every setting a finite number in its range (one line naming it, else)."""
+    limits = {"set_point": (-360.0, 360.0), "reversals": (1, 1000), "cycle_step": (1e-3, 90.0),
+              "dwell": (1e-6, 1e6), "rate": (1e-6, 1e6), "noise": (0.0, 1e3),
+              "breakaway": (0.0, 1.0), "friction": (0.0, 1.0), "hysteresis": (0.0, 1.0),
+              "hysteresis_span": (1e-6, 10.0), "scale_factor": (-1e6, 1e6),
+              "bias": (-1e6, 1e6)}
+    for name, value in values.items():
+        if value is None:
+            continue
+        lo, hi = limits[name]
+        if isinstance(value, bool) or not (lo <= value <= hi):
+            raise AccelcalError(f"{name} {value!r:.30} is not a number in [{lo:g}, {hi:g}]",
+                                parameter=name)
+    if values["scale_factor"] == 0:
+        raise AccelcalError("the scale factor must not be 0", parameter="scale_factor")
+    if values["dwell"] * values["rate"] < 2:
+        raise AccelcalError("dwell * rate must give at least two samples per dwell",
+                            parameter="dwell")
+
+
 def _true_hysteresis(applied: np.ndarray, x: np.ndarray) -> dict:
     """Input point (g, as text) -> decreasing minus increasing sensed input, g."""
     direction = np.r_[0.0, np.sign(np.diff(applied))]
@@ -192,4 +228,4 @@ def _true_hysteresis(applied: np.ndarray, x: np.ndarray) -> dict:
     return out
 
 
-__all__ = ["LADDER_ARCSEC", "programme", "sensed", "simulate"]
+__all__ = ["LADDER_ARCSEC", "MAX_SAMPLES", "angles_count", "programme", "sensed", "simulate"]
