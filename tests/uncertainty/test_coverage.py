@@ -25,6 +25,11 @@ KNOWN_MISSES: dict[tuple[str, str], str] = {
     ("thermal reduce, CLI default order auto", "*"):
         "intervals conditional on the F-test's choice of order; the output says so and "
         "recommends a fixed order for certificates (docs/thermal.md)",
+    ("test_acceptance_contract.TestThresholdContract", "threshold"):
+        "a ladder increment decided by the 50 % rule: exact unless a decision errs, at the "
+        "stated error probability (test_acceptance_decision.py); its SD is the ladder's spacing",
+    ("test_acceptance_contract.TestResolutionContract", "resolution"):
+        "a ladder increment decided by the 50 % rule, as the threshold",
 }
 """(case, coefficient) -> the reason, where the method's output and docs declare that it
 cannot meet the targets there (one line each; "*" for every coefficient of a case)."""
