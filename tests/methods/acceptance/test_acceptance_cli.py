@@ -37,6 +37,9 @@ def test_reduce_gives_the_true_increment_in_ug(files, test, capsys):
     assert 0 <= by["error_probability"]["estimate"] < 0.05
     assert by["recommended_dwell"]["unit"] == "s"
     assert sum(q.startswith("response to") for q in by) == 9
+    if test == "resolution":  # also as a fraction of the 0.5 g input at 30 deg
+        assert by["resolution / input"]["unit"] == "ppm"
+        assert by["resolution / input"]["estimate"] == pytest.approx(2 * truth, rel=1e-9)
 
 
 def test_hysteresis_rows_per_point_and_figures(files, tmp_path, capsys):

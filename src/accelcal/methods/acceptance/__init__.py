@@ -95,7 +95,10 @@ def reduce(records, *, test: str | None = None, settle: float = 0.0,
 
 
 def quantity_rows(reduction) -> list[dict]:
-    """Rows ``quantity, estimate, std, unit``: accelerations in ug, responses as fractions."""
+    """Rows ``quantity, estimate, std, unit``: accelerations in ug, responses as fractions.
+
+    A resolution also gets ``resolution / input`` (ppm of the set point's input).
+    """
     est, prov = reduction.estimate, reduction.provenance
     rows = []
     for name, value, std in zip(est.names, est.values, est.std, strict=True):
@@ -108,4 +111,9 @@ def quantity_rows(reduction) -> list[dict]:
         factor = 1e6 if unit == "g" else 1.0
         rows.append({"quantity": label, "estimate": float(value) * factor,
                      "std": float(std) * factor, "unit": "ug" if unit == "g" else unit})
+    a0 = abs(prov.get("set_point_g", 0.0))
+    if prov.get("test") == "resolution" and a0 > 0:
+        rows.insert(1, {"quantity": "resolution / input", "unit": "ppm",
+                        "estimate": reduction.value("resolution") / a0 * 1e6,
+                        "std": reduction.std("resolution") / a0 * 1e6})
     return rows

@@ -42,7 +42,6 @@ def _steps(reduction):
     ax.axhline(0.5, color="C3", ls="--", label="50 % rule")
     decided = reduction.value(test) * 1e6
     ax.axvline(decided, color="C2", ls=":", label=f"{test} {decided:.3g} µg")
-    ax.set_xscale("log")
     ax.set_xlabel("input increment (µg)")
     ax.set_ylabel("output change / predicted change")
     ax.legend(loc="best")
