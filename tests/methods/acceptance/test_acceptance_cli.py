@@ -114,3 +114,23 @@ def test_import_layout_keeps_the_input_in_g_and_the_output_in_its_unit():
     assert got.units == {"input": "g", "output": "V", "t": "s"}
     assert got.factors["input"] == 1e-3
     assert got.metadata == {"output_unit": "V"}
+
+
+def test_a_lab_recording_imports_as_steps_and_reduces(files, tmp_path, capsys):
+    rec = steps_format.read(files["threshold"])
+    lab = tmp_path / "lab.csv"
+    np.savetxt(lab, np.c_[rec.t, rec.angle, 2.5 * rec.output], delimiter=",",
+               header="time,tilt,volts", comments="", fmt="%.17g")
+    mapping = tmp_path / "steps.toml"
+    mapping.write_text('kind = "steps"\ntime = "time"\nunit = "V"\n[channels]\n'
+                       'angle = { channel = "tilt", unit = "deg" }\noutput = "volts"\n'
+                       '[metadata]\ntest = "threshold"\nscale_factor = 2.5\n')
+    code, _, err = run_cli(["import", lab, "--mapping", mapping, "--out", tmp_path / "s.csv"],
+                           capsys)
+    assert code == 0, err
+    code, out, err = run_cli(["acceptance", "reduce", tmp_path / "s.csv", "--format", "json"],
+                             capsys)
+    assert code == 0, err
+    got = json.loads(out)[0]
+    assert got["quantity"] == "threshold"
+    assert got["estimate"] == pytest.approx(rec.metadata["true_threshold_g"] * 1e6, rel=1e-6)
