@@ -134,3 +134,17 @@ def test_a_lab_recording_imports_as_steps_and_reduces(files, tmp_path, capsys):
     got = json.loads(out)[0]
     assert got["quantity"] == "threshold"
     assert got["estimate"] == pytest.approx(rec.metadata["true_threshold_g"] * 1e6, rel=1e-6)
+
+
+@pytest.mark.parametrize("test", ["resolution", "hysteresis"])
+def test_the_python_path_gives_the_rows_of_the_command(files, test, capsys):
+    from accelcal.methods import acceptance
+
+    rows = acceptance.quantity_rows(acceptance.reduce(files[test], settle=1.0))
+    code, out, err = run_cli(["acceptance", "reduce", files[test], "--settle", "1",
+                              "--format", "json"], capsys)
+    assert code == 0, err
+    printed = json.loads(out)
+    assert [r["quantity"] for r in printed] == [r["quantity"] for r in rows]
+    np.testing.assert_allclose([r["estimate"] for r in printed], [r["estimate"] for r in rows],
+                               rtol=1e-12)
