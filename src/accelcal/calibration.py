@@ -206,12 +206,16 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
         rows = stacked_index(keep) if est.is_complex else keep  # complex: (Re, Im) rows
         # The sensor's Estimate class, taken from the reduction: this module needs no import
         # of accelcal.results, whose Reduction.to_records calls records.
+        # Rows are recorded under their names (a combination's, e.g. K0+Kpp), the plain
+        # coefficient's name beside them.
+        labels = [est.label(est.names[j]) for j in keep]
         sub = type(est)(
-            tuple(est.names[j] for j in keep), est.values[keep],
-            est.covariance[np.ix_(rows, rows)],
-            {est.names[j]: est.units.get(est.names[j], "") for j in keep},
+            tuple(labels), est.values[keep], est.covariance[np.ix_(rows, rows)],
+            {lab: est.units.get(est.names[j], "") for lab, j in zip(labels, keep, strict=True)},
             reduction.method, residuals=est.residuals, dof=est.dof,
         )
+        plain = {lab: est.names[j] for lab, j in zip(labels, keep, strict=True)
+                 if lab != est.names[j]}
         head = ([f"sensor column {name} of {k}; reduction {reduction.method}"] if k > 1 else [])
         notes = [*head, *common, *(n for n in est.notes if n not in common),
                  *_dof_notes(reduction.dof, k_cov), *_lab_notes(info)]
@@ -223,6 +227,7 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
             record, notes=tuple(dict.fromkeys(notes)), coverage_factor=k_cov,
             dof=reduction.dof if reduction.dof > 0 else None,
             simulated=info.simulated or bool(reduction.provenance.get("simulated")),
+            plain=plain,
         ))
     return out
 

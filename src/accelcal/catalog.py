@@ -212,6 +212,17 @@ METHODS: tuple[Method, ...] = (
         paper="IEEE836", demo="accelcal.methods.centrifuge.demo", demo_order=6,
         demo_sensors="one", demo_test="centrifuge"),
     Method(
+        name="acceptance", family="acceptance", title="acceptance tests",
+        package=_m("acceptance"), kinds=("steps",), formats=("accelcal.io.formats.acceptance",),
+        rig="accelcal.rigs.acceptance", cli="accelcal.cli.acceptance",
+        cli_help=("Acceptance tests of pendulous accelerometers on the indexing head (IEEE "
+                  "1293): threshold and resolution by the 50 % rule with the decision's error "
+                  "probability, hysteresis over the input cycle; simulated records and their "
+                  "reduction."),
+        verbs=("simulate", "reduce"),
+        report="accelcal.methods.acceptance.report_text", docs="docs/acceptance.md",
+        paper="IEEE1293"),
+    Method(
         name="response", family="response", title="frequency response",
         package=_m("response"), kinds=("response",), formats=("accelcal.io.formats.response",),
         rig="accelcal.rigs.shaker_response", cli="accelcal.cli.response",

@@ -288,3 +288,58 @@ def describe(weights: dict) -> str:
         parts.append(f"{sign} {mag}{name}")
     text = " ".join(parts)
     return text[2:] if text.startswith("+ ") else text
+
+
+def combination_name(plain: str, shares: dict) -> str:
+    """The name of a row that estimates ``plain`` plus inseparable shares of other terms.
+
+    ``shares`` maps each term the design cannot separate from ``plain`` to
+    its weight in the row (the alias matrix's entry, see
+    :mod:`accelcal.aliasing`): ``combination_name("K0", {"Kpp": 1})`` is
+    ``"K0+Kpp"``, ``combination_name("K2", {"Kpp": -1})`` is ``"K2-Kpp"``,
+    a weight other than +-1 is written before its term (``"K3+0.5*K1_asym"``,
+    6 significant digits). Weights below :data:`NULL_ATOL` are dropped; with
+    none left the name is ``plain``. Every method names its rows here, so
+    one combination has one name everywhere (rows, JSON, records, the store,
+    reports).
+    """
+    text = plain
+    for term, weight in shares.items():
+        w = float(weight)
+        if abs(w) < NULL_ATOL:
+            continue
+        mag = "" if abs(abs(w) - 1.0) < 1e-9 else f"{abs(w):.6g}*"
+        text += f"{'-' if w < 0 else '+'}{mag}{term}"
+    return text
+
+
+def inseparable(design, unestimated, names, *, sigma=None, rtol=None) -> tuple[str, ...]:
+    """The unestimated terms that the design cannot separate from the estimated ones.
+
+    A term of ``unestimated`` (columns ``Z``, named ``names``) is
+    inseparable when adding its column to ``design`` does not raise the
+    rank (decided as in :func:`analyse`): the rows then estimate
+    combinations that include it, named by :func:`combination_name`. With
+    ``rtol``, also when the design reproduces the column to within ``rtol``
+    of its norm (the part of it orthogonal to the design's columns is
+    smaller): separable in exact arithmetic, but only through differences
+    the data cannot see (e.g. a few microradians of misalignment), so the
+    rows are named after the combination and the rest is bounded by the
+    term's prior.
+    """
+    x = np.asarray(design, dtype=float)
+    z = np.asarray(unestimated, dtype=float).reshape(x.shape[0], -1)
+    if sigma is not None:
+        w = 1.0 / np.broadcast_to(np.asarray(sigma, dtype=float), (x.shape[0],))[:, None]
+        x, z = x * w, z * w
+    base = numerical_rank(small_svd(_equilibrate(x)[0])[0])
+    out = []
+    for j, name in enumerate(names):
+        both = np.column_stack([x, z[:, j]])
+        if numerical_rank(small_svd(_equilibrate(both)[0])[0]) == base:
+            out.append(name)
+        elif rtol is not None:
+            rest = z[:, j] - x @ np.linalg.lstsq(x, z[:, j], rcond=None)[0]
+            if np.linalg.norm(rest) <= rtol * np.linalg.norm(z[:, j]):
+                out.append(name)
+    return tuple(out)

@@ -49,7 +49,10 @@ def complex_columns(est) -> list[dict]:
 def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
     """One row per sensor and coefficient, then one per fixed coefficient.
 
-    Keys: ``sensor, coefficient, estimate, std, unit, status, dof``; with
+    Keys: ``sensor, coefficient, estimate, std, unit, status, dof, plain``
+    (``coefficient`` is the row's name, a combination name such as
+    ``K0+Kpp`` where the row estimates one; ``plain`` the coefficient's own
+    name); with
     ``engineering`` also ``eng_estimate, eng_std, eng_unit`` (the first
     engineering unit, or NaN and '' where none applies) and ``engineering``
     (every engineering unit: a list of ``{"estimate", "std", "unit"}``).
@@ -65,15 +68,16 @@ def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
             continue
         for c, v, s in zip(est.names, est.values, est.std, strict=True):
             unit = est.units.get(c, "")
-            row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": float(s),
-                   "unit": unit, "status": reduction.status(c, k), "dof": int(est.dof)}
+            row = {"sensor": name, "coefficient": est.label(c), "estimate": float(v),
+                   "std": float(s), "unit": unit, "status": reduction.status(c, k),
+                   "dof": int(est.dof), "plain": c}
             if engineering:
                 row.update(_engineering_columns(reduction, c, float(v), float(s), unit, k1, k))
             rows.append(row)
         for c, v in reduction.fixed.items():
             unit = _fixed_unit(c, est)
             row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": 0.0,
-                   "unit": unit, "status": "fixed", "dof": int(est.dof)}
+                   "unit": unit, "status": "fixed", "dof": int(est.dof), "plain": c}
             if engineering:
                 row.update(_engineering_columns(reduction, c, float(v), 0.0, unit, k1, k))
             rows.append(row)
@@ -137,9 +141,10 @@ def _estimate_dict(est, name: str | None = None) -> dict:
         out = {
             "complex": True,
             "coefficients": [
-                {"name": c, "unit": est.units.get(c, ""), "estimate": _complex_num(v),
+                {"name": est.label(c), "unit": est.units.get(c, ""), "estimate": _complex_num(v),
                  "std": _num(col["std"]), "magnitude": _num(col["magnitude"]),
-                 "phase_deg": _num(col["phase_deg"]), "phase_std_deg": _num(col["phase_std_deg"])}
+                 "phase_deg": _num(col["phase_deg"]), "phase_std_deg": _num(col["phase_std_deg"]),
+                 **({"plain": c} if est.label(c) != c else {})}
                 for c, v, col in zip(est.names, est.values, complex_columns(est), strict=True)
             ],
             "covariance": _matrix(est.covariance),
@@ -149,7 +154,8 @@ def _estimate_dict(est, name: str | None = None) -> dict:
         return {"sensor": name, **out} if name is not None else out
     out = {
         "coefficients": [
-            {"name": c, "unit": est.units.get(c, ""), "estimate": _num(v), "std": _num(s)}
+            {"name": est.label(c), "unit": est.units.get(c, ""), "estimate": _num(v),
+             "std": _num(s), **({"plain": c} if est.label(c) != c else {})}
             for c, v, s in zip(est.names, est.values, est.std, strict=True)
         ],
         "covariance": _matrix(est.covariance),
@@ -166,7 +172,9 @@ def to_dict(reduction) -> dict:
     coefficients, covariance, dof, residual_sigma`` and ``engineering`` rows),
     ``shared`` (or None), ``combinations``, ``identifiability`` (rank,
     condition numbers, identifiable, not identifiable, tolerance; or None),
-    ``assumptions``, ``fixed``, ``provenance``, ``notes``.
+    ``assumptions``, ``fixed``, ``provenance``, ``notes``, ``type_b`` (the
+    itemised Type B contributions), ``aliases`` (the alias-matrix entries of
+    the unestimated terms) and ``priors`` (:mod:`accelcal.aliasing`).
 
     A complex estimate has ``"complex": true``; each of its coefficients
     gives ``estimate`` as ``{"re": .., "im": ..}``, ``std`` (the
@@ -178,7 +186,7 @@ def to_dict(reduction) -> dict:
     sensors = []
     for name, est in zip(reduction.sensor_names, reduction.sensors, strict=True):
         d = _estimate_dict(est, name)
-        d["engineering"] = {r["coefficient"]: r["engineering"] for r in rows
+        d["engineering"] = {r["plain"]: r["engineering"] for r in rows
                             if r["sensor"] == name and r["engineering"]}
         sensors.append(d)
     ident = reduction.identifiability
@@ -204,6 +212,9 @@ def to_dict(reduction) -> dict:
                     for k, v in reduction.nominal.items()},
         "provenance": dict(reduction.provenance),
         "notes": list(reduction.notes),
+        "type_b": [c.as_dict() for c in reduction.type_b],
+        "aliases": [a.as_dict() for a in reduction.aliases],
+        "priors": [p.as_dict() for p in reduction.priors],
     }
 
 
@@ -239,13 +250,16 @@ def estimate_from_dict(data: dict, *, method: str = "", source: str = "<dict>", 
     if not isinstance(data, dict) or not isinstance(data.get("coefficients"), list):
         raise _fail(source, "an estimate needs a list of 'coefficients'")
     complex_ = data.get("complex", False) is True
-    names, units, values = [], {}, []
+    names, units, values, labels = [], {}, [], {}
     for i, c in enumerate(data["coefficients"]):
         if not (isinstance(c, dict) and isinstance(c.get("name"), str)
-                and isinstance(c.get("unit", ""), str)):
+                and isinstance(c.get("unit", ""), str) and isinstance(c.get("plain", ""), str)):
             raise _fail(source, f"coefficients[{i}] needs a name and a unit (strings)")
-        names.append(c["name"])
-        units[c["name"]] = c.get("unit", "")
+        plain = c.get("plain") or c["name"]  # a combination's row: its plain coefficient's name
+        if plain != c["name"]:
+            labels[plain] = c["name"]
+        names.append(plain)
+        units[plain] = c.get("unit", "")
         values.append(_value(c.get("estimate"), complex_, source, f"coefficients[{i}].estimate"))
     dof = data.get("dof", 0)
     if isinstance(dof, bool) or not isinstance(dof, int):
@@ -253,7 +267,7 @@ def estimate_from_dict(data: dict, *, method: str = "", source: str = "<dict>", 
     try:
         return estimate(tuple(names), np.array(values, dtype=complex if complex_ else float),
                         _array(data.get("covariance"), source, "covariance"), units,
-                        method, dof=dof)
+                        method, dof=dof, labels=labels)
     except ValueError as exc:
         raise _fail(source, str(exc)) from None
 
@@ -341,5 +355,28 @@ def describe(reduction) -> list[str]:
     for c in reduction.combinations:
         lines.append(f"determined combination {c.label} = {format_value(c.value, c.std)} "
                      f"+- {format_std(c.std)} {c.unit}".rstrip())
+    lines += _type_b_lines(reduction)
     lines += list(reduction.notes)
     return list(dict.fromkeys(lines))
+
+
+_SOURCE_TEXT = {"user": "the user's prior", "default": "the default prior",
+                "estimate": "a prior from the reduction's own estimate"}
+
+
+def _type_b_lines(reduction) -> list[str]:
+    """Type B contributions, by input, and the aliases of the terms without a prior."""
+    from accelcal.aliasing import alias_text
+
+    lines = []
+    for p in reduction.priors:
+        parts = [c for c in reduction.type_b if c.input == p.name]
+        if parts:
+            lines.append(
+                f"{p.name} taken as zero, bounded by {_SOURCE_TEXT[p.source]} ({p.distribution}, "
+                f"{'+-' if p.distribution == 'rectangular' else 'u = '}{p.value:.3g} {p.unit}), "
+                "Type B: " + ", ".join(f"{c.row} +- {c.contribution:.3g} {c.unit}".rstrip()
+                                       for c in parts))
+    with_prior = {p.name for p in reduction.priors}
+    lines += alias_text([a for a in reduction.aliases if a.term not in with_prior])
+    return lines

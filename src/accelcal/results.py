@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from accelcal.aliasing import Alias, Contribution, Prior
 from accelcal.errors import AccelcalError
 from accelcal.identifiability import Combination, Identifiability
 
@@ -80,6 +81,12 @@ class Estimate:
         Caveats for people to read; no code reads them.
     provenance : dict
         Inputs' description (settings).
+    labels : dict
+        The reported name of a coefficient that estimates a combination
+        (plain name -> e.g. ``"K0+Kpp"``, decided by
+        :func:`accelcal.identifiability.combination_name`); a coefficient
+        not in it is reported under its plain name. Either name finds it
+        (``est["K0"]``, ``est["K0+Kpp"]``).
 
     Notes
     -----
@@ -102,6 +109,7 @@ class Estimate:
     dof: int = 0
     notes: tuple[str, ...] = ()
     provenance: dict = field(default_factory=dict)
+    labels: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         values = _frozen(self.values)
@@ -139,14 +147,27 @@ class Estimate:
             return self.polar().magnitude_std
         return np.sqrt(np.diag(self.covariance))
 
+    def index(self, name: str) -> int:
+        """Position of parameter ``name`` (its plain or its reported name)."""
+        if name in self.names:
+            return self.names.index(name)
+        for plain, label in self.labels.items():
+            if label == name:
+                return self.names.index(plain)
+        raise ValueError(f"{name!r} is not a parameter of this estimate")
+
+    def label(self, name: str) -> str:
+        """The reported name of parameter ``name`` (its combination name, if it has one)."""
+        return self.labels.get(name, name)
+
     def __getitem__(self, name: str) -> float | complex:
-        """The estimate of parameter ``name`` (a ``complex`` for complex values)."""
-        value = self.values[self.names.index(name)]
+        """The estimate of parameter ``name``, plain or reported (complex values: a complex)."""
+        value = self.values[self.index(name)]
         return complex(value) if isinstance(value, np.complexfloating) else float(value)
 
     def std_of(self, name: str) -> float:
         """The standard uncertainty of parameter ``name`` (of its magnitude, if complex)."""
-        i = self.names.index(name)
+        i = self.index(name)
         if self.is_complex:
             return float(self.std[i])
         return float(np.sqrt(self.covariance[i, i]))
@@ -157,7 +178,7 @@ class Estimate:
 
         if not self.is_complex:
             raise ValueError(f"{self.method}: {name} is real; block() is for complex values")
-        rows = stacked_index([self.names.index(name)])
+        rows = stacked_index([self.index(name)])
         return self.covariance[np.ix_(rows, rows)]
 
     def polar(self):
@@ -301,6 +322,15 @@ class Reduction:
         Settings and inputs (JSON-ready values).
     notes : tuple of str
         Further caveats for people; no code reads them.
+    type_b : tuple of Contribution
+        Type B contributions of the priors of unestimated terms, itemised by
+        row and input (:mod:`accelcal.aliasing`); already included in the
+        sensors' covariances.
+    aliases : tuple of Alias
+        Alias-matrix entries of the unestimated terms: how much each row
+        would move per unit of each (with or without a prior).
+    priors : tuple of Prior
+        The priors that were propagated.
     """
 
     family: str
@@ -320,6 +350,9 @@ class Reduction:
     nominal: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    type_b: tuple[Contribution, ...] = ()
+    aliases: tuple[Alias, ...] = ()
+    priors: tuple[Prior, ...] = ()
 
     def __post_init__(self) -> None:
         sensors = tuple(self.sensors)
@@ -338,7 +371,7 @@ class Reduction:
         object.__setattr__(self, "observations", obs)
         models = tuple(self.models) or (None,) * len(sensors)
         object.__setattr__(self, "models", models)
-        for name in ("combinations", "assumptions", "notes"):
+        for name in ("combinations", "assumptions", "notes", "type_b", "aliases", "priors"):
             object.__setattr__(self, name, tuple(getattr(self, name)))
 
     # ------------------------------------------------------------- access
@@ -382,7 +415,7 @@ class Reduction:
         if name in self.fixed:
             return "fixed"
         est = self.sensors[sensor]
-        i = est.names.index(name)
+        i = est.index(name)
         return "fitted" if np.isfinite(est.values[i]) else "not identifiable"
 
     def unidentified(self, sensor: int = 0) -> tuple[str, ...]:
@@ -409,6 +442,24 @@ class Reduction:
                 return est[name]
         value = self.assumed("scale_factor")
         return float(value) if isinstance(value, int | float) else None
+
+    def contributions(self, row: str, sensor: int = 0) -> tuple[Contribution, ...]:
+        """The Type B contributions to one row (plain or reported name) of one sensor."""
+        label = self.sensors[sensor].label(row)
+        return tuple(c for c in self.type_b if c.sensor == sensor and c.row in (row, label))
+
+    def dof_eff(self, row: str, sensor: int = 0) -> float:
+        """Welch-Satterthwaite degrees of freedom of one row (GUM G.4.1).
+
+        The Type A variance (the covariance less the Type B contributions)
+        has the reduction's ``dof`` (infinite when the noise was given); each
+        prior its own.
+        """
+        from accelcal.aliasing import welch_satterthwaite
+
+        parts = self.contributions(row, sensor)
+        var_a = max(self.std(row, sensor) ** 2 - sum(c.contribution**2 for c in parts), 0.0)
+        return welch_satterthwaite(var_a, self.dof if self.dof > 0 else np.inf, parts)
 
     # ------------------------------------------------------------- outputs
     def rows(self, *, engineering: bool = True) -> list[dict]:

@@ -146,7 +146,8 @@ def test_json_round_trip_of_a_real_reduction_keeps_its_rows():
     back = Reduction.from_json(red.to_json())
     assert back.rows() == red.rows()
     assert "complex" not in red.to_dict()["sensors"][0]
-    assert set(red.rows()[0]) == {"sensor", "coefficient", "estimate", "std", "unit", "status",
+    assert set(red.rows()[0]) == {"sensor", "coefficient", "plain", "estimate", "std", "unit",
+                                  "status",
                                   "dof", "eng_estimate", "eng_std", "eng_unit", "engineering"}
 
 

@@ -102,6 +102,8 @@ BASE: dict[str, list[str]] = {
     "thermal compensate": ["{examples}/thermal.csv", "--model",
                            "{examples}/thermal_compensation.json", "--out", "{out}/c.csv",
                            "--allow-extrapolation"],
+    "acceptance simulate": ["--out", "{out}/steps.csv", "--dwell", "1"],
+    "acceptance reduce": ["{steps}"],
     "import": ["{examples}/still.csv", "--kind", "noise", "--channels", "acc=acc",
                "--out", "{out}/imported.csv"],
     "inspect": ["{examples}/still.csv"],
@@ -449,16 +451,17 @@ def judge(case: dict, res: dict) -> str | None:
 
 
 def _fill(tmp: Path) -> dict:
-    """Shared input files of the matrix: a calibration record, a tumble record, a store
+    """Shared input files of the matrix: a calibration record, tumble and step records, a store
     (the record and two noise fits of ACC-0001)."""
     from accelcal.cli import main
 
     record = EXAMPLES / "calibration_record.json"
     tumble, store = tmp / "tumble.csv", tmp / "store.sqlite"
-    centrifuge = tmp / "centrifuge.csv"
+    centrifuge, steps = tmp / "centrifuge.csv", tmp / "steps.csv"
     response = tmp / "response.csv"
-    runs = [["response", "simulate", "--out", str(response), "--frequencies", "20,80,315,630"],
-            ["tumble", "simulate", "--out", str(tumble), "--points", "12"],
+    runs = [["tumble", "simulate", "--out", str(tumble), "--points", "12"],
+            ["acceptance", "simulate", "--out", str(steps), "--increments", "1,3,6"],
+            ["response", "simulate", "--out", str(response), "--frequencies", "20,80,315,630"],
             ["centrifuge", "simulate", "--out", str(centrifuge), "--levels", "5:50:15",
              "--readings", "2"],
             ["records", "add", str(record), "--db", str(store)]]
@@ -474,7 +477,8 @@ def _fill(tmp: Path) -> dict:
             main(args)
         assert info.value.code == 0, args
     return {"record": str(record), "tumble": str(tumble), "store": str(store),
-            "centrifuge": str(centrifuge), "response": str(response)}
+            "centrifuge": str(centrifuge), "steps": str(steps),
+            "response": str(response)}
 
 
 def _matrix():

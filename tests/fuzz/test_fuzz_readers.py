@@ -173,6 +173,22 @@ def _thermal(suffix: str):
     return make
 
 
+def _steps(suffix: str):
+    def make(tmp: Path):
+        import dataclasses
+
+        from accelcal.io.formats import acceptance
+        from accelcal.rigs.acceptance import simulate
+
+        rec = simulate("threshold", increments=(1.0, 3.0, 6.0), dwell=2.0, seed=1)
+        rec = dataclasses.replace(rec, metadata={**rec.metadata, "serial": "ACC-0001"})
+        path = tmp / f"steps{suffix}"
+        acceptance.write(path, rec)
+        return path, path
+
+    return make
+
+
 def _centrifuge(suffix: str):
     def make(tmp: Path):
         import dataclasses
@@ -292,6 +308,12 @@ def _thermal_read(path):
     return read(path)
 
 
+def _steps_read(path):
+    from accelcal.io.formats.acceptance import read
+
+    return read(path)
+
+
 def _centrifuge_read(path):
     from accelcal.io.formats.centrifuge import read
 
@@ -377,6 +399,7 @@ _TUMBLE_CMD = ("tumble", "reduce", "{file}", "--format", "json")
 _NOISE_CMD = ("noise", "fit", "{file}", "--format", "json")
 _CENTRIFUGE_CMD = ("centrifuge", "reduce", "{file}", "--format", "json", "--record",
                    "{out}/rec.json")
+_STEPS_CMD = ("acceptance", "reduce", "{file}", "--format", "json")
 _RESPONSE_CMD = ("response", "reduce", "{file}", "--format", "json")
 _THERMAL_CMD = ("thermal", "reduce", "{file}", "--format", "json", "--record", "{out}/rec.json")
 
@@ -397,6 +420,8 @@ READERS: dict[str, Reader] = {
                                  _CENTRIFUGE_CMD),
     "thermal.csv": Reader(_thermal_read, _thermal(".csv"), "csv", _THERMAL_CMD),
     "thermal.parquet": Reader(_thermal_read, _thermal(".parquet"), "parquet", _THERMAL_CMD),
+    "steps.csv": Reader(_steps_read, _steps(".csv"), "csv", _STEPS_CMD),
+    "steps.parquet": Reader(_steps_read, _steps(".parquet"), "parquet", _STEPS_CMD),
     "response.csv": Reader(_response_read, _response(".csv"), "csv", _RESPONSE_CMD),
     "response.parquet": Reader(_response_read, _response(".parquet"), "parquet",
                                _RESPONSE_CMD),

@@ -16,10 +16,17 @@ small methods:
 
 and, where the defaults do not fit, ``noise_free_tolerance(name, value)``
 (the absolute agreement noise-free data must reach: rounding of the
-method's arithmetic, derived in the subclass) and ``Z_MAX``.
+method's arithmetic, derived in the subclass), ``Z_MAX``, ``TYPE_B`` (True
+where the truths set terms the reduction takes as zero and bounds by priors:
+noise-free data then agree within the stated uncertainty, not to rounding)
+and ``default_case()`` (noise-free data of the embedded default
+accelerometer, every term non-zero, and the truth of each row by its name:
+a combination's name, e.g. ``K0+Kpp``, states what the row estimates).
 
 The contract then checks: the result is a Reduction with one estimate per
-sensor; noise-free data recover the truth to rounding; noisy data recover
+sensor; noise-free data recover the truth to rounding (within the stated
+uncertainty with ``TYPE_B``); the default accelerometer's rows equal their
+truths within ``DEFAULT_K`` stated SDs; noisy data recover
 it within the stated uncertainty (every |z| below ``Z_MAX`` over several
 seeds, and the mean of z^2 consistent with 1); the result survives a
 calibration record (JSON round trip), the records store and a report; its
@@ -27,10 +34,27 @@ rows and JSON are complete; its figures draw.
 """
 
 import json
+import re
 
 import numpy as np
+import pytest
 
 from accelcal.results import Reduction
+
+
+def true_value(model, name: str) -> float:
+    """The true value of a row name such as ``K0+Kpp`` or ``Ko-Kop`` from an ErrorModel."""
+    total = 0.0
+    for sign, weight, term in re.findall(r"([+-]?)(?:([0-9.eE+-]+)\*)?([A-Za-z][A-Za-z0-9_]*)",
+                                         name):
+        total += (-1.0 if sign == "-" else 1.0) * (float(weight) if weight else 1.0) * \
+            getattr(model, term)
+    return total
+
+
+def default_terms(model, rng, names) -> dict:
+    """The default accelerometer's magnitude of each term, with a random sign."""
+    return {t: abs(getattr(model, t)) * rng.choice([-1.0, 1.0]) for t in names}
 
 
 class ReductionContract:
@@ -39,6 +63,12 @@ class ReductionContract:
     SEEDS = (11, 12, 13, 14, 15)
     Z_MAX = 4.5
     """Largest |z| accepted: for ~100 Gaussian z-scores, P(max |z| > 4.5) < 1e-3."""
+
+    TYPE_B = False
+    """True where the truths set terms the reduction bounds by priors instead of estimating."""
+
+    DEFAULT_K = 1.0
+    """Stated SDs within which the default accelerometer's rows must equal their truths."""
 
     # ------------------------------------------------------- supplied by a method
     def truth(self, rng):  # pragma: no cover - supplied by subclasses
@@ -57,6 +87,18 @@ class ReductionContract:
         """Absolute tolerance of a noise-free estimate: 1e-9 relative, 1e-15 absolute."""
         return 1e-9 * abs(value) + 1e-15
 
+    def default_case(self):
+        """``(data, expected)`` of the default accelerometer, noise-free; None: no such case."""
+
+    def row_truth(self, truth, row: str, value: float) -> float:
+        """The truth of the row named ``row`` (``value``: ``expected``'s, by plain name).
+
+        A method whose row names depend on the data (a combination's weights
+        from the alias matrix) computes the truth of the name here.
+        """
+        del truth, row
+        return value
+
     # ------------------------------------------------------------- helpers
     def _run(self, seed: int, noisy: bool):
         rng = np.random.default_rng(seed)
@@ -67,7 +109,8 @@ class ReductionContract:
         for k, want in enumerate(self.expected(truth)):
             est = red.sensors[k]
             for name, value in want.items():
-                yield k, name, value, est[name], est.std_of(name)
+                yield k, name, self.row_truth(truth, est.label(name), value), est[name], \
+                    est.std_of(name)
 
     # --------------------------------------------------------------- the tests
     def test_returns_one_reduction(self):
@@ -82,9 +125,26 @@ class ReductionContract:
 
     def test_noise_free_recovers_truth(self):
         truth, red = self._run(self.SEEDS[0], noisy=False)
-        for k, name, want, got, _ in self._pairs(truth, red):
-            tol = self.noise_free_tolerance(name, want)
+        for k, name, want, got, std in self._pairs(truth, red):
+            tol = self.noise_free_tolerance(name, want) + (std if self.TYPE_B else 0.0)
             assert abs(got - want) <= tol, f"sensor {k} {name}: {got!r} vs {want!r} (tol {tol})"
+
+    def test_default_accelerometer_rows_equal_their_truths(self):
+        case = self.default_case()
+        if case is None:
+            pytest.skip("no noise-free case of the default accelerometer for this method yet")
+        data, expected = case
+        red = self.reduce(data)
+        for k, want in enumerate(expected):
+            est = red.sensors[k]
+            assert {r["coefficient"] for r in red.rows() if r["sensor"] == red.sensor_names[k]
+                    and r["status"] == "fitted"} <= {est.label(n) for n in want}, \
+                "a row without its truth"
+            for name, plain_value in want.items():
+                got, std = est[name], est.std_of(name)
+                value = self.row_truth(data, est.label(name), plain_value)
+                tol = self.DEFAULT_K * std + self.noise_free_tolerance(name, value)
+                assert abs(got - value) <= tol, f"sensor {k} {name}: {got!r} vs {value!r} ({tol})"
 
     def test_noisy_within_stated_uncertainty(self):
         z = []

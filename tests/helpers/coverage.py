@@ -22,7 +22,8 @@ method's settings as its contract runs them) and reports, per coefficient
     ``estimate +- k std`` holds the truth, with ``k`` the 97.5 % point of
     Student's t for the Reduction's ``dof`` (the degrees of freedom of a
     variance estimated from residuals, GUM G.3) when ``dof > 0``, else
-    1.96 (target 0.93-0.97).
+    1.96; where the reduction propagates Type B priors, of the row's
+    Welch-Satterthwaite dof (``Reduction.dof_eff``) (target 0.93-0.97).
 
 :func:`cases` lists what the standing check runs: every contract subclass of
 ``tests/methods/*/test_*_contract.py`` (found by import, so a method added later joins
@@ -118,7 +119,7 @@ def coverage_factor(dof: int, level: float = 0.95) -> float:
     """``k`` of a two-sided ``level`` interval: Student's t for ``dof > 0``, else normal."""
     from scipy import stats
 
-    if dof and dof > 0:
+    if dof and 0 < dof < math.inf:
         return float(stats.t.ppf(0.5 + level / 2, dof))
     return float(stats.norm.ppf(0.5 + level / 2))
 
@@ -160,7 +161,6 @@ def coverage(contract: ReductionContract, n: int | None = None, *,
         try:
             truth = contract.truth(rng)
             red = contract.reduce(contract.simulate(truth, rng, True))
-            k = coverage_factor(red.dof)
             rows = []
             for s, want in enumerate(contract.expected(truth)):
                 est = red.sensors[s]
@@ -168,12 +168,16 @@ def coverage(contract: ReductionContract, n: int | None = None, *,
                     sd = est.std_of(coef)
                     if not (np.isfinite(sd) and sd > 0 and np.isfinite(est[coef])):
                         raise ValueError(f"sensor {s} {coef}: estimate {est[coef]!r}, std {sd!r}")
-                    rows.append((coef, est[coef] - value, sd))
+                    # k of the row's Welch-Satterthwaite dof: its Type B priors meet the
+                    # reduction's Type A dof (the reduction's dof where it has no Type B)
+                    dof = red.dof_eff(coef, s) if red.type_b else red.dof
+                    want_row = contract.row_truth(truth, est.label(coef), value)
+                    rows.append((coef, est[coef] - want_row, sd, coverage_factor(dof)))
         except Exception as exc:  # a defect to report, not to hide
             failures.append((seed, f"{type(exc).__name__}: {exc}"[:300]))
             continue
         done += 1
-        for coef, e, sd in rows:
+        for coef, e, sd, k in rows:
             err.setdefault(coef, []).append(e)
             std.setdefault(coef, []).append(sd)
             kk.setdefault(coef, []).append(k)

@@ -156,7 +156,8 @@ def test_example_files_read_with_their_laboratory_metadata():
     assert ErrorModel.load(DATA / "model.json") == default_model()
     record = CalibrationRecord.load(DATA / "calibration_record.json")
     assert record.serial == "ACC-0001"
-    assert record.names == ("K_F", "K_I", "K_O", "K_IO", "K_II")
+    assert record.names == ("K_F+K_OO", "K_I", "K_O", "K_IO", "K_II-K_OO")  # combinations
+    assert record.plain == {"K_F+K_OO": "K_F", "K_II-K_OO": "K_II"}
     assert record.date == "2026-11-20T09:30:00+00:00"
 
 

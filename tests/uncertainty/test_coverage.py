@@ -25,6 +25,24 @@ KNOWN_MISSES: dict[tuple[str, str], str] = {
     ("thermal reduce, CLI default order auto", "*"):
         "intervals conditional on the F-test's choice of order; the output says so and "
         "recommends a fixed order for certificates (docs/thermal.md)",
+    ("test_dividing_head_contract.TestTumbleOnHeadContract", "K_I"):
+        "conservative: the Dong2014 truths have no asymmetry, and the tumble bounds K0' by its "
+        "default prior (Type B on K_I; docs/coverage.md)",
+    ("test_tumble_contract.TestContractFourierOA", "K3"):
+        "SD ratio 1.18 with K0' drawn at exactly the default magnitude: not yet explained "
+        "(docs/coverage.md says so)",
+    ("test_tumble_contract.TestContractLeastSquaresPA", "K0_asym"):
+        "SD ratio 0.84 (conservative) with K0', K1' estimated from 20 jittered positions: not "
+        "yet explained (docs/coverage.md says so)",
+    ("test_thermal_contract.TestContractOrder2", "*"):
+        "conservative (SD ratio 0.83-0.90, coverage 0.97-0.99): the Birge ratio scales the "
+        "plateaus' covariance up only, and their noise carries the drift during each tumble "
+        "(docs/coverage.md, docs/thermal.md)",
+    ("test_acceptance_contract.TestThresholdContract", "threshold"):
+        "a ladder increment decided by the 50 % rule: exact unless a decision errs, at the "
+        "stated error probability (test_acceptance_decision.py); its SD is the ladder's spacing",
+    ("test_acceptance_contract.TestResolutionContract", "resolution"):
+        "a ladder increment decided by the 50 % rule, as the threshold",
 }
 """(case, coefficient) -> the reason, where the method's output and docs declare that it
 cannot meet the targets there (one line each; "*" for every coefficient of a case)."""

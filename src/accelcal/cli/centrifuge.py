@@ -133,7 +133,7 @@ def _rig_rows(result) -> list[dict]:
         return []
     nan = float("nan")
     return [{"sensor": "rig", "coefficient": n, "estimate": float(v), "std": float(s),
-             "unit": est.units.get(n, ""), "status": "fitted", "dof": int(result.dof),
+             "unit": est.units.get(n, ""), "status": "fitted", "dof": int(result.dof), "plain": n,
              "eng_estimate": nan, "eng_std": nan, "eng_unit": "", "engineering": []}
             for n, v, s in zip(est.names, est.values, est.std, strict=True)]
 

@@ -104,6 +104,15 @@ def reduce(
                                            help="Write a calibration record (JSON)."),
     serial: str | None = record_options.SERIAL,
     plot: Path | None = typer.Option(None, "--plot", help="Directory for the figures."),
+    temperature_sd: float | None = typer.Option(
+        None, "--temperature-sd",
+        help="Standard uncertainty of each plateau's temperature, degC (default: the standard "
+        "error of the mean of its readings), propagated as an effective variance."),
+    priors: str = typer.Option(
+        "default", "--priors",
+        help="Priors of the terms the plateau tumbles take as zero (K0', K1'): default, none "
+        "(state only how much each would move each row) or TERM=U,... (standard "
+        "uncertainties), propagated as Type B to the rows at T0."),
 ) -> None:
     """Reduce a thermal test: temperature coefficients, hysteresis and warm-up with uncertainty.
 
@@ -113,6 +122,7 @@ def reduce(
     import sys
 
     from accelcal.methods import thermal
+    from accelcal.methods.tumble.unestimated import parse_priors
 
     check_format(fmt)
     if order not in ("auto", "1", "2", "3"):
@@ -123,7 +133,8 @@ def reduce(
     chosen = [t.strip() for t in terms.split(",")] if terms is not None else None
     red = thermal.reduce(file, order=order if order == "auto" else int(order),
                          reference=reference, terms=chosen, window=window,
-                         rate_limit=rate_limit, tolerance=tolerance)
+                         rate_limit=rate_limit, tolerance=tolerance,
+                         temperature_sd=temperature_sd, priors=parse_priors(priors))
     if plot is not None:
         for p in red.plot(plot):
             typer.echo(f"wrote {p}", err=True)

@@ -133,7 +133,7 @@ def simulate(
 
 
 @app.command("reduce")
-def reduce(
+def reduce(  # noqa: PLR0917 - one parameter per command-line option
     file: Path = typer.Argument(..., help="Tumble record file (CSV, kind tumble)."),
     terms: str | None = typer.Option(
         None,
@@ -149,15 +149,30 @@ def reduce(
         "--sigma",
         help="Known noise SD of one reading, output unit (default: from the residuals).",
     ),
+    priors: str = typer.Option(
+        "default", "--priors",
+        help="Priors of the terms taken as zero that the positions could separate: default "
+        "(twice the embedded default accelerometer's magnitude, rectangular), none (state "
+        "only how much each would move each row), or TERM=U,... (standard uncertainties in "
+        "the term's unit), propagated as Type B.",
+    ),
+    asymmetry: str = typer.Option(
+        "auto", "--asymmetry",
+        help="Estimate K0' and K1' on the least-squares route: auto (where the positions "
+        "separate them and no --terms are given), yes or no.",
+    ),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
 ) -> None:
     """Reduce a tumble record: estimate and standard uncertainty of each coefficient."""
     import sys
 
+    from accelcal.aliasing import alias_text
     from accelcal.methods import tumble
+    from accelcal.methods.tumble.unestimated import parse_asymmetry, parse_priors
 
     check_format(fmt)
-    result = tumble.reduce(file, terms=_terms(terms), route=route, sigma=sigma)
+    result = tumble.reduce(file, terms=_terms(terms), route=route, sigma=sigma,
+                           asymmetry=parse_asymmetry(asymmetry), priors=parse_priors(priors))
     route_used = result.assumed("route")
     emit(result.rows(), fmt, title=f"Tumble reduction ({route_used}), {file}")
     lines = [
@@ -165,6 +180,8 @@ def reduce(
         for c in result.combinations
     ]
     lines += [f"note: {n}" for n in result.estimate.notes]
+    lines += [f"note: {n}" for n in alias_text(
+        a for a in result.aliases if a.term not in {p.name for p in result.priors})]
     stream = sys.stdout if fmt == "table" else sys.stderr
     for line in lines:
         print(line, file=stream)

@@ -143,6 +143,11 @@ class CalibrationRecord:
         level was given, or unknown in an older record).
     simulated : bool
         True when the input data were simulated.
+    plain : dict
+        The plain coefficient name of each row that estimates a combination
+        (row name -> plain name, e.g. ``"K0+Kpp" -> "K0"``); written as the
+        coefficient's ``plain`` key. A record made before combinations were
+        named has none, and reads as before.
     """
 
     serial: str
@@ -160,6 +165,7 @@ class CalibrationRecord:
     notes: tuple[str, ...] = ()
     dof: int | None = None
     simulated: bool = False
+    plain: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.serial, str) or not self.serial.strip():
@@ -260,7 +266,8 @@ class CalibrationRecord:
         else:
             version, coefficients = FORMAT_VERSION, [
                 {"name": n, "unit": self.units.get(n, ""), "estimate": float(v),
-                 "std": float(s), "expanded": float(u)}
+                 "std": float(s), "expanded": float(u),
+                 **({"plain": self.plain[n]} if n in self.plain else {})}
                 for n, v, s, u in zip(
                     self.names, self.estimates, self.std, self.expanded, strict=True
                 )
@@ -293,7 +300,8 @@ class CalibrationRecord:
             {"name": n, "unit": self.units.get(n, ""), "estimate": {"re": v.real, "im": v.imag},
              "std": float(s), "expanded": float(k * s), "magnitude": float(m),
              "phase_deg": math.degrees(ph), "phase_std_deg": math.degrees(phs),
-             "phase_expanded_deg": math.degrees(k * phs)}
+             "phase_expanded_deg": math.degrees(k * phs),
+             **({"plain": self.plain[n]} if n in self.plain else {})}
             for n, v, m, s, ph, phs in zip(self.names, self.estimates.tolist(), pol.magnitude,
                                            pol.magnitude_std, pol.phase, pol.phase_std,
                                            strict=True)
@@ -375,11 +383,12 @@ def _from_dict(data, source: str) -> CalibrationRecord:
     coefficients = data["coefficients"]
     if not isinstance(coefficients, list) or not coefficients:
         raise fail("coefficients must be a non-empty list")
-    names, units, values = [], {}, []
+    names, units, values, plain = [], {}, [], {}
     keys = _COEFFICIENT_KEYS | set(_POLAR_KEYS) if complex_ else _COEFFICIENT_KEYS
     for i, c in enumerate(coefficients):
-        if not isinstance(c, dict) or set(c) != keys:
-            raise fail(f"coefficients[{i}] must have exactly the keys {sorted(keys)}")
+        if not isinstance(c, dict) or set(c) - {"plain"} != keys:
+            raise fail(f"coefficients[{i}] must have exactly the keys {sorted(keys)} "
+                       "(and optionally plain)")
         if complex_:
             x = c["estimate"]
             if not (isinstance(x, dict) and set(x) == {"re", "im"}
@@ -391,11 +400,13 @@ def _from_dict(data, source: str) -> CalibrationRecord:
         for key in ("std", "expanded", *(_POLAR_KEYS if complex_ else ())):
             if not (c[key] is None or is_finite_number(c[key])):
                 raise fail(f"coefficients[{i}].{key} must be a finite number or null")
-        for key in ("name", "unit"):
-            if not isinstance(c[key], str):
+        for key in ("name", "unit", "plain"):
+            if key in c and not isinstance(c[key], str):
                 raise fail(f"coefficients[{i}].{key} must be a string")
         names.append(c["name"])
         units[c["name"]] = c["unit"]
+        if "plain" in c:
+            plain[c["name"]] = c["plain"]
         values.append(complex(c["estimate"]["re"], c["estimate"]["im"]) if complex_
                       else float(c["estimate"]))
     rows = data["covariance"]
@@ -433,7 +444,7 @@ def _from_dict(data, source: str) -> CalibrationRecord:
             software=data["software"], operator=data["operator"],
             coverage_factor=float(data["coverage_factor"]), model=model,
             inputs=dict(data["inputs"]), notes=tuple(data["notes"]), dof=dof,
-            simulated=simulated,
+            simulated=simulated, plain=plain,
         )
     except AccelcalError as exc:
         raise fail(str(exc)) from None

@@ -153,8 +153,9 @@ def _view(section: Section, number: int) -> dict:
             "coefficients": _complex_coefficients(rec) if rec.is_complex else [
                 {"name": n, "unit": rec.units.get(n, ""), "estimate": float(v),
                  "std": float(s), "expanded": float(u),
-                 "engineering": engineering_text(n, float(v), float(s), rec.units.get(n, ""),
-                                                 scale_factor=k1), "polar": None}
+                 "engineering": engineering_text(rec.plain.get(n, n), float(v), float(s),
+                                                 rec.units.get(n, ""), scale_factor=k1),
+                 "polar": None}
                 for n, v, s, u in zip(rec.names, rec.estimates, std, rec.expanded, strict=True)
             ],
             "correlation": corr.tolist() if len(corr) <= 10 else None,

@@ -129,7 +129,7 @@ def _same(est, record) -> bool:
     """Whether a sensor's estimate holds a record's numbers (to :data:`MATCH_RTOL`)."""
     keep = [i for i, v in enumerate(est.values) if np.isfinite(v)]
     values = est.values[keep]
-    return (tuple(est.names[i] for i in keep) == record.names
+    return (tuple(est.label(est.names[i]) for i in keep) == record.names
             and bool(np.all(np.abs(values - record.estimates)
                             <= MATCH_RTOL * np.abs(record.estimates))))
 
@@ -158,7 +158,7 @@ def with_record_numbers(reduction, records, order):
     sensors = list(reduction.sensors)
     for rec, k in zip(records, order, strict=True):
         est = sensors[k]
-        idx = [est.names.index(n) for n in rec.names]
+        idx = [est.index(n) for n in rec.names]
         rows = stacked_index(idx) if est.is_complex else idx
         values = np.array(est.values)
         cov = np.array(est.covariance, dtype=float)
@@ -178,8 +178,11 @@ def reduction_from_records(records):
     from accelcal.results import Estimate, Reduction
 
     first = records[0]
-    sensors = tuple(Estimate(r.names, r.estimates, r.covariance, dict(r.units), r.method,
-                             dof=r.dof or 0, notes=r.notes) for r in records)
+    sensors = tuple(
+        Estimate(tuple(r.plain.get(n, n) for n in r.names), r.estimates, r.covariance,
+                 {r.plain.get(n, n): u for n, u in r.units.items()}, r.method, dof=r.dof or 0,
+                 notes=r.notes, labels={p: n for n, p in r.plain.items()})
+        for r in records)
     serials = [r.serial for r in records]
     names = serials if len(set(serials)) == len(serials) else ()
     return Reduction(family=family_of(first.method) or first.method, method=first.method,

@@ -118,7 +118,7 @@ def overview_rows(reduction, records) -> list[dict]:
 
     rows = reduction_rows(reduction)
     first = reduction.sensors[0]
-    names = [*first.names, *reduction.fixed]
+    names = [*(first.label(n) for n in first.names), *reduction.fixed]
     table = []
     for coef in names:
         unit = next((r["unit"] for r in rows if r["coefficient"] == coef), "")

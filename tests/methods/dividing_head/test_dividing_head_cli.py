@@ -40,8 +40,11 @@ def test_simulate_writes_truth_and_reduce_json_contract(record, capsys):
     rows = json.loads(out)
     # the columns of before, then the generic rows' additions (unit, status, dof, eng_*)
     assert all(list(r)[:4] == ["sensor", "coefficient", "estimate", "std"] for r in rows)
-    assert [r["coefficient"] for r in rows[:5]] == list(COEFFICIENTS)
-    by = {(r["sensor"], r["coefficient"]): r["estimate"] for r in rows}
+    assert [r["plain"] for r in rows[:5]] == list(COEFFICIENTS)
+    # about PA, K_F and K_II carry the cross-axis nonlinearity: the rows say so
+    assert [r["coefficient"] for r in rows[:5]] == ["K_F+K_OO", "K_I", "K_O", "K_IO",
+                                                    "K_II-K_OO"]
+    by = {(r["sensor"], r["plain"]): r["estimate"] for r in rows}
     for k, m in enumerate(models):
         truth = m.to_dong2014()
         for c in ("K_F", "K_I", "K_IO", "K_II"):  # K_O is K_O* (eta = 0, d0 = 0 here)
@@ -179,7 +182,7 @@ def test_autocollimator_readings_in_file_fix_the_first_harmonic(tmp_path, capsys
         code, out, _ = _run(["dividing-head", "reduce", str(path), "--method", "joint",
                              "--format", "json", *extra], capsys)
         assert code == 0
-        rows[bool(extra)] = {(r["sensor"], r["coefficient"]): r["estimate"]
+        rows[bool(extra)] = {(r["sensor"], r["plain"]): r["estimate"]
                              for r in json.loads(out)}
     for k, m in enumerate(models):
         truth = m.to_dong2014()

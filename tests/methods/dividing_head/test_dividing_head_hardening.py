@@ -338,7 +338,7 @@ def test_four_defaults_to_the_propagated_covariance_everywhere(tmp_path, capsys)
     assert code == 0
     paper_rows = json.loads(out)
     assert np.median([p["std"] / r["std"] for p, r in zip(paper_rows, rows, strict=True)]) < 0.85
-    assert {r["coefficient"] for r in rows} == set(COEFFICIENTS)
+    assert {r["plain"] for r in rows} == set(COEFFICIENTS)
 
 
 @pytest.mark.slow

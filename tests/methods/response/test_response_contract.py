@@ -32,6 +32,11 @@ class TestContract(ReductionContract):
     def expected(self, truth):
         return [{"S0": truth.S0, "fn": truth.fn_hz, "zeta": truth.zeta}]
 
+    def default_case(self):
+        # the rig's default DUT (a force-rebalance loop of 1.3 V/g, 600 Hz, zeta 0.6)
+        dut = DutResponse()
+        return simulate(dut, noise=0.0, seed=0), self.expected(dut)
+
     def noise_free_tolerance(self, name, value):
         # The points agree with the closed form to ~1e-15 relative (the sine fits' rounding);
         # the fit's conditioning (fn and zeta from 11 points) amplifies it by < 1e4.

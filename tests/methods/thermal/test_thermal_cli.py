@@ -33,7 +33,8 @@ def test_reduce_json_rows_and_files(record, tmp_path, capsys):
     assert code == 0, err
     rows = json.loads(out)
     names = [r["coefficient"] for r in rows]
-    assert names[:3] == ["K0", "K0_T1", "K0_hyst"]
+    assert names[:3] == ["K0+Kpp", "K0_T1", "K0_hyst"]  # the tumble's K0 is K0 + Kpp
+    assert rows[0]["plain"] == "K0"
     assert {"K1", "K1_T1", "K1_hyst", "warmup_tau", "warmup_amplitude"} <= set(names)
     assert all({"coefficient", "estimate", "std"} <= set(r) for r in rows)
     by = {r["coefficient"]: r for r in rows}

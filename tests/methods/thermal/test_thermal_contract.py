@@ -14,11 +14,12 @@ conditional on the choice, see docs/thermal.md).
 
 from scipy import stats
 
+import accelcal
 from accelcal import ErrorModel
 from accelcal.methods.thermal import reduce_thermal
 from accelcal.rigs.thermal import Programme, simulate
 from accelcal.terms import TemperatureTerms
-from helpers.contract import ReductionContract
+from helpers.contract import ReductionContract, default_terms, true_value
 
 PROGRAMME = Programme(setpoints=(-40.0, -25.0, -10.0, 5.0, 20.0, 35.0, 50.0, 70.0,
                                  60.0, 45.0, 30.0, 15.0, 0.0, -15.0, -30.0),
@@ -37,11 +38,17 @@ def random_truth(rng, order: int = 2):
     terms = {"K0": rng.uniform(-2e-3, 2e-3), "K2": rng.uniform(-2e-5, 2e-5),
              "K3": rng.uniform(-2e-6, 2e-6), "K4": rng.uniform(-1e-6, 1e-6),
              "Kp": rng.uniform(-2e-4, 2e-4), "Kip": rng.uniform(-2e-5, 2e-5)}
+    # every term the tumbles take as zero, at the default accelerometer's magnitudes
+    terms |= default_terms(accelcal.default_model(), rng, ("Kpp", "K0_asym", "K1_asym"))
     k1 = rng.uniform(0.5, 3.0) * rng.choice([-1.0, 1.0])
     tc = {n: rng.uniform(-h, h) for n, h in TC_RANGES.items() if int(n[-1]) <= order}
     model = ErrorModel(K1=k1, **terms, temperature=TemperatureTerms(25.0, tc))
     return {"model": model, "hysteresis": rng.uniform(-2e-5, 2e-5),
             "hysteresis_scale": rng.uniform(-1e-5, 1e-5)}
+
+
+ROWS = {"K0": "K0+Kpp", "K2": "K2-Kpp"}
+"""Row names of the terms that carry the cross-axis nonlinearity (rotation about OA)."""
 
 
 class _ThermalContract(ReductionContract):
@@ -70,14 +77,24 @@ class _ThermalContract(ReductionContract):
 
     def expected(self, truth):
         m = truth["model"]
-        tc = m.temperature.as_dict()
+        tc = m.temperature.as_dict() if m.temperature is not None else {}
         out = {}
         for b in ("K0", "K1", "K2", "Kp"):
-            out[b] = getattr(m, b)
+            row = ROWS.get(b, b)  # about OA, the tumbles' K0 is K0 + Kpp and K2 is K2 - Kpp
+            out[row] = true_value(m, row)
             out |= {f"{b}_T{k}": tc.get(f"{b}_T{k}", 0.0) for k in range(1, self.ORDER + 1)}
         out |= {"K0_hyst": truth["hysteresis"], "K1_hyst": truth["hysteresis_scale"],
                 "K2_hyst": 0.0, "Kp_hyst": 0.0}
         return [out]
+
+    TYPE_B = True  # K0' and K1' bounded by their priors at T0
+
+    def default_case(self):
+        model = accelcal.default_model()
+        data = simulate(model, PROGRAMME, tau=0.0, noise=0.0, temperature_noise=0.0,
+                        hysteresis=0.0, hysteresis_scale=0.0, seed=1)
+        return data, self.expected({"model": model, "hysteresis": 0.0,
+                                    "hysteresis_scale": 0.0})
 
     def noise_free_tolerance(self, name, value):
         # Rounding of outputs of magnitude <= 3 (1e-16 relative) through the tumble (factor

@@ -259,7 +259,7 @@ def test_noise_free_recovery_of_every_identifiable_term(axis, n, route, data):
     assume(n != 8 or abs(np.cos(4 * start)) > 1e-3)
     theta = uniform(n, start)
     E = m.output(*inputs(theta, axis))
-    res = reduce_tumble(theta, E, rotation_axis=axis, route=route, sigma=1e-6)
+    res = reduce_tumble(theta, E, rotation_axis=axis, route=route, sigma=1e-6, asymmetry=False)
     assert res.method == ("tumble/fourier" if route == "auto" else "tumble/lsq")
     assert res.assumed("route") == ("fourier" if route == "auto" else "lsq")
     est, true = res.estimate.values, truth_vector(m, DEFAULT_TERMS[axis])
@@ -405,7 +405,8 @@ def test_covariance_agrees_with_monte_carlo(axis, n, route):
     trials, sd = 4000, 2e-5
     E = m.output(*inputs(theta, axis)) + sd * rng.standard_normal((trials, n))
     res = tumble_arrays(theta, E, rotation_axis=axis, route=route)
-    known = reduce_tumble(theta, E[0], rotation_axis=axis, route=route, sigma=sd).estimate
+    known = reduce_tumble(theta, E[0], rotation_axis=axis, route=route, sigma=sd,
+                          asymmetry=False, priors=None).estimate
     err = res.values - truth_vector(m, DEFAULT_TERMS[axis])
     # Unbiased to within 4 standard errors of the mean of 4000 trials.
     assert np.all(np.abs(err.mean(axis=0)) < 4 * known.std / np.sqrt(trials))
@@ -449,7 +450,7 @@ def test_batch_equals_trial_by_trial():
     assert batch.values.shape == (2, 3, 7)
     assert batch.covariance.shape == (2, 3, 7, 7)
     for idx in np.ndindex(2, 3):
-        one = reduce_tumble(theta, E[idx]).estimate
+        one = reduce_tumble(theta, E[idx], priors=None).estimate
         # rounding of ~1.2 V outputs summed in a different order: 1e-15 absolute
         np.testing.assert_allclose(batch.values[idx], one.values, rtol=1e-13, atol=1e-15)
         # the covariance scales with s^2 from residuals of ~1e-6 V taken out of
@@ -548,7 +549,7 @@ def test_cli_simulate_and_reduce_recover_the_true_model(tmp_path, capsys):
         ["tumble", "reduce", str(path), "--terms", terms, "--format", "json"], capsys
     )
     assert code == 0
-    rows = {r["coefficient"]: r for r in json.loads(out)}
+    rows = {r["plain"]: r for r in json.loads(out)}
     assert "3 repeated readings averaged" in err
     meta = json.loads(path.read_text().splitlines()[1][2:])
     truth = meta["true_model"]

@@ -14,24 +14,35 @@ import sys
 import numpy as np
 import pytest
 
+import accelcal
 from accelcal import ErrorModel
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import tumble as tumble_format
 from accelcal.io.records import write_record
 from accelcal.methods.tumble import DEFAULT_TERMS, reduce_tumble
 from accelcal.rigs.tumble import simulate, uniform_positions
-from helpers.contract import ReductionContract
+from helpers.contract import ReductionContract, default_terms, true_value
 
 REL, ABS = 1e-12, 1e-13
 """As in test_tumble.py: rounding of ~K1 outputs through sums of <= 24 terms with
 factors <= 8 leaves a few 1e-15 g/g^n; ABS is ~50x that, REL bounds K1."""
 
 
-def random_model(rng, axis, output_unit="V"):
+def random_model(rng, axis, output_unit="V", *, every_term=False):
+    """Random default terms; with ``every_term`` also the cross-axis nonlinearity and the
+    asymmetry, at the default accelerometer's magnitudes with random signs."""
     small = [t for t in DEFAULT_TERMS[axis] if t != "K1"]
     k1 = rng.uniform(0.5, 3.0) * rng.choice([-1.0, 1.0])
+    extra = default_terms(accelcal.default_model(), rng, (CROSS[axis], "K0_asym", "K1_asym")) \
+        if every_term else {}
     return ErrorModel(K1=k1, output_unit=output_unit,
-                      **{t: rng.uniform(-2e-3, 2e-3) for t in small})
+                      **{t: rng.uniform(-2e-3, 2e-3) for t in small}, **extra)
+
+
+CROSS = {"OA": "Kpp", "PA": "Koo"}
+"""The cross-axis nonlinearity a rotation about each axis cannot separate from K0 and K2."""
+
+
 
 
 class _TumbleContract(ReductionContract):
@@ -43,8 +54,10 @@ class _TumbleContract(ReductionContract):
     def positions(self, rng):
         return uniform_positions(24, rng.uniform(-np.pi, np.pi))
 
+    TYPE_B = True  # the Fourier route bounds K0', K1' by their priors
+
     def truth(self, rng):
-        return random_model(rng, self.AXIS)
+        return random_model(rng, self.AXIS, every_term=True)
 
     def simulate(self, truth, rng, noisy):
         return simulate(self.positions(rng), truth, rotation_axis=self.AXIS,
@@ -57,7 +70,20 @@ class _TumbleContract(ReductionContract):
                              repeats=data.repeats > 1)
 
     def expected(self, truth):
-        return [{t: getattr(truth, t) for t in DEFAULT_TERMS[self.AXIS]}]
+        # by plain name; row_truth gives the truth of each row's name (K0+Kpp, ...)
+        names = [*DEFAULT_TERMS[self.AXIS], *(("K0_asym", "K1_asym") if self.ROUTE == "lsq"
+                                              else ())]
+        return [{n: getattr(truth, n) for n in names}]
+
+    def row_truth(self, truth, row, value):
+        return true_value(truth if isinstance(truth, ErrorModel) else accelcal.default_model(),
+                          row)
+
+    def default_case(self):
+        model = accelcal.default_model()
+        data = simulate(uniform_positions(24), model, rotation_axis=self.AXIS, noise=0.0,
+                        repeats=self.REPEATS)
+        return data, self.expected(model)
 
     def noise_free_tolerance(self, name, value):
         # Rounding of the outputs (ABS, REL above) amplified by the conditioning of the
@@ -74,6 +100,7 @@ class TestContractLeastSquaresPA(_TumbleContract):
     AXIS = "PA"
     ROUTE = "lsq"
     REPEATS = 3
+    TYPE_B = False  # K0' and K1' estimated: nothing is bounded by a prior
 
     def positions(self, rng):
         # 20 positions, non-uniform: jittered by up to 3 deg
@@ -89,7 +116,7 @@ def test_contract_reductions_carry_their_fields():
     assert red.assumed("rotation_axis") == "PA"
     assert red.assumed("noise") == "residuals"
     assert red.assumed("repeats") == 3
-    assert red.dof == red.estimate.dof == 20 - 7
+    assert red.dof == red.estimate.dof == 20 - 9  # the seven default terms, K0' and K1'
     assert red.identifiability.full_rank
     assert red.estimate["K1"] == red.models[0].K1
     assert red.scale_factor() == red.estimate["K1"]

@@ -41,7 +41,7 @@ _ACCEL_TO_G = {"g": 1.0, "mg": 1e-3, "ug": 1e-6, "m/s^2": 1.0 / STANDARD_GRAVITY
 _TO_RECORD = {"g": ("g", 1.0), "mg": ("g", 1e-3), "ug": ("g", 1e-6), "m/s^2": ("m/s^2", 1.0),
               "V": ("V", 1.0), "mV": ("mV", 1.0), "counts": ("1", 1.0), "deg": ("deg", 1.0),
               "rad": ("deg", 180.0 / math.pi), "s": ("s", 1.0), "-": ("-", 1.0)}
-_FIXED = {"t": "s", "angle": "deg", "angle_deg": "deg", "point": "-", "repeat": "-",
+_FIXED = {"t": "s", "input": "g", "angle": "deg", "angle_deg": "deg", "point": "-", "repeat": "-",
           "ref": "g", "ref_n": "g", "ref_ia": "g"}
 """Columns whose record unit is fixed, by name (they are not the sensor's output)."""
 

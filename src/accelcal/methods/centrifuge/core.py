@@ -26,10 +26,13 @@ forcing a value the data contradict (which would inflate the residuals and
 count the survey's uncertainty twice).
 
 The sign in the asymmetry terms, ``sgn(a_i)``, is taken at the nominal
-set-up (no rig errors; Eq. (C4)): a position with IA perpendicular to the
-specific force (e.g. IA tangential) has
-``a_i = 0`` and no asymmetry, and a rig error of a few microradians must not
-flip it between iterations (the idealised model's sgn is discontinuous there).
+set-up with the surveyed misalignments whose sign is certain (given with a
+value more than :data:`SIGN_SIGMAS` SDs from zero; no other rig error;
+Eq. (C4)), never at the estimates: a rig error of a few microradians must
+not flip it between iterations (the idealised model's sgn is discontinuous
+there). A position with IA perpendicular to the specific force (e.g. IA
+tangential) and no such survey has ``a_i = 0`` there: its asymmetry's sign
+is unknown, and :mod:`~accelcal.methods.centrifuge.unestimated` bounds it.
 
 Everything is O(n p^2) in the observations (QR of the weighted design).
 
@@ -57,6 +60,9 @@ from accelcal.physics.centrifuge import (
     regressors,
     specific_force,
 )
+
+SIGN_SIGMAS = 3.0
+"""A surveyed misalignment sets the asymmetry's sign when its value is this many SDs from 0."""
 
 MAX_ITERATIONS = 200
 TOLERANCE = 1e-13
@@ -164,14 +170,37 @@ class Solution:
     dof: int
     design: np.ndarray
     iterations: int
+    sign_at: dict
+    estimator_design: np.ndarray
+    """The weighted design of the final step with the given rig errors' columns and their
+    pseudo-observations (Eq. (C3)) below: the estimator whose alias matrix
+    :mod:`~accelcal.methods.centrifuge.unestimated` takes."""
 
 
-def design(blocks, terms, rig: dict, b, names) -> tuple[np.ndarray, np.ndarray]:
-    """Regressors ``(N, p)`` of every block and the Jacobian ``(N, m)`` of ``names`` at ``b``."""
+def sign_rig(rig: dict, estimated=(), given_sd=None) -> dict:
+    """The surveyed misalignments whose sign is certain (Eq. (C4)): name -> value."""
+    given_sd = given_sd or {}
+    return {k: v for k, v in rig.items() if k.startswith("misalignment:") and k not in estimated
+            and v != 0.0 and abs(v) > SIGN_SIGMAS * given_sd.get(k, 0.0)}
+
+
+def asymmetry_sign(blk: "Block", at: dict) -> np.ndarray:
+    """``sgn(a_i)`` of a block at the nominal set-up with the misalignments ``at`` (Eq. (C4))."""
+    a_i = blk.forces(at)[0]
+    nominal = blk.forces({})[0]
+    return np.where(np.abs(a_i) > 1e-12 * np.maximum(np.abs(nominal).max(), 1.0), np.sign(a_i),
+                    0.0)
+
+
+def design(blocks, terms, rig: dict, b, names, sign_at=None) -> tuple[np.ndarray, np.ndarray]:  # noqa: PLR0917
+    """Regressors ``(N, p)`` of every block and the Jacobian ``(N, m)`` of ``names`` at ``b``.
+
+    ``sign_at``: the misalignments that set the asymmetry's sign (:func:`sign_rig`).
+    """
     phi, jac = [], []
     for blk in blocks:
         a = blk.forces(rig)
-        sign = np.sign(blk.forces({})[0])  # Eq. (C4): the asymmetry's sign at the nominal set-up
+        sign = asymmetry_sign(blk, sign_at or {})  # Eq. (C4)
         phi.append(regressors(*a, terms, sign=sign))
         g = gradients(*a, terms, b, sign=sign)
         jac.append(np.einsum("nk,knm->nm", g, blk.sensitivities(rig, names)))
@@ -206,6 +235,7 @@ def solve(blocks, terms, rig: dict, estimated, given_sd: dict, *, sigma=None) ->
         freedom, or no convergence.
     """
     rig, given = dict(rig), dict(rig)
+    at = sign_rig(given, estimated, given_sd)
     priors = tuple(k for k in given_sd if k not in estimated)
     free = (*estimated, *priors)
     y = np.concatenate([blk.y for blk in blocks])
@@ -231,7 +261,7 @@ def solve(blocks, terms, rig: dict, estimated, given_sd: dict, *, sigma=None) ->
     it = 0
     while it < MAX_ITERATIONS:
         it += 1
-        phi, jac = design(blocks, terms, rig, b, free)
+        phi, jac = design(blocks, terms, rig, b, free, at)
         a = np.vstack([np.hstack([phi, jac]), prior_rows])
         target = np.concatenate([y, [given[nm] - rig[nm] for nm in priors]])  # Eq. (C3)
         w = np.concatenate([count / var[groups], prior_w])
@@ -247,7 +277,7 @@ def solve(blocks, terms, rig: dict, estimated, given_sd: dict, *, sigma=None) ->
         b = z[:p]
         for nm, dz in zip(free, z[p:], strict=True):
             rig[nm] = rig.get(nm, 0.0) + dz
-        resid = y - design(blocks, terms, rig, b, ())[0] @ b
+        resid = y - design(blocks, terms, rig, b, (), at)[0] @ b
         settled = True
         if absolute:
             lev = np.sum(q[:n] ** 2, axis=1)
@@ -261,11 +291,12 @@ def solve(blocks, terms, rig: dict, estimated, given_sd: dict, *, sigma=None) ->
         raise AccelcalError(f"the reduction did not converge in {MAX_ITERATIONS} iterations: the "
                             "rig errors are too large for these records, or the records "
                             "disagree with the model (estimate more terms, e.g. the asymmetry)")
-    phi, jac = design(blocks, terms, rig, b, free)
+    phi, jac = design(blocks, terms, rig, b, free, at)
     fitted = phi @ b
     resid = y - fitted
     w = np.concatenate([count / var[groups], prior_w])
-    _, r, _ = _qr(np.vstack([np.hstack([phi, jac]), prior_rows]), w)
+    full = np.vstack([np.hstack([phi, jac]), prior_rows])
+    _, r, _ = _qr(full, w)
     rinv = np.linalg.inv(r)
     cov = (rinv @ rinv.T)[:p + m, :p + m]  # the priors' rig errors marginalised
     dof = n - p - m
@@ -278,7 +309,8 @@ def solve(blocks, terms, rig: dict, estimated, given_sd: dict, *, sigma=None) ->
         z=np.concatenate([b, [rig[nm] for nm in estimated]]), cov=cov, rig=rig,
         residuals=tuple(np.split(resid, splits)), fitted=tuple(np.split(fitted, splits)),
         sigma=np.sqrt(var), dof=dof if sigma is None else 0,
-        design=np.hstack([phi, jac[:, :m]]) * np.sqrt(w[:n])[:, None], iterations=it)
+        design=np.hstack([phi, jac[:, :m]]) * np.sqrt(w[:n])[:, None], iterations=it,
+        sign_at=at, estimator_design=full * np.sqrt(w)[:, None])
 
 
 def _qr(a, w):

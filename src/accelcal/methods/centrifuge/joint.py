@@ -106,7 +106,7 @@ def _index(names, sensor) -> int:
 
 
 def reduce_joint(record, one_g, *, terms=None, estimate=("radius_error",), rig_errors=None,
-                 sensor: str | None = None):
+                 sensor: str | None = None, priors="default"):
     """Reduce a centrifuge record jointly with a 1 g record of the same sensor.
 
     Parameters
@@ -122,6 +122,8 @@ def reduce_joint(record, one_g, *, terms=None, estimate=("radius_error",), rig_e
         Given rig errors, name -> ``(value, sd)`` (override the survey).
     sensor : str, optional
         Sensor column of an indexing-head record.
+    priors : "default", "none" or None
+        As for :func:`~accelcal.methods.centrifuge.reduce.reduce_centrifuge`.
 
     Returns
     -------
@@ -150,4 +152,4 @@ def reduce_joint(record, one_g, *, terms=None, estimate=("radius_error",), rig_e
     note = (f"joint with a 1 g record ({ones.y.size} positions): coefficients shared, "
             "each record weighted by its own residual noise"),
     return solve_and_reduce([block, ones], record, rig, est, sds, terms=terms, sigma=None,
-                            method=METHOD, extra_notes=note)
+                            method=METHOD, extra_notes=note, priors=priors)

@@ -32,6 +32,7 @@ from accelcal.identifiability import analyse
 from accelcal.io.formats.centrifuge import MAX_OUTPUT, MIN_SD
 from accelcal.methods.centrifuge.core import Block, solve
 from accelcal.methods.centrifuge.identify import identifiability
+from accelcal.methods.centrifuge.unestimated import analyse_unestimated
 from accelcal.model import ErrorModel, term_unit
 from accelcal.physics.centrifuge import (
     ASYMMETRY_TERMS,
@@ -123,8 +124,8 @@ def _is_misalignment(name: str, record) -> bool:
             and parts[2] in MISALIGNMENT_AXES)
 
 
-def reduce_centrifuge(record, *, terms=None, estimate=(), rig_errors=None, sigma=None
-                      ) -> Reduction:
+def reduce_centrifuge(record, *, terms=None, estimate=(), rig_errors=None, sigma=None,
+                      priors="default") -> Reduction:
     """Reduce a centrifuge record to the model's coefficients, with covariance.
 
     Parameters
@@ -144,12 +145,21 @@ def reduce_centrifuge(record, *, terms=None, estimate=(), rig_errors=None, sigma
         Given rig errors, name -> ``(value, sd)``, overriding the record's survey.
     sigma : float, optional
         Known noise SD of one reading, output unit (default: from the residuals).
+    priors : "default", "none" or None
+        Priors of the unestimated terms the records could separate, and of
+        the asymmetry's unknown sign at IA-tangential positions
+        (:mod:`~accelcal.methods.centrifuge.unestimated`): ``"default"``
+        propagates them as Type B; ``"none"``/None lists only how much each
+        would move each row (``aliases``).
 
     Returns
     -------
     Reduction
         Family ``"centrifuge"``, method ``"centrifuge/lsq"``; ``shared`` holds
-        the estimated rig errors (None when all are given).
+        the estimated rig errors (None when all are given). A row that
+        estimates a combination is named after it (``Ko-Kop``, ``Kio+Kop``
+        with the rig errors given; other weights when the proof-mass offset
+        is estimated).
 
     Raises
     ------
@@ -167,17 +177,20 @@ def reduce_centrifuge(record, *, terms=None, estimate=(), rig_errors=None, sigma
     block = centrifuge_block(record)
     rig, est, sds = rig_parameters(record, rig_errors, estimate)
     return solve_and_reduce([block], record, rig, est, sds, terms=terms, sigma=sigma,
-                            method=METHOD)
+                            method=METHOD, priors=priors)
 
 
 def solve_and_reduce(blocks, record, rig, est, sds, *, terms, sigma, method,
-                     extra_notes=()) -> Reduction:
+                     extra_notes=(), priors="default") -> Reduction:
     """Choose the terms, solve, and build the Reduction (shared by both reductions)."""
+    if not (priors is None or priors in ("default", "none")):
+        raise AccelcalError(f"priors {shown(priors)} is not one of default, none",
+                            parameter="priors")
     report = identifiability(blocks, rig, (*FULL_TERMS, *ASYMMETRY_TERMS), est)
     terms = check_terms(terms, report.suggested)
     sol = solve(blocks, terms, rig, est, sds, sigma=sigma)
     return _reduction(sol, blocks, record, report, (rig, sds), method=method,
-                      given=sigma is not None, extra_notes=extra_notes)
+                      given=sigma is not None, extra_notes=extra_notes, priors=priors)
 
 
 def to_g_units(z, cov, terms):
@@ -196,15 +209,19 @@ def to_g_units(z, cov, terms):
     return values, jac @ cov @ jac.T
 
 
-def _reduction(sol, blocks, record, report, survey, *, method, given, extra_notes):
+def _reduction(sol, blocks, record, report, survey, *, method, given, extra_notes,
+               priors="default"):
     terms, p = sol.terms, len(sol.terms)
     unit = record.output_unit
     values, cov = to_g_units(sol.z, sol.cov, terms)
+    un = analyse_unestimated(sol, blocks, values=values, cov=cov, output_unit=unit,
+                             priors=priors)
+    cov = cov + un.covariance
     resid = np.concatenate(sol.residuals)
     units = {t: term_unit(t, unit) for t in terms}
-    notes = tuple(report.statements()) + tuple(extra_notes)
+    notes = tuple(report.statements()) + tuple(extra_notes) + _unestimated_notes(un)
     est = Estimate(terms, values[:p], cov[:p, :p], units, method, residuals=resid, dof=sol.dof,
-                   notes=notes, provenance={"steps": int(blocks[0].y.size)})
+                   notes=notes, provenance={"steps": int(blocks[0].y.size)}, labels=un.labels)
     shared = None
     if sol.estimated:
         shared = Estimate(sol.estimated, values[p:], cov[p:, p:],
@@ -220,13 +237,25 @@ def _reduction(sol, blocks, record, report, survey, *, method, given, extra_note
         covariance=cov if shared is not None else None, dof=sol.dof,
         identifiability=analyse(sol.design, (*terms, *sol.estimated)),
         assumptions=_assumptions(sol, blocks, record, report, survey, given=given, unit=unit),
-        observations=obs, models=(model,), notes=notes,
+        observations=obs, models=(model,), notes=notes, type_b=un.contributions,
+        aliases=un.aliases, priors=un.priors,
         provenance={"positions": list(record.position_names), "radius_m": record.radius_m,
                     "output_unit": unit, "terms": list(terms), "estimated": list(sol.estimated),
                     "steps": int(blocks[0].y.size), "simulated": bool(
                         record.metadata.get("simulated", False)),
                     "noise_sd": [float(s) for s in sol.sigma]},
     )
+
+
+def _unestimated_notes(un) -> tuple[str, ...]:
+    """The IA-tangential sign terms' priors, in words."""
+    signs = [p for p in un.priors if "@" in p.name]
+    if not signs:
+        return ()
+    where = ", ".join(p.name.split("@")[1] for p in signs)
+    return ((f"the asymmetry's sign at {where} (IA perpendicular to the specific force, sign "
+             "taken as 0) is unknown when the sensor is misaligned on the arm: s K0' bounded "
+             f"by +-{signs[0].value:.3g} g ({signs[0].source}), propagated as Type B"),)
 
 
 def _assumptions(sol, blocks, record, report, survey, *, given, unit):

@@ -14,9 +14,12 @@ References
 .. [DOMAIN] accelcal domain notes, sections 4-5.
 """
 
+import dataclasses
+
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.identifiability import combination_name
 from accelcal.io.formats.dividing_head import HeadRecord
 from accelcal.methods.dividing_head.data import HeadData
 from accelcal.methods.dividing_head.four import four
@@ -143,7 +146,11 @@ def tumble(data: HeadData) -> Reduction:
     Calls :func:`accelcal.methods.tumble.reduce_tumble` with
     ``rotation_axis="PA"`` on each sensor's angles beta_k and converts the
     accelcal terms to K_F = K1 K0, K_I = K1, K_O = K1 Ko, K_IO = K1 Kio,
-    K_II = K1 K2 (covariance by the Jacobian of that map).
+    K_II = K1 K2 (covariance by the Jacobian of that map). A rotation about
+    PA cannot separate Koo from K0 and K2: the rows are ``K_F+K_OO`` and
+    ``K_II-K_OO`` (K_OO = K1 Koo, volts per g^2), and the tumble's Type B
+    contributions (K0', K1' bounded by their priors) are carried over,
+    scaled to volts.
 
     Returns
     -------
@@ -159,17 +166,39 @@ def tumble(data: HeadData) -> Reduction:
     units = coefficient_units(data.output_unit)
     sensors = []
     notes: list[str] = []
-    for b, u in zip(data.angles(), data.outputs, strict=True):
+    type_b, aliases, priors = [], [], {}
+    for k, (b, u) in enumerate(zip(data.angles(), data.outputs, strict=True)):
         res = tumble_module.reduce_tumble(b, u, rotation_axis="PA", output_unit=data.output_unit)
         est = res.estimate
         values, cov = _terms_to_dong2014(est)
         resid = est.residuals if est.residuals is not None and \
             np.shape(est.residuals) == u.shape else u - psi(b) @ values
+        labels = {c: combination_name(c, {"K_OO": w}) for c, plain, w in _CROSS}
         sensors.append(Estimate(COEFFICIENTS, values, cov, units, "tumble", residuals=resid,
-                                dof=est.dof))
+                                dof=est.dof, labels=labels))
         notes.extend(n for n in est.notes if n not in notes)
-    return head_reduction(data, "tumble", sensors, dof=sensors[0].dof, assumptions=(K_O_STAR,),
-                          notes=tuple(notes))
+        rename = {est.label(t): (labels.get(c, c), c) for c, t in _DONG}
+        k1 = est["K1"]
+        for c in res.type_b:
+            if c.row in rename:
+                row, plain = rename[c.row]
+                scale = 1.0 if plain == "K_I" else k1
+                type_b.append(dataclasses.replace(
+                    c, row=row, sensitivity=scale * c.sensitivity,
+                    contribution=abs(scale) * c.contribution, unit=units[plain], sensor=k))
+        aliases += [dataclasses.replace(a, sensor=k) for a in res.aliases]
+        priors |= {p.name: p for p in res.priors}
+    red = head_reduction(data, "tumble", sensors, dof=sensors[0].dof, assumptions=(K_O_STAR,),
+                         notes=tuple(notes))
+    return dataclasses.replace(red, type_b=tuple(type_b), aliases=tuple(aliases),
+                               priors=tuple(priors.values()))
+
+
+_DONG = (("K_F", "K0"), ("K_I", "K1"), ("K_O", "Ko"), ("K_IO", "Kio"), ("K_II", "K2"))
+"""Dong2014 coefficient and the accelcal term it is K1 times (K_I is K1 itself)."""
+
+_CROSS = (("K_F", "K0", 1.0), ("K_II", "K2", -1.0))
+"""Rows a rotation about PA mixes with K_OO = K1 Koo, and the weight."""
 
 
 def _terms_to_dong2014(est: Estimate):

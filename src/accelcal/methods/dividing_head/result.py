@@ -37,6 +37,7 @@ References
 .. [DOMAIN] accelcal domain notes, section 4, steps 5-6.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -49,6 +50,11 @@ from accelcal.results import Assumption, Estimate, Reduction
 
 K_O_STAR = Assumption("k_o_star", True, "", FIRST_ORDER_NOTE)
 """K_O is reported as K_O* = K_O + K_I (eta + d0) by every head reduction."""
+
+
+CROSS_LABELS = {"K_F": "K_F+K_OO", "K_II": "K_II-K_OO"}
+"""Row names of the coefficients the cross-axis nonlinearity K_OO = K_I Koo enters: no
+rotation about PA separates it (a_i = sin, a_o = cos)."""
 
 
 def head_reduction(data, method: str, sensors, *, pooled_sigma: bool = False,
@@ -66,7 +72,10 @@ def head_reduction(data, method: str, sensors, *, pooled_sigma: bool = False,
     """
     from accelcal.model import ErrorModel
 
-    sensors = tuple(sensors)
+    # Every head reduction turns the sensors about PA: a_i^2 + a_o^2 = 1 at every position,
+    # so K_F carries K_OO = K_I Koo and K_II carries -K_OO; the rows say so.
+    sensors = tuple(dataclasses.replace(e, labels={**CROSS_LABELS, **e.labels})
+                    if "K_F" in e.names else e for e in sensors)
     check_finite(sensors, fields.get("shared"), observations)
     if pooled_sigma:
         dof = sensors[0].dof

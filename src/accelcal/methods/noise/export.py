@@ -70,13 +70,13 @@ def noise_yaml(reduction, layout: str = "kalibr", rostopic: str = "/imu0") -> st
     missing = [t for t in ("N", "K") if t not in doc]
     if missing:
         raise AccelcalError(f"the fit has no {' or '.join(missing)}: the noise file needs N and "
-                            "K (fit --terms with N and K)", parameter="terms")
+                            "K (fit with terms that include N and K)", parameter="terms")
     unit = doc["unit"]
     to_si = {"g": STANDARD_GRAVITY, "mg": 1e-3 * STANDARD_GRAVITY,
              "ug": 1e-6 * STANDARD_GRAVITY, "m/s^2": 1.0}.get(unit)
     if to_si is None:
-        raise AccelcalError(f"samples in {unit!r} have no SI value: give --unit g, mg, ug or "
-                            "m/s^2 (or --scale to one of them)", parameter="unit")
+        raise AccelcalError(f"samples in {unit!r} have no SI value: give the unit g, mg, ug or "
+                            "m/s^2 (or a scale to one of them)", parameter="unit")
     n, k = doc["N"] * to_si, doc["K"] * to_si
     un, uk = doc["N_std"] * to_si, doc["K_std"] * to_si
     bound = "K" in doc["at_bound"]

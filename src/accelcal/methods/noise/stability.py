@@ -96,7 +96,7 @@ def from_store(store, serial: str) -> Reduction:
     if len(records) < 2:
         raise AccelcalError(f"the store holds {len(records)} noise fit(s) with bias and B of "
                             f"{serial}; run-to-run repeatability needs two or more (fit "
-                            "each run with --terms N,B,K: the default N,K has no B)",
+                            "each run with the terms N,B,K: the default N,K has no B)",
                             parameter="serial")
 
     def column(name):

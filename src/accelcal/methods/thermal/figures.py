@@ -82,7 +82,7 @@ def _coefficients(reduction):
         for d, mark, label in ((1, "^", "heating"), (-1, "v", "cooling"), (0, "o", "turn-on")):
             m = dirs == d
             if m.any():
-                ax.errorbar(temp[m], (obs[b][m] - ref) * f, yerr=k * obs[f"{b}_std"][m] * f,
+                ax.errorbar(temp[m], (obs[b][m] - ref) * f, yerr=k * obs[f"{b}_std"][m] * abs(f),
                             fmt=mark, ms=5, capsize=2, label=label)
         ax.set_ylabel(f"{b} − {b}(T0) ({unit})")
         ax.grid(True, lw=0.4, color="0.85")
@@ -132,7 +132,7 @@ def _residuals(reduction):
     for ax, b in zip(axes, bases, strict=True):
         f, unit = _scale(reduction, b)
         ax.axhline(0.0, color="0.6", lw=0.8)
-        ax.errorbar(obs["temperature"], obs[f"{b}_residual"] * f, yerr=obs[f"{b}_std"] * f,
+        ax.errorbar(obs["temperature"], obs[f"{b}_residual"] * f, yerr=obs[f"{b}_std"] * abs(f),
                     fmt="o", ms=4, capsize=2)
         ax.set_ylabel(f"{b} ({unit})")
         ax.grid(True, lw=0.4, color="0.85")

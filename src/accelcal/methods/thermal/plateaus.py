@@ -35,7 +35,9 @@ from accelcal.methods.thermal.settle import Settling, settling
 class Plateau:
     """One plateau: index, setpoint, direction, temperature, settling, tumble reduction.
 
-    ``pooled`` is the ratio of the pooled noise SD to the tumble's own.
+    ``pooled`` is the ratio of the pooled noise SD to the tumble's own;
+    ``temperature_sd`` the standard uncertainty of ``temperature`` from the
+    readings (their standard error of the mean over the tumble, degC).
     """
 
     index: int
@@ -45,6 +47,7 @@ class Plateau:
     settling: Settling
     reduction: object
     pooled: float = 1.0
+    temperature_sd: float = 0.0
 
     def value(self, name: str) -> float:
         """The tumble's estimate of ``name``."""
@@ -98,11 +101,15 @@ def reduce_plateaus(record, *, window: float, rate_limit: float, tolerance: floa
             unsettled.append((j, st))
             continue
         angles, outputs, temps = record.tumble(j)
+        # Type A only: the terms each tumble takes as zero are the same at every plateau,
+        # and the thermal reduction propagates their priors once, to the rows at T0.
         red = reduce_tumble(angles, outputs if outputs.shape[1] > 1 else outputs[:, 0],
                             rotation_axis=record.rotation_axis, output_unit=record.output_unit,
-                            terms=terms, repeats=outputs.shape[1] > 1)
+                            terms=terms, repeats=outputs.shape[1] > 1, priors=None)
+        temps = np.ravel(temps)
+        sem = float(np.std(temps, ddof=1) / np.sqrt(temps.size)) if temps.size > 1 else 0.0
         out.append(Plateau(j, record.setpoints[j], int(directions[j]), float(np.mean(temps)),
-                           st, red))
+                           st, red, temperature_sd=sem))
     if unsettled:
         j, st = unsettled[0]
         seen = ("too few readings in the window" if st.samples < 3 else

@@ -8,11 +8,18 @@ A coefficient estimated at P plateaus, ``y_j`` with standard uncertainty
 with ``d_j = +1/2`` for a plateau reached by heating and ``-1/2`` by cooling
 (``H`` is the hysteresis, heating minus cooling; the term is left out when
 the plateaus do not separate it). The weights ``1/s_j^2`` are the plateau
-reductions'; the common factor ``sigma^2`` is estimated from the weighted
-residuals, ``sigma^2 = chi^2 / nu`` with ``nu = P - q`` degrees of freedom
-(q parameters), so that scatter between plateaus beyond the tumbles' own
-noise (repeatability, unmodelled thermal effects) widens the intervals
-rather than hiding in them [GUM G.3; NIST/SEMATECH 4.4.3].
+reductions' (their noise pooled over every plateau's residuals, so known to
+many degrees of freedom). The covariance is ``(A' W A)^-1`` scaled by the
+Birge ratio squared ``R_B^2 = chi^2 / nu`` (``nu = P - q`` degrees of
+freedom, q parameters) only when the scatter between plateaus exceeds what
+the plateaus' covariance explains (``R_B > 1``: repeatability, unmodelled
+thermal effects), so that such scatter widens the intervals rather than
+hiding in them; otherwise the covariance is the plateaus' own, with their
+degrees of freedom. Rescaling always (down as well as up) would rest the
+intervals on the nu = 4 to 11 residual degrees of freedom of the
+polynomial: at order 2 the stated SD of a temperature coefficient would
+vary several times between repeated runs [Birge; GUM G.3; NIST/SEMATECH
+4.4.3].
 
 Order selection (``order="auto"``): starting at m = 1, the order is raised
 while the extra-sum-of-squares F-test of the added power rejects, at level
@@ -30,6 +37,9 @@ References
 .. [GUM] JCGM 100:2008, G.3 (degrees of freedom of a Type A evaluation).
 .. [NIST] NIST/SEMATECH e-Handbook of Statistical Methods, sec. 4.4.3
    (weighted least squares).
+.. [Birge] Birge R. T., The calculation of errors by the method of least
+   squares, Phys. Rev. 40, 207-227 (1932); Kacker R., Datla R., Parr A.,
+   Metrologia 39, 279-293 (2002) (the Birge ratio and when to scale).
 """
 
 from dataclasses import dataclass
@@ -56,15 +66,20 @@ class PolyFit:
     values : numpy.ndarray
         ``c_0 .. c_m`` (and H), shape (q,).
     covariance : numpy.ndarray
-        ``sigma^2 (A' W A)^-1``, shape (q, q).
+        ``max(1, R_B^2) (A' W A)^-1``, shape (q, q).
     dof : int
-        ``nu = P - q``.
+        Degrees of freedom of the covariance: ``nu = P - q`` when scaled by
+        the Birge ratio, else those of the weights (``nu`` when not given).
     chi2 : float
         Weighted residual sum of squares.
     fitted, residuals : numpy.ndarray
         At the plateaus, shape (P,), in the data's unit (fitted includes H).
     tests : tuple of (int, float, float)
         ``(order tested, F, p-value)`` of each step of the order selection.
+    birge : float
+        Birge ratio ``R_B = sqrt(chi^2 / nu)``.
+    residual_dof : int
+        ``nu = P - q``.
     """
 
     order: int
@@ -76,6 +91,13 @@ class PolyFit:
     fitted: np.ndarray
     residuals: np.ndarray
     tests: tuple = ()
+    birge: float = 1.0
+    residual_dof: int = 0
+
+    @property
+    def scaled(self) -> bool:
+        """True when the covariance was scaled up by the Birge ratio squared."""
+        return self.birge > 1.0
 
     def curve(self, dt) -> tuple[np.ndarray, np.ndarray]:
         """The polynomial (without H) at ``dt = T - T0`` and its standard uncertainty."""
@@ -109,7 +131,7 @@ def _rank(A, s) -> int:
 
 
 def fit_polynomial(y, std, dt, direction, *, order="auto", alpha: float = ALPHA,
-                   what: str = "coefficient") -> PolyFit:
+                   what: str = "coefficient", weights_dof: int | None = None) -> PolyFit:
     """Weighted polynomial fit of plateau estimates against temperature (module docs).
 
     Parameters
@@ -126,6 +148,9 @@ def fit_polynomial(y, std, dt, direction, *, order="auto", alpha: float = ALPHA,
         Level of the F-test.
     what : str
         The coefficient's name, in messages.
+    weights_dof : int, optional
+        Degrees of freedom of the standard uncertainties ``std`` (the
+        covariance's when it is not scaled); default ``nu``.
 
     Returns
     -------
@@ -182,6 +207,10 @@ def fit_polynomial(y, std, dt, direction, *, order="auto", alpha: float = ALPHA,
                 break
             chosen += 1
     coef, unscaled, chi2, resid, use_h, nu = fits[chosen]
+    birge2 = chi2 / nu  # Birge ratio squared [Birge]
+    scaled = birge2 > 1.0
+    dof = nu if scaled or not weights_dof else int(weights_dof)
     return PolyFit(order=chosen, hysteresis=use_h, values=coef,
-                   covariance=unscaled * (chi2 / nu), dof=nu, chi2=chi2,
-                   fitted=y - resid, residuals=resid, tests=tuple(tests))
+                   covariance=unscaled * max(birge2, 1.0), dof=dof, chi2=chi2,
+                   fitted=y - resid, residuals=resid, tests=tuple(tests),
+                   birge=float(np.sqrt(birge2)), residual_dof=nu)

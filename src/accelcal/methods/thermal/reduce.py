@@ -15,6 +15,22 @@
     Warm-up time constant (s), bias change from turn-on to settled (g) and
     the settled bias (g), when the record has a warm-up.
 
+A row estimates what the plateau tumbles estimate: ``K0+Kpp`` and ``K2-Kpp``
+about OA (``K0+Koo``, ``K2-Koo`` about PA) at T0, named so; their
+temperature coefficients ``K0_T1``... are those of the combination. The
+terms every tumble takes as zero and could separate (K0', K1') move the
+rows at T0 by the tumble's alias matrix, the same at every plateau: their
+priors (:mod:`accelcal.aliasing`, default twice the default accelerometer's
+magnitude) are propagated once, as itemised Type B contributions to those
+rows (K1 carries K0': 1.6 V/g per g about OA, 2.8 ppm for the default
+accelerometer); the temperature coefficients are not moved by a constant
+term.
+
+The plateau temperatures are uncertain (``temperature_sd``, default the
+standard error of the mean of each plateau's readings): each plateau's
+variance becomes ``s_j^2 + (dy/dT)^2 u(T_j)^2`` with the slope of a first
+fit (effective variance [Orear]), and the polynomial is fitted again.
+
 The K1 polynomial ``b(T) = sum b_k dT^k`` is fitted in output unit per g
 and converted: ``K1 = b_0``, ``K1_Tk = b_k / b_0`` with first-order
 covariance propagation. Polynomials of different terms are fitted
@@ -34,10 +50,14 @@ References
 .. [DOMAIN] accelcal domain notes, section 8.
 .. [IEEE1293] IEEE Std 1293-2018, thermal sensitivity of bias and scale factor.
 .. [Draper] Draper N. R., Smith H., Applied Regression Analysis, 3rd ed., 1998.
+.. [Orear] Orear J., Least squares when both variables have uncertainties,
+   Am. J. Phys. 50, 912 (1982) (effective variance).
+.. [GUM] JCGM 100:2008, secs. 4.3, 5.1.2, G.4.1.
 """
 
 import numpy as np
 
+from accelcal.aliasing import propagate
 from accelcal.errors import AccelcalError
 from accelcal.methods.thermal.plateaus import Plateau, reduce_plateaus
 from accelcal.methods.thermal.poly import ALPHA, fit_polynomial
@@ -61,7 +81,8 @@ def default_terms(rotation_axis: str) -> tuple[str, ...]:
 
 def reduce_thermal(record, *, order="auto", reference: float = 25.0, terms=None,
                    alpha: float = ALPHA, window: float = WINDOW_S,
-                   rate_limit: float = RATE_LIMIT, tolerance: float = TOLERANCE) -> Reduction:
+                   rate_limit: float = RATE_LIMIT, tolerance: float = TOLERANCE,
+                   temperature_sd: float | None = None, priors="default") -> Reduction:
     """Reduce a thermal test to temperature polynomials with covariance (module docs).
 
     Parameters
@@ -79,6 +100,13 @@ def reduce_thermal(record, *, order="auto", reference: float = 25.0, terms=None,
         Level of the order-selection F-test.
     window, rate_limit, tolerance : float
         Settling criterion (s, degC/min, degC).
+    temperature_sd : float, optional
+        Standard uncertainty of each plateau's temperature, degC (a
+        thermometer's, independent between plateaus). Default: the standard
+        error of the mean of the plateau's readings.
+    priors : "default", "none", None or dict
+        Priors of the terms the plateau tumbles take as zero, as for
+        :func:`accelcal.methods.tumble.reduce_tumble`.
 
     Returns
     -------
@@ -99,13 +127,19 @@ def reduce_thermal(record, *, order="auto", reference: float = 25.0, terms=None,
     if not (0 < alpha < 1):
         raise AccelcalError(f"alpha = {alpha} must be between 0 and 1", parameter="alpha")
     check_settings(window, rate_limit, tolerance)
+    if temperature_sd is not None and not (np.isfinite(temperature_sd) and temperature_sd >= 0):
+        raise AccelcalError(f"temperature_sd = {temperature_sd} must be a finite SD >= 0 (degC)",
+                            parameter="temperature_sd")
     t0 = float(check_temperature(reference, "the reference temperature"))
     bases = _bases(terms, record.rotation_axis)
     plateaus = reduce_plateaus(record, window=window, rate_limit=rate_limit,
                                tolerance=tolerance)
     temp = np.array([p.temperature for p in plateaus])
+    u_temp = (np.array([p.temperature_sd for p in plateaus]) if temperature_sd is None
+              else np.full(temp.size, float(temperature_sd)))
     dirs = np.array([p.direction for p in plateaus])
-    fits = {b: _fit(b, plateaus, temp - t0, dirs, order=order, alpha=alpha) for b in bases}
+    fits = {b: _fit(b, plateaus, temp - t0, dirs, order=order, alpha=alpha, u_temp=u_temp)
+            for b in bases}
     names, values, blocks, units = [], [], [], {}
     for b, (fit, vals, cov) in fits.items():
         labels = [b, *(f"{b}_T{k}" for k in range(1, fit.order + 1))]
@@ -130,9 +164,14 @@ def reduce_thermal(record, *, order="auto", reference: float = 25.0, terms=None,
     cov = _block_diagonal(blocks)
     dof = min(f.dof for f, _, _ in fits.values())
     notes += _residual_notes(fits, plateaus)
-    est = Estimate(names=tuple(names), values=np.array(values), covariance=cov, units=units,
-                   method=METHOD, dof=dof, notes=tuple(notes),
-                   provenance={"plateaus": len(plateaus)})
+    plateau_est = plateaus[0].reduction.estimate
+    labels = {b: plateau_est.label(b) for b in bases if plateau_est.label(b) != b}
+    cov_b, type_b, used, aliases = _type_b(plateaus[0].reduction, names, labels, units, priors,
+                                           record.output_unit)
+    notes += _birge_notes(fits) + _type_b_notes(used, u_temp, temperature_sd)
+    est = Estimate(names=tuple(names), values=np.array(values), covariance=cov + cov_b,
+                   units=units, method=METHOD, dof=dof, notes=tuple(notes),
+                   provenance={"plateaus": len(plateaus)}, labels=labels)
     lo, hi = float(temp.min()) - tolerance, float(temp.max()) + tolerance  # plateaus +- band
     return Reduction(
         family=FAMILY, method=METHOD, sensors=(est,), dof=dof,
@@ -147,9 +186,60 @@ def reduce_thermal(record, *, order="auto", reference: float = 25.0, terms=None,
                                                      fits.items()},
                     "dof": {b: f.dof for b, (f, _, _) in fits.items()},
                     "plateau_method": plateaus[0].reduction.method,
-                    "simulated": bool(record.metadata.get("simulated", False))},
-        notes=tuple(notes),
+                    "simulated": bool(record.metadata.get("simulated", False)),
+                    "birge_ratio": {b: f.birge for b, (f, _, _) in fits.items()},
+                    "temperature_sd": [float(u) for u in u_temp]},
+        notes=tuple(notes), type_b=type_b, aliases=aliases, priors=used,
     )
+
+
+def _type_b(tumble, names, labels, units, priors, output_unit):  # noqa: PLR0917
+    """Type B of the priors of the terms each plateau's tumble takes as zero, at T0.
+
+    The tumble's alias entries (row at a plateau per unit of the term) are the
+    same at every plateau; they move the rows at T0 (``K0``, ``K1``, ...) and
+    not the temperature coefficients.
+    """
+    from accelcal.methods.tumble.unestimated import check_priors
+
+    terms = tuple(dict.fromkeys(a.term for a in tumble.aliases))
+    if not terms:
+        return 0.0, (), (), ()
+    given = check_priors(priors, terms, output_unit)
+    rows = tuple(labels.get(n, n) for n in names)
+    matrix = np.zeros((len(names), len(terms)))
+    for a in tumble.aliases:
+        if a.row in rows:
+            matrix[rows.index(a.row), terms.index(a.term)] = a.sensitivity
+    cov, parts = propagate(matrix, rows, terms, given,
+                           row_units={labels.get(n, n): u for n, u in units.items()})
+    entries = tuple(a for a in tumble.aliases if a.row in rows)
+    return cov, parts, tuple(given[t] for t in terms if t in given), entries
+
+
+def _birge_notes(fits) -> list[str]:
+    scaled = [f"{b} (R_B = {f.birge:.3g})" for b, (f, _, _) in fits.items() if f.scaled]
+    kept = [b for b, (f, _, _) in fits.items() if not f.scaled]
+    out = []
+    if scaled:
+        out.append("scatter between plateaus beyond their covariance: covariance scaled up by the "
+                   "Birge ratio squared for " + ", ".join(scaled) + " (residual dof)")
+    if kept:
+        out.append("scatter between plateaus within their covariance (Birge ratio <= 1): the "
+                   "plateaus' own covariance kept for " + ", ".join(kept))
+    return out
+
+
+def _type_b_notes(used, u_temp, given) -> list[str]:
+    how = "given" if given is not None else "standard error of the mean of the readings"
+    out = [(f"plateau temperatures uncertain by {np.min(u_temp):.3g} to "
+            f"{np.max(u_temp):.3g} degC ({how}), propagated as effective variance")]
+    if used:
+        out.append("terms each plateau's tumble takes as zero bounded by priors (" + ", ".join(
+            f"{p.name} {'+-' if p.distribution == 'rectangular' else 'u = '}{p.value:.3g} "
+            f"{p.unit} ({p.source})" for p in used) + "), propagated as Type B to the rows at "
+            "T0 they move (Welch-Satterthwaite degrees of freedom: Reduction.dof_eff)")
+    return out
 
 
 def _bases(terms, axis: str) -> tuple[str, ...]:
@@ -172,11 +262,23 @@ def _unit(name: str, base: str, output_unit: str) -> str:
     return term_unit(name, output_unit)
 
 
-def _fit(base: str, plateaus: list[Plateau], dt, dirs, *, order, alpha):
-    """The fit and its values/covariance in the reported parametrisation (K1 relative)."""
+def _fit(base: str, plateaus: list[Plateau], dt, dirs, *, order, alpha, u_temp):
+    """The fit and its values/covariance in the reported parametrisation (K1 relative).
+
+    With uncertain temperatures the plateaus' variances take the effective
+    variance ``(dy/dT)^2 u(T)^2`` of a first fit [Orear] and the polynomial
+    is fitted again at the order chosen.
+    """
     y = np.array([p.value(base) for p in plateaus])
     s = np.array([p.std(base) for p in plateaus])
-    fit = fit_polynomial(y, s, dt, dirs, order=order, alpha=alpha, what=base)
+    nu_w = int(sum(p.reduction.dof for p in plateaus))  # the pooled noise's dof
+    fit = fit_polynomial(y, s, dt, dirs, order=order, alpha=alpha, what=base, weights_dof=nu_w)
+    if np.any(u_temp > 0):
+        slope = np.polynomial.polynomial.polyval(
+            dt, np.polynomial.polynomial.polyder(fit.values[: fit.order + 1]))
+        s = np.sqrt(s**2 + (slope * u_temp) ** 2)  # effective variance [Orear]
+        fit = fit_polynomial(y, s, dt, dirs, order=fit.order, alpha=alpha, what=base,
+                             weights_dof=nu_w)
     if base != "K1":
         return fit, fit.values, fit.covariance
     b = fit.values
@@ -286,10 +388,12 @@ def _assumptions(fits, *, order, alpha, t0, span, window, rate_limit, warm) -> t
         Assumption("settling", (window, rate_limit), "s, degC/min",
                    f"plateaus used when the sensor temperature changed less than "
                    f"{rate_limit:g} degC/min over the last {window:g} s of the soak"),
-        Assumption("scatter", "residuals", "",
-                   "weights from the plateau tumbles, scale from the polynomial residuals "
-                   f"({', '.join(f'{b} {f.dof}' for b, (f, _, _) in fits.items())} dof); "
-                   "polynomials of different terms fitted separately (no cross-covariance)"),
+        Assumption("scatter", "birge", "",
+                   "weights from the plateau tumbles (noise pooled over the plateaus); the "
+                   "covariance scaled up by the Birge ratio squared only where the polynomial's "
+                   "residuals scatter more than the weights say (" + ", ".join(
+                       f"{b} R_B {f.birge:.3g}, {f.dof} dof" for b, (f, _, _) in fits.items())
+                   + "); polynomials of different terms fitted separately (no cross-covariance)"),
         Assumption("hysteresis", tuple(hyst), "",
                    "heating-minus-cooling term fitted for " + ", ".join(hyst) if hyst else
                    "no hysteresis term: the plateaus were not approached from both sides"),

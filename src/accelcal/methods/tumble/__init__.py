@@ -115,7 +115,7 @@ def simulate(positions_rad, model, *, seed=None, **settings):
     return rig_simulate(positions_rad, model, seed=seed, **settings)
 
 
-def reduce(records, *, terms=None, route: str = "auto", sigma=None):
+def reduce(records, *, terms=None, route: str = "auto", sigma=None, **options):
     """Reduce a tumble record (or its file), as ``accelcal tumble reduce`` does.
 
     The record's positions, outputs (every repeat), rotation axis and output
@@ -131,6 +131,10 @@ def reduce(records, *, terms=None, route: str = "auto", sigma=None):
         The IEEE 1293 Fourier relations or least squares [IEEE1293]_.
     sigma : float, optional
         Known noise SD of one reading, output unit.
+    **options
+        ``asymmetry`` and ``priors`` of :func:`reduce_tumble` (the terms
+        taken as zero: estimated where the positions separate them, or
+        bounded as Type B).
 
     Returns
     -------
@@ -148,7 +152,7 @@ def reduce(records, *, terms=None, route: str = "auto", sigma=None):
     return reduce_tumble(record.angles_rad,
                          record.outputs if repeats > 1 else record.outputs[:, 0],
                          rotation_axis=record.rotation_axis, output_unit=record.output_unit,
-                         terms=terms, route=route, sigma=sigma, repeats=repeats > 1)
+                         terms=terms, route=route, sigma=sigma, repeats=repeats > 1, **options)
 
 
 def plan(design, rotation_axis: str = "OA", *, terms=None) -> IdentifiabilityReport:

@@ -44,11 +44,17 @@ from accelcal.methods.tumble.identify import (
     output_unit_name,
     report_of,
 )
+from accelcal.methods.tumble.unestimated import (
+    analyse_unestimated,
+    check_priors,
+    dof_text,
+    left_out,
+    type_b_text,
+)
 from accelcal.model import ErrorModel, term_unit
 from accelcal.physics.tumble import (
     ASYMMETRY_TERMS,
     DEFAULT_TERMS,
-    FULL_TERMS,
     check_angles,
     check_axis,
     check_outputs,
@@ -60,6 +66,9 @@ from accelcal.units import OUTPUT_UNITS
 
 ROUTES = ("auto", "fourier", "lsq")
 """Reduction routes (see :func:`reduce_tumble`)."""
+
+ASYMMETRY = ("auto", True, False)
+"""Whether the least-squares route estimates K0' and K1' (see :func:`reduce_tumble`)."""
 
 
 @dataclass(frozen=True)
@@ -123,6 +132,7 @@ class _Solution:
     dof: int
     n_rep: int
     k1_ok: bool
+    estimator: object
 
 
 def reduce_tumble(
@@ -135,6 +145,8 @@ def reduce_tumble(
     route: str = "auto",
     sigma=None,
     repeats: bool = False,
+    asymmetry="auto",
+    priors="default",
 ) -> Reduction:
     """Reduce a multipoint tumble record to the model's coefficients, with covariance.
 
@@ -166,13 +178,33 @@ def reduce_tumble(
     repeats : bool
         When True the last axis of ``outputs`` holds R repeated readings at
         each position; they are averaged.
+    asymmetry : {"auto", True, False}
+        Whether the least-squares route estimates the asymmetry terms K0'
+        and K1' (``K0_asym``, ``K1_asym``) beside ``terms``: ``"auto"`` when
+        ``terms`` is not given and the positions separate them with a
+        degree of freedom to spare; True requires it (an error where the
+        positions cannot); False never. The Fourier route never estimates
+        them (they are not in the IEEE relations): they are bounded by
+        ``priors`` instead.
+    priors : "default", "none", None or dict
+        Priors of the terms taken as zero that the positions could separate
+        (:mod:`accelcal.aliasing`): ``"default"`` bounds each by twice the
+        embedded default accelerometer's magnitude (rectangular); a dict
+        maps a term to a :class:`~accelcal.aliasing.Prior` or to a standard
+        uncertainty in its unit; ``"none"`` or None propagates nothing and
+        the reduction lists, in ``aliases``, the rows each term would move
+        per unit.
 
     Returns
     -------
     accelcal.results.Reduction
         Family ``"tumble"``, method ``"tumble/fourier"`` or ``"tumble/lsq"``;
-        one sensor. Terms that the positions cannot separate are NaN (value
-        and covariance); the identifiable combinations of them are in
+        one sensor. A row that estimates a combination the positions cannot
+        separate is named after it (``K0+Kpp``, ``K2-Kpp`` about OA;
+        ``K0+Koo``, ``K2-Koo`` about PA; ``Estimate.labels``); the Type B
+        contributions of the priors are in ``type_b`` and in the covariance.
+        Terms that the positions cannot separate are NaN (value and
+        covariance); the identifiable combinations of them are in
         ``combinations`` (weights on the output-unit coefficients, named
         ``K1`` for K1 and ``K1*Kt`` for ``K1 K_t``; unit the output unit).
         ``models`` holds the ErrorModel of the estimated terms when K1 is
@@ -206,8 +238,10 @@ def reduce_tumble(
     """
     with np.errstate(over="ignore", invalid="ignore"):  # non-finite results refused in _solve
         sol = _solve(angles_rad, outputs, rotation_axis=rotation_axis, output_unit=output_unit,
-                     terms=terms, route=route, sigma=sigma, repeats=repeats, single=True)
-    return _reduction(sol, output_unit, given=sigma is not None)
+                     terms=terms, route=route, sigma=sigma, repeats=repeats, single=True,
+                     asymmetry=asymmetry)
+    return _reduction(sol, output_unit, given=sigma is not None,
+                      priors=check_priors(priors, left_out(sol.axis, sol.terms), output_unit))
 
 
 def _few_dof(sol: _Solution, given: bool) -> Assumption | None:
@@ -244,7 +278,8 @@ def tumble_arrays(
     Parameters are those of :func:`reduce_tumble`, except that ``outputs``
     may have leading trial axes: shape ``(..., N)`` (``(..., N, R)`` with
     ``repeats``). Each trial is reduced exactly as :func:`reduce_tumble`
-    reduces it alone.
+    reduces it alone, without the priors' Type B part (the Monte Carlo
+    draws the terms themselves).
 
     Returns
     -------
@@ -256,7 +291,8 @@ def tumble_arrays(
     """
     with np.errstate(over="ignore", invalid="ignore"):  # non-finite results refused in _solve
         sol = _solve(angles_rad, outputs, rotation_axis=rotation_axis, output_unit=output_unit,
-                     terms=terms, route=route, sigma=sigma, repeats=repeats, single=False)
+                     terms=terms, route=route, sigma=sigma, repeats=repeats, single=False,
+                     asymmetry=False)
     return TumbleArrays(
         names=sol.terms, units={t: term_unit(t, output_unit) for t in sol.terms},
         route=sol.route, values=sol.values, covariance=sol.covariance,
@@ -265,14 +301,17 @@ def tumble_arrays(
 
 
 def _solve(angles_rad, outputs, *, rotation_axis, output_unit, terms, route, sigma, repeats,
-           single) -> _Solution:
+           single, asymmetry) -> _Solution:
     axis = check_axis(rotation_axis)
     if output_unit not in OUTPUT_UNITS:
         raise AccelcalError(f"output_unit {output_unit!r} is not one of {', '.join(OUTPUT_UNITS)}")
     if route not in ROUTES:
         raise AccelcalError(f"route {route!r} is not one of {', '.join(ROUTES)}",
                             parameter="route")
+    if not any(asymmetry is a for a in ASYMMETRY) and asymmetry != "auto":
+        raise AccelcalError("asymmetry must be 'auto', True or False", parameter="asymmetry")
     angles = check_angles(angles_rad)
+    chosen = terms is not None
     terms = check_terms(terms, axis, DEFAULT_TERMS[axis])
     n, p = angles.size, len(terms)
     y = np.asarray(outputs, dtype=float)
@@ -321,13 +360,26 @@ def _solve(angles_rad, outputs, *, rotation_axis, output_unit, terms, route, sig
             f"default terms {', '.join(DEFAULT_TERMS[axis])}; use route='lsq'",
             parameter="route",
         )
-    use_fourier = fourier_ok and route in ("auto", "fourier")
+    use_fourier = fourier_ok and route in ("auto", "fourier") and asymmetry is not True
+    if not use_fourier and asymmetry is not False and not set(ASYMMETRY_TERMS) & set(terms):
+        extended = _with_asymmetry(angles, axis, terms, n, sigma, required=asymmetry is True,
+                                   chosen=chosen)
+        if extended is not None:
+            terms, D, report = extended
+            dof = n - report.rank
     fc = fourier_coefficients(angles, y) if report.uniform else None
     sigma_mean = None if sigma is None else sigma / np.sqrt(n_rep)
     if use_fourier:
         b, cov_unit, resid = fourier_solution(angles, y, fc, axis=axis, terms=terms)
+
+        def estimator(z, terms=terms):
+            return fourier_solution(angles, z, fourier_coefficients(angles, z), axis=axis,
+                                    terms=terms)[0]
     else:
         b, cov_unit, resid = _lsq_solution(D, y, report.rank)
+
+        def estimator(z, D=D, rank=report.rank):
+            return _lsq_solution(D, z, rank)[0]
     s_hat = _noise(resid, dof, sigma_mean)
     cov_b = s_hat[..., None, None] ** 2 * cov_unit
     k1 = b[..., terms.index("K1")]
@@ -352,7 +404,31 @@ def _solve(angles_rad, outputs, *, rotation_axis, output_unit, terms, route, sig
         axis=axis, terms=terms, angles=angles, outputs=y, report=report, fourier=fc,
         route="fourier" if use_fourier else "lsq", b=b, cov_b=cov_b, values=values,
         covariance=cov, residuals=resid, sigma=s_hat, dof=dof, n_rep=n_rep, k1_ok=k1_ok,
+        estimator=estimator,
     )
+
+
+def _with_asymmetry(angles, axis, terms, n, sigma, *, required, chosen):
+    """``terms`` with K0' and K1' when the positions separate them, else None.
+
+    With ``required`` False, only where the user chose no terms and one
+    residual degree of freedom is left (or the noise is given).
+    """
+    if not required and chosen:
+        return None
+    ext = (*terms, *ASYMMETRY_TERMS)
+    D = design_matrix(angles, axis, ext)
+    report = report_of(D, angles, axis, ext)
+    separated = all(t in report.identifiable for t in ASYMMETRY_TERMS)
+    spare = n - report.rank >= (0 if sigma is not None else 1)
+    if separated and spare:
+        return ext, D, report
+    if required:
+        raise AccelcalError(
+            f"these {n} positions cannot separate the asymmetry terms K0' and K1' from "
+            f"{', '.join(terms)} with a degree of freedom left; use asymmetry=False (they are "
+            "then bounded by their priors) or more positions", parameter="asymmetry")
+    return None
 
 
 def _lsq_solution(D, y, rank):
@@ -391,17 +467,24 @@ def _to_g_units(b, cov_b, terms):
 
 
 # ------------------------------------------------------------- the Reduction
-def _reduction(sol: _Solution, output_unit: str, *, given: bool) -> Reduction:
+def _reduction(sol: _Solution, output_unit: str, *, given: bool, priors: dict) -> Reduction:
     terms, report = sol.terms, sol.report
     method = f"tumble/{sol.route}"
     units = {t: term_unit(t, output_unit) for t in terms}
     few = _few_dof(sol, given)
+    ident = np.isfinite(sol.values)
+    un = (analyse_unestimated(sol.angles, sol.axis, terms, sol.b, sol.estimator, priors=priors,
+                              output_unit=output_unit, ident=ident) if sol.k1_ok else None)
+    extra = () if un is None else tuple(
+        t for t in (type_b_text(un), dof_text(un, sol.dof, given)) if t)
     est = Estimate(
-        names=terms, values=sol.values, covariance=sol.covariance, units=units, method=method,
-        residuals=sol.residuals, dof=sol.dof,
-        notes=_notes(sol) + ((few.text,) if few is not None else ()),
+        names=terms, values=sol.values,
+        covariance=sol.covariance + (0.0 if un is None else un.covariance),
+        units=units, method=method, residuals=sol.residuals, dof=sol.dof,
+        notes=_notes(sol) + ((few.text,) if few is not None else ()) + extra,
         provenance={"rotation_axis": sol.axis, "positions": int(sol.angles.size),
                     "route": sol.route},
+        labels={} if un is None else un.labels,
     )
     combinations = []
     for c in report.combinations:
@@ -430,11 +513,14 @@ def _reduction(sol: _Solution, output_unit: str, *, given: bool) -> Reduction:
         provenance={"rotation_axis": sol.axis, "positions": int(sol.angles.size),
                     "route": sol.route, "terms": list(terms), "repeats": sol.n_rep,
                     "output_unit": output_unit},
+        type_b=() if un is None else un.contributions,
+        aliases=() if un is None else un.aliases,
+        priors=() if un is None else un.priors,
     )
 
 
 def _left_out(sol: _Solution) -> list[str]:
-    return [t for t in (*FULL_TERMS[sol.axis], *ASYMMETRY_TERMS) if t not in sol.terms]
+    return list(left_out(sol.axis, sol.terms))
 
 
 def _cross_text(sol: _Solution) -> str | None:
