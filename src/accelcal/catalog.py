@@ -222,6 +222,16 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce"),
         report="accelcal.methods.acceptance.report_text", docs="docs/acceptance.md",
         paper="IEEE1293"),
+    Method(
+        name="response", family="response", title="frequency response",
+        package=_m("response"), kinds=("response",), formats=("accelcal.io.formats.response",),
+        rig="accelcal.rigs.shaker_response", cli="accelcal.cli.response",
+        cli_help=("Frequency response of an accelerometer by comparison with a reference on a "
+                  "shaker (ISO 16063-21): simulate stepped-sine records, reduce them to "
+                  "magnitude and phase, fit the transfer function."),
+        verbs=("simulate", "reduce"),
+        report="accelcal.methods.response.report_text", docs="docs/response.md",
+        paper="ISO16063-21"),
 )
 """Every test method, in the order ``accelcal --help`` lists their groups."""
 

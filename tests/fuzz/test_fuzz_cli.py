@@ -93,6 +93,9 @@ BASE: dict[str, list[str]] = {
     "centrifuge simulate": ["--out", "{out}/c.csv", "--levels", "5:50:15"],
     "centrifuge reduce": ["{centrifuge}"],
     "centrifuge plan": ["--levels", "5:50:15", "--positions", "IA-in,IA-out,IA-tan"],
+    "response simulate": ["--out", "{out}/r.csv", "--frequencies", "20,80,315"],
+    "response reduce": ["{response}"],
+    "response fit": ["{response}"],
     "thermal simulate": ["--out", "{out}/th.csv", "--points", "8", "--dwell", "20", "--warmup",
                          "0", "--setpoints", "-20,10,40,25,-5"],
     "thermal reduce": ["{examples}/thermal.csv"],
@@ -111,8 +114,9 @@ BASE: dict[str, list[str]] = {
 }
 """A valid invocation of each command (placeholders: ``{out}`` a fresh directory per run,
 ``{examples}`` examples/data, ``{record}`` a calibration record, ``{tumble}`` a tumble
-record, ``{centrifuge}`` a centrifuge record, ``{store}`` a store holding the record and two
-noise fits). Commands without required parameters may be left out (their base is empty)."""
+record, ``{centrifuge}`` a centrifuge record, ``{response}`` a response record, ``{store}``
+a store holding the record and two noise fits). Commands without required parameters may be
+left out (their base is empty)."""
 
 LONG_BY_DESIGN: dict[tuple[str, str, str], str] = {
     ("dividing-head study", "trials", "1000000000000"):
@@ -454,8 +458,10 @@ def _fill(tmp: Path) -> dict:
     record = EXAMPLES / "calibration_record.json"
     tumble, store = tmp / "tumble.csv", tmp / "store.sqlite"
     centrifuge, steps = tmp / "centrifuge.csv", tmp / "steps.csv"
+    response = tmp / "response.csv"
     runs = [["tumble", "simulate", "--out", str(tumble), "--points", "12"],
             ["acceptance", "simulate", "--out", str(steps), "--increments", "1,3,6"],
+            ["response", "simulate", "--out", str(response), "--frequencies", "20,80,315,630"],
             ["centrifuge", "simulate", "--out", str(centrifuge), "--levels", "5:50:15",
              "--readings", "2"],
             ["records", "add", str(record), "--db", str(store)]]
@@ -471,7 +477,8 @@ def _fill(tmp: Path) -> dict:
             main(args)
         assert info.value.code == 0, args
     return {"record": str(record), "tumble": str(tumble), "store": str(store),
-            "centrifuge": str(centrifuge), "steps": str(steps)}
+            "centrifuge": str(centrifuge), "steps": str(steps),
+            "response": str(response)}
 
 
 def _matrix():

@@ -211,6 +211,20 @@ def _centrifuge(suffix: str):
     return make
 
 
+def _response(suffix: str):
+    def make(tmp: Path):
+        from accelcal.io.formats import response
+        from accelcal.rigs.shaker_response import simulate
+
+        rec = simulate(frequencies=(20.0, 80.0, 315.0), periods=5, seed=1,
+                       metadata={"serial": "ACC-0001"})
+        path = tmp / f"response{suffix}"
+        response.write(path, rec)
+        return path, path
+
+    return make
+
+
 # ------------------------------------------------------------------------------ readers
 def _head(path):
     from accelcal.io.formats.dividing_head import read_head_record
@@ -306,6 +320,12 @@ def _centrifuge_read(path):
     return read(path)
 
 
+def _response_read(path):
+    from accelcal.io.formats.response import read
+
+    return read(path)
+
+
 def _triad_read(path):
     from accelcal.io.formats.triad import read
 
@@ -380,6 +400,7 @@ _NOISE_CMD = ("noise", "fit", "{file}", "--format", "json")
 _CENTRIFUGE_CMD = ("centrifuge", "reduce", "{file}", "--format", "json", "--record",
                    "{out}/rec.json")
 _STEPS_CMD = ("acceptance", "reduce", "{file}", "--format", "json")
+_RESPONSE_CMD = ("response", "reduce", "{file}", "--format", "json")
 _THERMAL_CMD = ("thermal", "reduce", "{file}", "--format", "json", "--record", "{out}/rec.json")
 
 READERS: dict[str, Reader] = {
@@ -401,6 +422,9 @@ READERS: dict[str, Reader] = {
     "thermal.parquet": Reader(_thermal_read, _thermal(".parquet"), "parquet", _THERMAL_CMD),
     "steps.csv": Reader(_steps_read, _steps(".csv"), "csv", _STEPS_CMD),
     "steps.parquet": Reader(_steps_read, _steps(".parquet"), "parquet", _STEPS_CMD),
+    "response.csv": Reader(_response_read, _response(".csv"), "csv", _RESPONSE_CMD),
+    "response.parquet": Reader(_response_read, _response(".parquet"), "parquet",
+                               _RESPONSE_CMD),
     "triad.csv": Reader(_triad_read, _triad(".csv"), "csv"),
     "triad.parquet": Reader(_triad_read, _triad(".parquet"), "parquet"),
     "model": Reader(_model, _example("model.json"), "json",

@@ -19,7 +19,8 @@ def test_every_kind_declares_its_layout_and_reader():
         assert isinstance(spec, ImportLayout)
         assert declared(kind) is spec
         assert validator(kind).__name__ == spec.reader
-    assert {k for k in KINDS if declared(k).time} == {"shaker", "vibrafuge", "triad", "steps"}
+    assert {k for k in KINDS if declared(k).time} == {"shaker", "vibrafuge", "triad", "steps",
+                                                      "response"}
     assert {k for k in KINDS if declared(k).stream} == {"noise", "triad"}
 
 

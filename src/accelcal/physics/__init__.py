@@ -16,7 +16,10 @@ and neither imports the other:
 - :mod:`accelcal.physics.equation`: the error model's equation, the
   indicated acceleration of given specific force and coefficients, which
   :class:`~accelcal.model.ErrorModel` evaluates (adding its noise and scale
-  factor).
+  factor);
+- :mod:`accelcal.physics.response`: the force-rebalance accelerometer's
+  transfer function (second order, an extra pole, a delay), which the
+  comparison rig simulates and the response method fits.
 
 This package imports only :mod:`accelcal.errors`, :mod:`accelcal.validation`,
 :mod:`accelcal.units` and :mod:`accelcal.terms`, and nothing on import (its

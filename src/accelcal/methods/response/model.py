@@ -1,0 +1,271 @@
+"""The transfer-function model fitted to a measured frequency response, and what it gives.
+
+The model is the force-rebalance accelerometer's closed loop of
+:mod:`accelcal.physics.response`, second order with optionally an extra
+real pole and a pure delay::
+
+    S(f) = S0 wn^2 / (s^2 + 2 zeta wn s + wn^2) [1 / (1 + s / wp)] [exp(-s tau)],
+
+``s = i 2 pi f``. :func:`fit_model` fits it to the complex points of a
+stepped-sine reduction by weighted complex least squares: the residuals
+``model - data`` are stacked as ``[Re, Im]`` pairs, each pair whitened by
+the inverse Cholesky factor of the point's 2 x 2 covariance, and solved by
+:func:`scipy.optimize.least_squares` (trust region, from the best of a
+grid of ``fn`` and ``zeta``). The covariance of the parameters is
+``(J'J)^-1`` of the whitened Jacobian at the solution (the points' own
+covariances, not rescaled by the fit's chi-square: the Birge ratio is
+reported beside). :func:`derived` evaluates the fitted model with
+:func:`scipy.signal.freqs` and gives the -3 dB bandwidth, the resonance
+(frequency and peak) and the phase at stated frequencies, with first-order
+uncertainties (numerical gradients).
+
+References
+----------
+.. [ISO16063-21] ISO 16063-21:2003 (complex sensitivity).
+.. [Ogata2010] Ogata K., Modern Control Engineering, 5th ed., 2010, sec. 5-3
+   and 8-2 (second-order systems: resonant peak, bandwidth).
+.. [GUM] JCGM 100:2008, sec. 5.1.2 (law of propagation of uncertainty).
+"""
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+from accelcal.physics.response import transfer
+from accelcal.results import Assumption, Estimate, Reduction
+
+METHOD = "response/model-fit"
+"""Method id of the transfer-function fit."""
+
+TERMS = ("pole", "delay")
+"""Optional terms of the model beside ``second-order``."""
+
+RELATIVE_FLOOR = 1e-12
+"""Floor of each point's standard uncertainty, relative to its magnitude: the rounding of
+a noise-free record, so that its points (of zero stated variance) can still be weighted."""
+
+
+def parse_model(text: str) -> tuple[str, ...]:
+    """The optional terms of a model ``second-order[,pole][,delay]``.
+
+    Raises
+    ------
+    AccelcalError
+        For another model.
+    """
+    parts = [p.strip() for p in str(text).split(",")]
+    if parts[0] != "second-order" or not set(parts[1:]) <= set(TERMS) or \
+            len(set(parts[1:])) != len(parts) - 1:
+        raise AccelcalError(f"{text!r} is not second-order[,pole][,delay]", parameter="model")
+    return tuple(t for t in TERMS if t in parts[1:])
+
+
+def parameter_names(terms) -> tuple[str, ...]:
+    """``S0, fn, zeta`` and the terms' parameters ``pole`` (Hz) and ``delay`` (s)."""
+    return ("S0", "fn", "zeta", *terms)
+
+
+def evaluate(params, names, f) -> np.ndarray:
+    """The model of parameters ``params`` (named ``names``) at frequencies ``f``, Hz."""
+    p = dict(zip(names, params, strict=True))
+    return transfer(f, p["S0"], p["fn"], p["zeta"], pole_hz=p.get("pole"),
+                    delay_s=p.get("delay", 0.0))
+
+
+def _whiteners(values, covariance) -> np.ndarray:
+    """Per point, the inverse Cholesky factor of its 2 x 2 covariance (with the floor)."""
+    from accelcal.polar import blocks
+
+    floor = (RELATIVE_FLOOR * np.abs(values)) ** 2
+    v = blocks(covariance) + floor[:, None, None] * np.eye(2)
+    return np.linalg.inv(np.linalg.cholesky(v))
+
+
+def _start(f, data, w, names) -> np.ndarray:
+    """Best of a grid of ``fn`` and ``zeta`` (S0 from the lowest frequency; pole far, no delay)."""
+    s0 = float(np.real(data[np.argmin(f)]))
+    best, start = np.inf, None
+    for fn in np.geomspace(f.min(), 30.0 * f.max(), 80):
+        for zeta in (0.05, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0, 1.5, 3.0):
+            extra = [10.0 * f.max()] * ("pole" in names) + [0.0] * ("delay" in names)
+            x = np.array([s0, fn, zeta, *extra])
+            chi2 = np.sum(_residuals(x, names, f, data, w) ** 2)
+            if chi2 < best:
+                best, start = chi2, x
+    return start
+
+
+def _residuals(x, names, f, data, w) -> np.ndarray:
+    d = evaluate(x, names, f) - data
+    return np.einsum("kij,kj->ki", w, np.stack([d.real, d.imag], axis=1)).ravel()
+
+
+def fit_model(reduction, model: str = "second-order") -> Reduction:
+    """Weighted complex least squares of the transfer function on a measured response.
+
+    Parameters
+    ----------
+    reduction : accelcal.results.Reduction
+        A stepped-sine reduction (:func:`accelcal.methods.response.stepped.reduce_stepped`):
+        complex points with their ``[Re, Im]`` covariance and ``frequency_hz``.
+    model : str
+        ``second-order``, optionally with ``,pole`` and ``,delay``.
+
+    Returns
+    -------
+    accelcal.results.Reduction
+        Family ``response``, method ``response/model-fit``: ``S0`` (output unit
+        per g), ``fn`` (Hz), ``zeta``, and ``pole`` (Hz), ``delay`` (s) where
+        asked, with covariance; ``dof`` is ``2 m - p``; the assumption
+        ``chi2`` gives the fit's chi-square and ``birge_ratio`` its square root
+        per degree of freedom; observations ``frequency_hz`` and the points.
+
+    Raises
+    ------
+    AccelcalError
+        For fewer real data (2 per point) than parameters, or a fit that
+        does not converge.
+
+    References
+    ----------
+    .. [1] ISO 16063-21:2003; DOMAIN.md section 10.
+    """
+    from scipy.optimize import least_squares
+
+    terms = parse_model(model)
+    names = parameter_names(terms)
+    est = reduction.estimate
+    if not est.is_complex:
+        raise AccelcalError("a model is fitted to a frequency response (complex points)",
+                            parameter="reduction")
+    f = np.asarray(reduction.observations["frequency_hz"], dtype=float)
+    data = np.asarray(est.values)
+    if 2 * f.size <= len(names):
+        raise AccelcalError(f"{f.size} frequencies give {2 * f.size} real data, too few for "
+                            f"the {len(names)} parameters of {model}", parameter="model")
+    w = _whiteners(data, est.covariance)
+    x0 = _start(f, data, w, names)
+    lower = [-np.inf, 0.0, 0.0] + [0.0] * ("pole" in names) + [-np.inf] * ("delay" in names)
+    scale = np.abs(x0) + np.array([0, 0, 0] + [0] * ("pole" in names) +
+                                  [1e-6] * ("delay" in names))
+    sol = least_squares(_residuals, x0, args=(names, f, data, w), bounds=(lower, np.inf),
+                        x_scale=scale, xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=2000,
+                        jac="3-point")
+    if sol.status <= 0:
+        raise AccelcalError(f"the {model} fit did not converge ({sol.message})",
+                            parameter="model")
+    col = np.where(np.abs(sol.x) > 0, np.abs(sol.x), 1.0)  # equilibrated columns
+    jac = sol.jac * col
+    covariance = np.linalg.inv(jac.T @ jac) * np.outer(col, col)
+    dof = 2 * f.size - len(names)
+    chi2 = float(2.0 * sol.cost)
+    unit = next(iter(est.units.values()))
+    units = {"S0": unit, "fn": "Hz", "zeta": "1", "pole": "Hz", "delay": "s"}
+    fitted = Estimate(names, sol.x, covariance, {n: units[n] for n in names}, METHOD, dof=dof,
+                      residuals=sol.fun)
+    return Reduction(
+        family=reduction.family, method=METHOD, sensors=(fitted,), sensor_names=("dut",),
+        dof=0,
+        assumptions=(
+            Assumption("model", model, "", f"transfer function {model}"),
+            Assumption("chi2", chi2, "", f"chi-square {chi2:.4g} on {dof} dof"),
+            Assumption("birge_ratio", float(np.sqrt(chi2 / dof)) if dof else float("nan"), "",
+                       "sqrt(chi2 / dof): about 1 where the model describes the points"),
+            *(a for a in reduction.assumptions if a.name == "reference_frequency"),
+        ),
+        observations={"frequency_hz": f, "response": data, "covariance": est.covariance},
+        provenance={"points": int(f.size), "unit": unit},
+        notes=(("Weighted complex least squares of the transfer function; covariance from "
+                "the points' own (not rescaled by the chi-square)."),),
+    )
+
+
+def _gradient(func, x, names) -> np.ndarray:
+    """Central-difference gradient of ``func(x)`` (a scalar), steps relative to ``x``."""
+    grad = np.zeros(x.size)
+    for i in range(x.size):
+        h = 1e-6 * max(abs(x[i]), 1e-9 if names[i] == "delay" else 1e-12)
+        up, down = x.copy(), x.copy()
+        up[i] += h
+        down[i] -= h
+        grad[i] = (func(up) - func(down)) / (2 * h)
+    return grad
+
+
+def _peak(x, names, f_hi) -> tuple[float, float]:
+    """Frequency and height (ratio to |S0|) of the magnitude's maximum above 0, or NaNs."""
+    from scipy.optimize import minimize_scalar
+
+    grid = np.geomspace(f_hi * 1e-4, f_hi, 2000)
+    mag = np.abs(evaluate(x, names, grid)) / abs(x[0])
+    k = int(np.argmax(mag))
+    if mag[k] <= 1.0 + 1e-9 or k in (0, grid.size - 1):
+        return float("nan"), float("nan")
+    res = minimize_scalar(lambda lf: -np.abs(evaluate(x, names, [np.exp(lf)]))[0],
+                          bracket=(np.log(grid[k - 1]), np.log(grid[k]), np.log(grid[k + 1])),
+                          tol=1e-12)
+    return float(np.exp(res.x)), float(-res.fun / abs(x[0]))
+
+
+def _bandwidth(x, names, f_hi) -> float:
+    """The first frequency where |S| falls to |S0| / sqrt(2), or NaN below ``f_hi``."""
+    from scipy.optimize import brentq
+
+    grid = np.geomspace(f_hi * 1e-4, f_hi, 4000)
+    g = np.abs(evaluate(x, names, grid)) / abs(x[0]) - 1.0 / np.sqrt(2.0)
+    below = np.flatnonzero(g < 0)
+    if below.size == 0 or below[0] == 0:
+        return float("nan")
+    k = below[0]
+    return float(brentq(lambda fr: abs(evaluate(x, names, [fr])[0]) / abs(x[0])
+                        - 1.0 / np.sqrt(2.0), grid[k - 1], grid[k], xtol=1e-14, rtol=1e-14))
+
+
+def derived(fit: Reduction, phase_at=()) -> list[dict]:
+    """The fitted model's -3 dB bandwidth, resonance and phases, with uncertainties.
+
+    Parameters
+    ----------
+    fit : accelcal.results.Reduction
+        A :func:`fit_model` result.
+    phase_at : sequence of float
+        Frequencies (Hz) at which to give the phase (deg, negative lagging).
+
+    Returns
+    -------
+    list of dict
+        Rows ``coefficient, estimate, std, unit``: ``f_3dB`` (Hz), ``f_peak``
+        (Hz) and ``peak_dB`` (the resonance; NaN without one, zeta above
+        about 0.707 for the plain second order), and ``phase(f Hz)`` (deg);
+        standard uncertainties by first-order propagation of the parameters'
+        covariance through numerical gradients [GUM]_.
+    """
+    bad = [f for f in phase_at if not (isinstance(f, int | float) and 0 < f <= 1e9)]
+    if bad:
+        raise AccelcalError(f"frequencies must be above 0 and up to 1e9 Hz, got {bad[0]!r}",
+                            parameter="phase_at")
+    est = fit.estimate
+    names, x, cov = est.names, np.asarray(est.values, float), est.covariance
+    f_hi = 100.0 * x[names.index("fn")]
+    quantities = [("f_3dB", "Hz", lambda p: _bandwidth(p, names, f_hi)),
+                  ("f_peak", "Hz", lambda p: _peak(p, names, f_hi)[0]),
+                  ("peak_dB", "dB", lambda p: 20.0 * np.log10(_peak(p, names, f_hi)[1]))]
+    quantities += [(f"phase({f:g} Hz)", "deg",
+                    lambda p, f=f: float(np.rad2deg(np.angle(evaluate(p, names, [f])[0]))))
+                   for f in phase_at]
+    rows = []
+    for name, unit, func in quantities:
+        value = func(x)
+        std = float("nan")
+        if np.isfinite(value):
+            grad = _gradient(func, x, names)
+            std = float(np.sqrt(max(grad @ cov @ grad, 0.0)))
+        rows.append({"coefficient": name, "estimate": float(value), "std": std, "unit": unit})
+    return rows
+
+
+def fit_rows(fit: Reduction, phase_at=()) -> list[dict]:
+    """What ``accelcal response fit`` prints: the parameters, then :func:`derived`."""
+    est = fit.estimate
+    rows = [{"coefficient": n, "estimate": float(v), "std": float(s), "unit": est.units[n]}
+            for n, v, s in zip(est.names, est.values, est.std, strict=True)]
+    return rows + derived(fit, phase_at)

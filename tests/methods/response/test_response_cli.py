@@ -1,0 +1,106 @@
+"""``accelcal response``: simulate -> reduce -> fit, outputs, and bad input in one line."""
+
+import json
+
+import numpy as np
+import pytest
+
+from accelcal.io.formats.response import ResponseRecord, read, write
+from helpers.cli import refused, run_cli
+
+STEPS = ["--frequencies", "20,80,315,630,1000"]
+
+
+@pytest.fixture(scope="module")
+def record(tmp_path_factory):
+    from accelcal.cli import main
+
+    path = tmp_path_factory.mktemp("resp") / "steps.csv"
+    with pytest.raises(SystemExit) as exc:
+        main(["response", "simulate", *STEPS, "--noise", "0", "--pole", "3000", "--delay",
+              "1e-5", "--out", str(path)])
+    assert exc.value.code == 0
+    return path
+
+
+def test_reduce_rows_in_csv_json_and_table(record, capsys):
+    code, out, err = run_cli(["response", "reduce", record, "--format", "csv"], capsys)
+    assert code == 0, err
+    header = out.splitlines()[0].split(",")
+    assert header[:6] == ["frequency_hz", "magnitude", "magnitude_u", "phase_deg", "phase_u",
+                          "unit"]
+    code, out, _ = run_cli(["response", "reduce", record, "--format", "json"], capsys)
+    rows = json.loads(out)
+    assert [r["frequency_hz"] for r in rows] == [20.0, 80.0, 315.0, 630.0, 1000.0]
+    s = 2j * np.pi * 1000.0
+    wn = 2 * np.pi * 600.0
+    want = 1.3 * wn**2 / (s**2 + 1.2 * wn * s + wn**2) / (1 + s / (2 * np.pi * 3000)) \
+        * np.exp(-s * 1e-5)
+    assert rows[-1]["magnitude"] == pytest.approx(abs(want), rel=1e-12)
+    assert rows[-1]["phase_deg"] == pytest.approx(np.rad2deg(np.angle(want)), abs=1e-9)
+    assert rows[1]["deviation_pct"] == 0.0
+    assert rows[-1]["unit"] == "V/g"
+    code, out, _ = run_cli(["response", "reduce", record], capsys)
+    assert code == 0
+    assert "magnitude" in out
+
+
+def test_fit_rows_and_plot(record, tmp_path, capsys):
+    code, out, err = run_cli(["response", "fit", record, "--model", "second-order,pole,delay",
+                              "--phase-at", "100", "--format", "json", "--plot", tmp_path],
+                             capsys)
+    assert code == 0, err
+    by = {r["coefficient"]: r for r in json.loads(out)}
+    assert list(by)[:5] == ["S0", "fn", "zeta", "pole", "delay"]
+    assert by["fn"]["estimate"] == pytest.approx(600.0, rel=1e-9)
+    assert by["zeta"]["estimate"] == pytest.approx(0.6, rel=1e-9)
+    assert by["delay"]["unit"] == "s"
+    assert {"f_3dB", "f_peak", "peak_dB", "phase(100 Hz)"} <= set(by)
+    assert (tmp_path / "response_bode.png").is_file()
+
+
+def test_reference_csv(record, tmp_path, capsys):
+    ref = tmp_path / "ref.csv"
+    ref.write_text("frequency_hz,magnitude,phase_deg\n10,0.2,0\n2000,0.2,0\n")
+    _, out, _ = run_cli(["response", "reduce", record, "--format", "json"], capsys)
+    code, twice, err = run_cli(["response", "reduce", record, "--reference", ref, "--format",
+                                "json"], capsys)
+    assert code == 0, err
+    # the record's own reference is about 0.1 V/g: a 0.2 V/g certificate doubles the DUT's
+    ratio = json.loads(twice)[0]["magnitude"] / json.loads(out)[0]["magnitude"]
+    assert ratio == pytest.approx(2.0, rel=2e-3)
+
+
+def test_reference_not_covering_the_band_is_refused(record, tmp_path, capsys):
+    ref = tmp_path / "ref.csv"
+    ref.write_text("frequency_hz,magnitude,phase_deg\n50,0.1,0\n500,0.1,0\n")
+    refused(["response", "reduce", record, "--reference", ref], capsys, "covers 50-500 Hz",
+            "20 Hz")
+
+
+def test_too_few_periods_is_refused(tmp_path, capsys):
+    path = tmp_path / "short.csv"
+    code, _, err = run_cli(["response", "simulate", "--frequencies", "100", "--periods", "2",
+                            "--out", path], capsys)
+    assert code == 0, err
+    refused(["response", "reduce", path], capsys, "2 whole period(s)", "at least 3")
+
+
+def test_frequency_not_in_the_data_is_refused(record, tmp_path, capsys):
+    rec = read(record)
+    wrong = ResponseRecord(rec.step, np.where(rec.step == 2, 333.0, rec.frequency), rec.t,
+                           rec.ref, rec.dut, rec.sample_rate_hz, metadata=rec.metadata)
+    write(tmp_path / "wrong.csv", wrong)
+    refused(["response", "reduce", tmp_path / "wrong.csv"], capsys, "333 Hz",
+            "not found in the data")
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["fit", "{rec}", "--model", "third-order"], ("second-order[,pole][,delay]",)),
+    (["reduce", "{rec}", "--format", "xml"], ("--format",)),
+    (["simulate", "--frequencies", "0,10", "--out", "{tmp}/x.csv"], ("--frequencies",)),
+    (["simulate", "--distortion", "0.1", "--out", "{tmp}/x.csv"], ("--distortion",)),
+])
+def test_bad_options_one_line(record, tmp_path, capsys, args, words):
+    args = [a.format(rec=record, tmp=tmp_path) for a in args]
+    refused(["response", *args], capsys, *words)
