@@ -74,6 +74,10 @@ _HYST_QUANTITY = {"K0": "bias", "K1": "ratio", "K2": "second", "Ko": "misalignme
                   "Kp": "misalignment"}
 
 
+MAX_TEMPERATURE_SD = 100.0
+"""Largest plateau-temperature standard uncertainty taken, degC (beyond any chamber's span)."""
+
+
 def default_terms(rotation_axis: str) -> tuple[str, ...]:
     """Terms fitted against temperature by default: bias, scale factor, K2, misalignment."""
     return ("K0", "K1", "K2", "Kp" if rotation_axis == "OA" else "Ko")
@@ -127,9 +131,10 @@ def reduce_thermal(record, *, order="auto", reference: float = 25.0, terms=None,
     if not (0 < alpha < 1):
         raise AccelcalError(f"alpha = {alpha} must be between 0 and 1", parameter="alpha")
     check_settings(window, rate_limit, tolerance)
-    if temperature_sd is not None and not (np.isfinite(temperature_sd) and temperature_sd >= 0):
-        raise AccelcalError(f"temperature_sd = {temperature_sd} must be a finite SD >= 0 (degC)",
-                            parameter="temperature_sd")
+    if temperature_sd is not None and not (np.isfinite(temperature_sd)
+                                           and 0 <= temperature_sd <= MAX_TEMPERATURE_SD):
+        raise AccelcalError(f"must be a standard uncertainty from 0 to {MAX_TEMPERATURE_SD:g} "
+                            f"degC, got {temperature_sd:g}", parameter="temperature_sd")
     t0 = float(check_temperature(reference, "the reference temperature"))
     bases = _bases(terms, record.rotation_axis)
     plateaus = reduce_plateaus(record, window=window, rate_limit=rate_limit,
