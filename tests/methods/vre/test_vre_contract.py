@@ -10,7 +10,7 @@ import accelcal
 from accelcal import ErrorModel
 from accelcal.methods.vre import along_ia, identify, reduce_run, vector_vre
 from accelcal.rigs.vibrafuge import simulate
-from helpers.contract import ReductionContract, default_terms
+from helpers.contract import ReductionContract, default_terms, true_value
 
 PAPER_B = np.repeat([1.0, 2.0, 4.0], 6)
 PAPER_A = np.tile(np.arange(5.0, 11.0), 3)
@@ -58,6 +58,22 @@ class TestContract(ReductionContract):
         # with s0 = phi / pi >= 0.1 g/g on this grid, so 1e-13 g absolute plus
         # 1e-9 relative covers the rounding with a factor 10 to spare.
         return 1e-9 * abs(value) + 1e-13
+
+
+class TestContractTilted(TestContract):
+    """The vibration 10 mrad off IA towards OA: Kio and Koo rectify in proportion to
+    K2, so the K2 row is ``K2+0.0001*Koo+0.01*Kio`` (named by its combination)."""
+
+    DIRECTION = (1.0, 0.01, 0.0)
+
+    def simulate(self, truth, rng, noisy: bool):
+        return simulate(truth, PAPER_B, PAPER_A, frequency=50.0, sample_rate=1000.0,
+                        duration=0.2, phase=0.4, direction=self.DIRECTION,
+                        noise=3e-6 if noisy else 0.0, rng=rng)
+
+    def row_truth(self, truth, row, value):
+        return true_value(truth if isinstance(truth, ErrorModel) else accelcal.default_model(),
+                          row)
 
 
 def test_reduction_fields():
