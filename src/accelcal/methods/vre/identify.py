@@ -33,7 +33,7 @@ import dataclasses
 
 import numpy as np
 
-from accelcal.aliasing import default_priors
+from accelcal.aliasing import default_priors, unestimated
 from accelcal.errors import AccelcalError
 from accelcal.fitting import least_squares
 from accelcal.identifiability import Combination, analyse
@@ -46,7 +46,7 @@ from accelcal.methods.vre.closed_form import (
     along_ia,
     vre_columns,
 )
-from accelcal.methods.vre.unestimated import analyse_unestimated, type_b_text
+from accelcal.methods.vre.unestimated import type_b_text
 from accelcal.model import TERMS, unknown_term_message
 from accelcal.results import Assumption, Estimate, Reduction
 
@@ -223,7 +223,7 @@ def identify(
     _check_finite(est, combos, ident)
     weighting = _weighting(est, sigma)
     out = tuple(t for t in VRE_TERMS if t not in terms and t not in fixed)
-    un = analyse_unestimated(design, terms, dict(zip(out, _out_columns(
+    un = unestimated(design, terms, dict(zip(out, _out_columns(
         cols, out, b=b, A=A, direction=direction, n=n), strict=True)), sigma=sigma,
         identified=[t in ident.identifiable for t in terms], priors=_priors(priors, out))
     est = dataclasses.replace(
