@@ -102,8 +102,7 @@ def test_reduction_fields():
     # a base model's non-zero terms not fitted are held: the fixed terms
     base = truth.replace(**dict.fromkeys(NAMES, 0.0))
     held = identify(data, base=base)
-    # (the asymmetry terms are not part of the shaker model: docs/transverse.md)
-    assert held.fixed == {"K0": 4e-5, **{t: getattr(truth, t) for t in UNFITTED[:4]}}
+    assert held.fixed == {"K0": 4e-5, **{t: getattr(truth, t) for t in UNFITTED}}
     np.testing.assert_array_equal(held.estimate.values, red.estimate.values)  # K0: DC only
     rows = {r["coefficient"]: r for r in held.rows()}
     assert rows["Ko"]["eng_unit"] == "mg/g"
