@@ -80,3 +80,12 @@ def test_without_ia_motion_nothing_is_left_to_bound():
 def test_bad_priors_are_refused():
     with pytest.raises(AccelcalError, match="priors"):
         identify(_records(0.0), priors="some")
+
+
+def test_priors_given_as_numbers_are_the_users_standard_uncertainties():
+    data = _records(0.05)
+    red = identify(data, priors={"Kio": 1e-5, "Ko": 1.0})
+    assert [(p.name, p.value, p.distribution, p.source) for p in red.priors] == \
+        [("Kio", 1e-5, "normal", "user")]  # Ko is fitted: its prior is not used
+    with pytest.raises(AccelcalError, match="not a term of the shaker model"):
+        identify(data, priors={"Kx": 1e-5})

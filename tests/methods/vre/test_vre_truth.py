@@ -84,3 +84,14 @@ def test_along_ia_nothing_is_left_to_bound():
 def test_bad_priors_are_refused():
     with pytest.raises(AccelcalError, match="priors"):
         identify(B, A, _vre(accelcal.default_model(), TWO), U, direction=TWO, priors="some")
+
+
+def test_priors_given_as_numbers_are_the_users_standard_uncertainties():
+    y = _vre(accelcal.default_model(), TWO)
+    red = identify(B, A, y, U, direction=TWO, priors={"Kio": 1e-5, "K2": 1.0})
+    assert [(p.name, p.value, p.distribution, p.source) for p in red.priors] == \
+        [("Kio", 1e-5, "normal", "user")]  # K2 is fitted: its prior is not used
+    with pytest.raises(AccelcalError, match="not a rectifying term"):
+        identify(B, A, y, U, direction=TWO, priors={"K1": 1e-5})
+    with pytest.raises(AccelcalError, match="prior of Kio"):
+        identify(B, A, y, U, direction=TWO, priors={"Kio": -1.0})

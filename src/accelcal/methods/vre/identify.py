@@ -33,7 +33,7 @@ import dataclasses
 
 import numpy as np
 
-from accelcal.aliasing import default_priors, unestimated
+from accelcal.aliasing import Prior, default_priors, unestimated
 from accelcal.errors import AccelcalError
 from accelcal.fitting import least_squares
 from accelcal.identifiability import Combination, analyse
@@ -251,7 +251,12 @@ def _out_columns(cols, out, *, b, A, direction, n):
 
 
 def _priors(priors, out) -> dict:
-    """Term -> Prior of the terms left out, from the ``priors`` argument."""
+    """Term -> Prior of the terms left out, from the ``priors`` argument.
+
+    A dict maps a term to a :class:`~accelcal.aliasing.Prior` or a number (a
+    standard uncertainty, normal, in the term's unit); a prior of a fitted or
+    held term is not used.
+    """
     if priors is None or (isinstance(priors, str) and priors == "none"):
         return {}
     if isinstance(priors, str):
@@ -259,7 +264,19 @@ def _priors(priors, out) -> dict:
             raise AccelcalError(f"priors {priors[:40]!r} is not one of 'default', 'none' or "
                                 "a dict of priors", parameter="priors")
         return default_priors(out)
-    return {t: p for t, p in dict(priors).items() if t in out}
+    chosen = {}
+    for name, p in dict(priors).items():
+        if name not in VRE_TERMS:
+            raise AccelcalError(f"prior of {str(name)[:40]!r}: not a rectifying term",
+                                parameter="priors")
+        if isinstance(p, Prior):
+            chosen[name] = p
+            continue
+        try:  # a number: a standard uncertainty (normal) in the term's unit, from the user
+            chosen[name] = Prior(name, float(p), TERMS[name].unit, "normal")
+        except (TypeError, ValueError) as exc:
+            raise AccelcalError(f"prior of {name}: {exc}", parameter="priors") from None
+    return {t: p for t, p in chosen.items() if t in out}
 
 
 def _columns(columns, terms, fixed, n) -> dict[str, np.ndarray]:
