@@ -45,6 +45,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from accelcal.identifiability import combination_name, inseparable
+from accelcal.terms import TERMS
+
 DISTRIBUTIONS = ("normal", "rectangular", "two-point")
 """How a prior's ``value`` reads: a standard uncertainty, the half-width of a bound
 (uniform within it), or the magnitude of a value known but for its sign (+-a with
@@ -326,3 +329,93 @@ def alias_text(entries) -> list[str]:
     return [f"{term} taken as zero, no prior: it would move " + ", ".join(
         f"{e.row} by {e.sensitivity:.4g} {e.unit}".rstrip() for e in group)
         for term, group in by_term.items()]
+
+
+@dataclass(frozen=True)
+class Unestimated:
+    """The terms a linear fit takes as zero and what they do to its rows.
+
+    Attributes
+    ----------
+    terms : tuple of str
+        The terms left out (neither fitted nor held) that the design sees.
+    named : tuple of str
+        Those the design cannot separate: they are in the rows' names.
+    labels : dict
+        Plain name -> combination name, for the rows that estimate one.
+    covariance : numpy.ndarray, shape (p, p)
+        Type B covariance of the fitted rows from the priors.
+    contributions : tuple of Contribution
+    aliases : tuple of Alias
+        Rows moved by the separable terms, row unit per term unit.
+    priors : tuple of Prior
+        The priors propagated.
+    """
+
+    terms: tuple[str, ...]
+    named: tuple[str, ...]
+    labels: dict
+    covariance: np.ndarray
+    contributions: tuple[Contribution, ...]
+    aliases: tuple[Alias, ...]
+    priors: tuple[Prior, ...]
+
+
+def unestimated(design, terms, columns: dict, *, sigma, identified,
+                priors: dict) -> Unestimated:
+    """Alias matrix, names and Type B contributions of the terms a linear fit leaves out.
+
+    For a fit whose design columns and the left-out terms' columns are both
+    known (the VRE's closed forms, the shaker's regressors): a zero column
+    moves nothing; a column in the span of the design names the rows
+    (:func:`accelcal.identifiability.combination_name`); a separable one is
+    propagated by its prior (:func:`propagate`) and listed in the aliases.
+
+    Parameters
+    ----------
+    design : numpy.ndarray, shape (n, p)
+        The fitted terms' columns, data unit per term unit.
+    terms : tuple of str
+        The fitted terms.
+    columns : dict of str to numpy.ndarray
+        Column (n,) of every term left out (neither fitted nor held), same unit.
+    sigma : numpy.ndarray or None
+        Standard uncertainties of the data (the fit's weights), or None
+        (unweighted, or the columns already whitened).
+    identified : array_like of bool, shape (p,)
+        Which fitted terms the design identifies (others get no label or contribution).
+    priors : dict
+        Term -> :class:`Prior`.
+
+    References
+    ----------
+    .. [1] Montgomery D. C., Design and Analysis of Experiments, 8th ed., sec. 10.3.
+    .. [2] JCGM 100:2008 (GUM), sec. 5.1.2.
+
+    Returns
+    -------
+    Unestimated
+    """
+    p = len(terms)
+    seen = tuple(t for t, col in columns.items() if np.any(np.asarray(col) != 0.0))
+    if not seen:
+        return Unestimated((), (), {}, np.zeros((p, p)), (), (), ())
+    z = np.stack([np.asarray(columns[t], dtype=float) for t in seen], axis=1)
+    weights = None if sigma is None else 1.0 / np.asarray(sigma, dtype=float) ** 2
+    matrix = alias_matrix(design, z, weights)  # (p, q): row per unit of each term
+    matrix[~np.asarray(identified, dtype=bool)] = 0.0
+    named = inseparable(design, z, seen, sigma=sigma)
+    labels = {}
+    for i, t in enumerate(terms):
+        name = combination_name(t, {u: matrix[i, j] for j, u in enumerate(seen) if u in named})
+        if name != t:
+            labels[t] = name
+    rows = tuple(labels.get(t, t) for t in terms)
+    units = {labels.get(t, t): TERMS[t].unit for t in terms}
+    sep = [j for j, u in enumerate(seen) if u not in named]
+    sep_terms = tuple(seen[j] for j in sep)
+    used = {u: priors[u] for u in sep_terms if u in priors}
+    cov, parts = propagate(matrix[:, sep], rows, sep_terms, used, row_units=units)
+    entries = aliases(matrix[:, sep], rows, sep_terms, row_units=units,
+                      term_units={u: TERMS[u].unit for u in sep_terms})
+    return Unestimated(seen, named, labels, cov, parts, entries, tuple(used.values()))

@@ -278,12 +278,11 @@ def _vre_cli(sampling: str):
     PAPER_B = contracts.PAPER_B
     TestContract = contracts.TestContract
 
-    from accelcal import ErrorModel
     from accelcal.rigs.vibrafuge import simulate
 
     class VreCli(TestContract):
         def simulate(self, truth, rng, noisy):
-            return simulate(ErrorModel(**truth, K1=1.3), PAPER_B, PAPER_A, frequency=50.0,
+            return simulate(truth, PAPER_B, PAPER_A, frequency=50.0,
                             sample_rate=5000.0, duration=1.0, phase=0.0,
                             noise=1e-6 if noisy else 0.0, sampling=sampling, rng=rng)
 

@@ -261,7 +261,7 @@ def fit_cmd(
         "shift from rest, needs u_rest), both, or w (w only; k_oo.. need gravity)."),
     terms: str = typer.Option(
         "Ko,Kp,Koo,Kpp,Kop", "--terms", help="Terms to fit (Ko, Kp in g/g; Koo, Kpp, Kop, "
-        "Kio, Kip, K2 in g/g^2; K0 in g)."),
+        "Kio, Kip, K2 in g/g^2; K0, K0_asym in g; K1_asym in g/g)."),
     scale_factor: float | None = typer.Option(
         None, "--scale-factor", help="Scale factor K1, output unit per g (default: records' "
         "metadata or --model)."),

@@ -6,10 +6,11 @@ import tracemalloc
 import numpy as np
 import pytest
 
+import accelcal
 from accelcal import ErrorModel
 from accelcal.methods.vre import along_ia, identify, reduce_run, vector_vre
 from accelcal.rigs.vibrafuge import simulate
-from helpers.contract import ReductionContract
+from helpers.contract import ReductionContract, default_terms, true_value
 
 PAPER_B = np.repeat([1.0, 2.0, 4.0], 6)
 PAPER_A = np.tile(np.arange(5.0, 11.0), 3)
@@ -17,18 +18,24 @@ PAPER_A = np.tile(np.arange(5.0, 11.0), 3)
 
 PAPER_TRUTH = {"K2": 7.87e-6, "K3": 1.19e-7, "K0_asym": 2.26e-6, "K1_asym": 1.45e-6}
 
+UNFITTED = ("K0", "Ko", "Kp", "Koo", "Kpp", "Kio", "Kip", "Kop")
+"""Terms the VRE does not see: K0 cancels in the shift from the static level, and the
+cross-axis terms meet no a_o, a_p with the vibration along IA."""
+
 
 class TestContract(ReductionContract):
     """Random K2, K3, K0', K1' -> vibrafuge rig on the paper's grid -> reduce_run + identify."""
 
     def truth(self, rng):
-        # navigation-grade magnitudes, random signs (about Guan2021 Table 1's)
-        return {name: value * rng.uniform(0.3, 3.0) * rng.choice([-1.0, 1.0])
-                for name, value in PAPER_TRUTH.items()}
+        # navigation-grade magnitudes, random signs (about Guan2021 Table 1's); every
+        # other term non-zero too, at the default accelerometer's magnitudes
+        fitted = {name: value * rng.uniform(0.3, 3.0) * rng.choice([-1.0, 1.0])
+                  for name, value in PAPER_TRUTH.items()}
+        return ErrorModel(**fitted, K1=1.3,
+                          **default_terms(accelcal.default_model(), rng, UNFITTED))
 
     def simulate(self, truth, rng, noisy: bool):
-        model = ErrorModel(**truth, K1=1.3)
-        return simulate(model, PAPER_B, PAPER_A, frequency=50.0, sample_rate=1000.0,
+        return simulate(truth, PAPER_B, PAPER_A, frequency=50.0, sample_rate=1000.0,
                         duration=0.2, phase=0.4, noise=3e-6 if noisy else 0.0, rng=rng)
 
     def reduce(self, data):
@@ -38,7 +45,11 @@ class TestContract(ReductionContract):
                         columns=meas.design_columns())
 
     def expected(self, truth):
-        return [dict(truth)]
+        return [{name: getattr(truth, name) for name in PAPER_TRUTH}]
+
+    def default_case(self):
+        model = accelcal.default_model()
+        return self.simulate(model, None, noisy=False), self.expected(model)
 
     def noise_free_tolerance(self, name: str, value: float) -> float:
         # Noise-free integrating records reduce to the closed-form VRE within
@@ -47,6 +58,22 @@ class TestContract(ReductionContract):
         # with s0 = phi / pi >= 0.1 g/g on this grid, so 1e-13 g absolute plus
         # 1e-9 relative covers the rounding with a factor 10 to spare.
         return 1e-9 * abs(value) + 1e-13
+
+
+class TestContractTilted(TestContract):
+    """The vibration 10 mrad off IA towards OA: Kio and Koo rectify in proportion to
+    K2, so the K2 row is ``K2+0.0001*Koo+0.01*Kio`` (named by its combination)."""
+
+    DIRECTION = (1.0, 0.01, 0.0)
+
+    def simulate(self, truth, rng, noisy: bool):
+        return simulate(truth, PAPER_B, PAPER_A, frequency=50.0, sample_rate=1000.0,
+                        duration=0.2, phase=0.4, direction=self.DIRECTION,
+                        noise=3e-6 if noisy else 0.0, rng=rng)
+
+    def row_truth(self, truth, row, value):
+        return true_value(truth if isinstance(truth, ErrorModel) else accelcal.default_model(),
+                          row)
 
 
 def test_reduction_fields():

@@ -25,17 +25,21 @@ References
 .. [IEEE1057] IEEE Std 1057-2017, sec. 4.1.3.1, three-parameter sine fit.
 """
 
+import dataclasses
+
 import numpy as np
 
+from accelcal.aliasing import Prior, default_priors, unestimated
 from accelcal.errors import AccelcalError
 from accelcal.fitting import least_squares
 from accelcal.identifiability import analyse
 from accelcal.io.formats.shaker import MAX_MAGNITUDE, MIN_SCALE_FACTOR, ShakerRecords
 from accelcal.methods.transverse.estimators import record_phasors, w_ratio
-from accelcal.model import ErrorModel
+from accelcal.model import TERMS, ErrorModel
 from accelcal.results import Assumption, Reduction
 
-FIT_TERMS = ("K0", "Ki", "K2", "K3", "K4", "Ko", "Kp", "Koo", "Kpp", "Kop", "Kio", "Kip")
+FIT_TERMS = ("K0", "Ki", "K2", "K3", "K4", "Ko", "Kp", "Koo", "Kpp", "Kop", "Kio", "Kip",
+             "K0_asym", "K1_asym")
 """Terms whose DC, w and 2w regressors :func:`identify` knows (``Ki`` is the
 coefficient of a_i, 1 by definition of K1)."""
 
@@ -51,6 +55,10 @@ def regressors(theta, p_v, p_n, p_ia, gravity: float) -> dict:
     divided by K1 is its coefficient times the regressor returned here.
     Products of ``x = x0 + Re(X e^{iwt})`` and ``y = y0 + Re(Y e^{iwt})``:
     DC ``x0 y0 + Re(X conj(Y)) / 2``, w ``x0 Y + y0 X``, 2w ``X Y / 2``.
+    The asymmetry ``sgn(a_i) (K0' + K1' a_i) / 2`` of a sinusoidal IA motion
+    ``Re(P e^{iwt})``: the square wave's w component ``(4 / pi) P / |P|``,
+    and ``|a_i|``'s mean ``(2 / pi) |P|`` and 2w component
+    ``(4 / (3 pi)) P^2 / |P|`` (the Fourier series of |cos| and sgn(cos)).
 
     Returns
     -------
@@ -61,6 +69,7 @@ def regressors(theta, p_v, p_n, p_ia, gravity: float) -> dict:
     References
     ----------
     .. [1] GuanTang eq. (13) with a_i = 0 plus the IA motion; docs/domain.md section 3.
+    .. [2] Guan2021 eq. (3) (the asymmetry terms).
     """
     s, c = np.sin(theta), np.cos(theta)
     po = s * p_v + c * p_n  # OA component of the vibration phasor
@@ -69,6 +78,8 @@ def regressors(theta, p_v, p_n, p_ia, gravity: float) -> dict:
     pi = p_ia
     z = np.zeros_like(po)
     one = np.ones(po.shape)
+    mag = np.abs(pi)
+    unit = np.divide(pi, mag, out=np.zeros_like(pi), where=mag > 0)  # P / |P|, 0 without
     return {
         "K0": (one, one, z, z),
         "Ki": (0 * one, 0 * one, pi, z),
@@ -83,6 +94,8 @@ def regressors(theta, p_v, p_n, p_ia, gravity: float) -> dict:
                 po * pp / 2),
         "Kio": ((pi * np.conj(po)).real / 2, 0 * one, o0 * pi, pi * po / 2),
         "Kip": ((pi * np.conj(pp)).real / 2, 0 * one, p0 * pi, pi * pp / 2),
+        "K0_asym": (0 * one, 0 * one, 2 / np.pi * unit, z),
+        "K1_asym": (mag / np.pi, 0 * one, z, 2 / (3 * np.pi) * pi * unit),
     }
 
 
@@ -90,7 +103,8 @@ DEFAULT_FIT = ("Ko", "Kp", "Koo", "Kpp", "Kop")
 
 
 _TERM_UNITS = {"K0": "g", "K2": "g/g^2", "K3": "g/g^3", "K4": "g/g^4", "Ko": "g/g", "Kp": "g/g",
-               "Koo": "g/g^2", "Kpp": "g/g^2", "Kop": "g/g^2", "Kio": "g/g^2", "Kip": "g/g^2"}
+               "Koo": "g/g^2", "Kpp": "g/g^2", "Kop": "g/g^2", "Kio": "g/g^2", "Kip": "g/g^2",
+               "K0_asym": "g", "K1_asym": "g/g"}
 
 
 def observation_columns(reg: dict, term: str, route: str) -> np.ndarray:
@@ -173,7 +187,11 @@ def observation_covariance(records: ShakerRecords, ph: dict, route: str, k1: flo
 
 def _system(records: ShakerRecords, route: str, terms, base: ErrorModel | None,
             scale_factor: float | None):
-    """Whitened design (..., N, p), observations (..., N), K1, noisy?, phasors, held terms."""
+    """Whitened design, observations, K1, noisy?, phasors, held terms, terms left out.
+
+    Shapes (..., N, p) and (..., N); the terms left out (neither fitted nor
+    held) as whitened columns (..., N).
+    """
     check_route(route)
     bad = [t for t in terms if t not in FIT_TERMS or t == "Ki"]
     if bad or not terms or len(set(terms)) != len(terms):
@@ -234,12 +252,16 @@ def _system(records: ShakerRecords, route: str, terms, base: ErrorModel | None,
     dw = dw.swapaxes(-1, -2)  # (..., m, q, p)
     lead = y.shape[:-2]
     scale = np.abs(records.u).max(axis=(-1, -2), initial=1e-300)
+    out = {t: np.linalg.solve(chol, k1 * observation_columns(reg, t, route)[..., None])
+           [..., 0].reshape(*lead, -1)
+           for t in FIT_TERMS if t != "Ki" and t not in terms and t not in held}
     return (dw.reshape(*lead, -1, len(terms)), yw.reshape(*lead, -1), k1,
-            bool(np.all(u.residual_std > 1e-12 * scale[..., None])), ph, held)
+            bool(np.all(u.residual_std > 1e-12 * scale[..., None])), ph, held, out)
 
 
 def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
-             base: ErrorModel | None = None, scale_factor: float | None = None) -> Reduction:
+             base: ErrorModel | None = None, scale_factor: float | None = None,
+             priors="default") -> Reduction:
     """Identify cross-axis coefficients from shaker records at several angles.
 
     Fits the chosen terms (default k_o, k_p, k_oo, k_pp, k_op) to the w
@@ -265,6 +287,15 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
         Values of the terms not fitted (default: all zero) and K1.
     scale_factor : float, optional
         K1, output unit per g (default: ``base.K1`` or the records' value).
+    priors : "default", "none", None or dict
+        What is known of the terms neither fitted nor held in ``base``, which
+        enter through the shaker's own IA motion and the fit takes as zero:
+        ``"default"`` bounds each by twice the embedded default
+        accelerometer's magnitude (rectangular); a dict maps a term to an
+        :class:`~accelcal.aliasing.Prior`; ``"none"`` or None propagates
+        nothing and ``aliases`` state the rows each term would move per unit
+        (:func:`accelcal.aliasing.unestimated`). Without IA motion they do
+        not enter and nothing is added.
 
     Returns
     -------
@@ -273,7 +304,8 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
         values are in g/g^n, with the weighted residuals (1 = one standard
         deviation) and their degrees of freedom; assumptions, fixed terms and
         observations as listed in the module docstring; ``quantities`` show
-        Ko and Kp as transverse sensitivities (mg/g).
+        Ko and Kp as transverse sensitivities (mg/g); the priors' Type B
+        contributions in ``type_b`` and in the covariance.
 
     Raises
     ------
@@ -286,8 +318,10 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
     -----
     Neglected: the noise of the reference channels along the vibration and
     across it, which enters through the small fitted coefficients (relative
-    order ``|k_o|``), the asymmetry terms' response to IA motion and the 3w
-    component.
+    order ``|k_o|``), and the 3w component. The asymmetry terms' response
+    to IA motion is the Fourier series of a continuous square wave; sampled
+    at n points per period its harmonics k = n +- 1 alias onto w, a
+    departure of order 1/n of K0''s part.
 
     References
     ----------
@@ -298,7 +332,8 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
                             "use identify_arrays for stacked trials")
     terms = tuple(terms)
     with np.errstate(over="ignore", invalid="ignore"):  # non-finite results are refused below
-        design, y, k1, noisy, ph, held = _system(records, route, terms, base, scale_factor)
+        design, y, k1, noisy, ph, held, left = _system(records, route, terms, base,
+                                                       scale_factor)
     method = f"transverse/{route}"
     units = {t: _TERM_UNITS[t] for t in terms}
     provenance = {"angles": int(records.theta.size), "amplitude_g": records.amplitude,
@@ -311,6 +346,11 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
             "the coefficients or their uncertainties are not finite (beyond the float range): "
             "the records' values are not those of a shaker test"
         )
+    ident = analyse(design, terms, units=units)
+    un = unestimated(design, terms, left, sigma=None,
+                     identified=[t in ident.identifiable for t in terms],
+                     priors=_priors(priors, tuple(left)))
+    est = dataclasses.replace(est, covariance=est.covariance + un.covariance, labels=un.labels)
     source = ("given" if scale_factor is not None else
               "from the model" if base is not None else "from the records")
     unit = records.output_unit
@@ -331,10 +371,14 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
                    "reference channels' noise, entering through the small fitted "
                    "coefficients, neglected"),
     )
-    notes = () if noisy else ("noise-free records: covariance is not meaningful",)
+    notes = (() if noisy else ("noise-free records: covariance is not meaningful",)) + ((
+        "terms of the IA motion taken as zero bounded by priors (" + ", ".join(
+            f"{p.name} +-{p.value:.3g} {p.unit} ({p.source})" for p in un.priors)
+        + "), propagated as Type B to the rows they move",) if un.priors else ())
     return Reduction(
         family="transverse", method=method, sensors=(est,),
-        identifiability=analyse(design, terms, units=units),
+        identifiability=ident, type_b=un.contributions, aliases=un.aliases,
+        priors=un.priors,
         assumptions=assumptions, fixed=held,
         observations={"angle_deg": np.rad2deg(records.theta),
                       "sT": np.abs(w_ratio(ph, k1)),
@@ -342,6 +386,35 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
         quantities={"Ko": "transverse", "Kp": "transverse"},
         provenance={**provenance, "route": route, "terms": list(terms)}, notes=notes,
     )
+
+
+def _priors(priors, left) -> dict:
+    """Term -> Prior of the terms left out, from the ``priors`` argument.
+
+    A dict maps a term to a :class:`~accelcal.aliasing.Prior` or a number (a
+    standard uncertainty, normal, in the term's unit); a prior of a fitted or
+    held term is not used.
+    """
+    if priors is None or (isinstance(priors, str) and priors == "none"):
+        return {}
+    if isinstance(priors, str):
+        if priors != "default":
+            raise AccelcalError(f"priors {priors[:40]!r} is not one of 'default', 'none' or "
+                                "a dict of priors", parameter="priors")
+        return default_priors(left)
+    chosen = {}
+    for name, p in dict(priors).items():
+        if name not in FIT_TERMS or name == "Ki":
+            raise AccelcalError(f"prior of {str(name)[:40]!r}: not a term of the shaker model",
+                                parameter="priors")
+        if isinstance(p, Prior):
+            chosen[name] = p
+            continue
+        try:  # a number: a standard uncertainty (normal) in the term's unit, from the user
+            chosen[name] = Prior(name, float(p), TERMS[name].unit, "normal")
+        except (TypeError, ValueError) as exc:
+            raise AccelcalError(f"prior of {name}: {exc}", parameter="priors") from None
+    return {t: p for t, p in chosen.items() if t in left}
 
 
 ROUTE_TEXT = {

@@ -29,8 +29,11 @@ References
    Hopkins, 2013, sec. 5.5 (rank-deficient least squares).
 """
 
+import dataclasses
+
 import numpy as np
 
+from accelcal.aliasing import Prior, default_priors, unestimated
 from accelcal.errors import AccelcalError
 from accelcal.fitting import least_squares
 from accelcal.identifiability import Combination, analyse
@@ -43,6 +46,7 @@ from accelcal.methods.vre.closed_form import (
     along_ia,
     vre_columns,
 )
+from accelcal.methods.vre.unestimated import type_b_text
 from accelcal.model import TERMS, unknown_term_message
 from accelcal.results import Assumption, Estimate, Reduction
 
@@ -95,6 +99,7 @@ def identify(
     provenance=None,
     assumptions=(),
     columns=None,
+    priors="default",
 ) -> Reduction:
     """Least-squares identification of VRE coefficients from a (b, A) design.
 
@@ -130,6 +135,15 @@ def identify(
         sampling); for point-sampled records pass
         :meth:`~accelcal.methods.vre.VreMeasurement.design_columns`, which
         removes the sign term's discretisation error.
+    priors : "default", "none", None or dict
+        What is known of the rectifying terms neither fitted nor held, which
+        the fit takes as zero (:mod:`accelcal.methods.vre.unestimated`):
+        ``"default"`` bounds each by twice the embedded default
+        accelerometer's magnitude (rectangular); a dict maps a term to an
+        :class:`~accelcal.aliasing.Prior`; ``"none"`` or None propagates
+        nothing and the reduction lists, in ``aliases``, the rows each term
+        would move per unit. A term the design cannot separate from the
+        fitted ones is named in the rows instead (``K2+0.01*Kio``).
 
     Returns
     -------
@@ -139,7 +153,8 @@ def identify(
         design cannot separate (``reduction.unidentified()``), whose
         determined combinations are in ``reduction.combinations``; the held
         coefficients in ``reduction.fixed``; the design's rank and null
-        space in ``reduction.identifiability``.
+        space in ``reduction.identifiability``; the priors' Type B
+        contributions in ``reduction.type_b`` and in the covariance.
 
     Raises
     ------
@@ -207,6 +222,13 @@ def identify(
                   "amplitudes or directions that separate them"),)
     _check_finite(est, combos, ident)
     weighting = _weighting(est, sigma)
+    out = tuple(t for t in VRE_TERMS if t not in terms and t not in fixed)
+    un = unestimated(design, terms, dict(zip(out, _out_columns(
+        cols, out, b=b, A=A, direction=direction, n=n), strict=True)), sigma=sigma,
+        identified=[t in ident.identifiable for t in terms], priors=_priors(priors, out))
+    est = dataclasses.replace(
+        est, covariance=est.covariance + un.covariance, labels=un.labels,
+        notes=est.notes + tuple(t for t in (type_b_text(un),) if t))
     observations = {"overload": b, "amplitude": A, "direction": d, "vre": measured}
     if given is not None:
         observations["uncertainty"] = given
@@ -216,7 +238,45 @@ def identify(
         combinations=combos, identifiability=ident,
         assumptions=tuple(dict.fromkeys((*weighting, *assumptions))),
         fixed=fixed, observations=observations, provenance=prov, notes=notes,
+        type_b=un.contributions, aliases=un.aliases, priors=un.priors,
     )
+
+
+def _out_columns(cols, out, *, b, A, direction, n):
+    """The closed-form VRE columns of the terms left out (given columns hold only the used)."""
+    if not out:
+        return []
+    full = cols if all(t in cols for t in out) else vre_columns(b, A, direction)
+    return [np.broadcast_to(full[t], (n,)) for t in out]
+
+
+def _priors(priors, out) -> dict:
+    """Term -> Prior of the terms left out, from the ``priors`` argument.
+
+    A dict maps a term to a :class:`~accelcal.aliasing.Prior` or a number (a
+    standard uncertainty, normal, in the term's unit); a prior of a fitted or
+    held term is not used.
+    """
+    if priors is None or (isinstance(priors, str) and priors == "none"):
+        return {}
+    if isinstance(priors, str):
+        if priors != "default":
+            raise AccelcalError(f"priors {priors[:40]!r} is not one of 'default', 'none' or "
+                                "a dict of priors", parameter="priors")
+        return default_priors(out)
+    chosen = {}
+    for name, p in dict(priors).items():
+        if name not in VRE_TERMS:
+            raise AccelcalError(f"prior of {str(name)[:40]!r}: not a rectifying term",
+                                parameter="priors")
+        if isinstance(p, Prior):
+            chosen[name] = p
+            continue
+        try:  # a number: a standard uncertainty (normal) in the term's unit, from the user
+            chosen[name] = Prior(name, float(p), TERMS[name].unit, "normal")
+        except (TypeError, ValueError) as exc:
+            raise AccelcalError(f"prior of {name}: {exc}", parameter="priors") from None
+    return {t: p for t, p in chosen.items() if t in out}
 
 
 def _columns(columns, terms, fixed, n) -> dict[str, np.ndarray]:
