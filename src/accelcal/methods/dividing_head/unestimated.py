@@ -54,9 +54,10 @@ EQUAL = "sensors' terms equal"
 """Input name of the Type B part a row gets beyond that of independent sensors' terms when
 the sensors' terms are taken as equal, in the worst sign (:func:`_sensors_equal`)."""
 
-STEP = 1e-6
-"""Perturbation of a term (g/g^n) for the alias matrix: small against 1, large against
-the outputs' rounding."""
+STEP = 1e-4
+"""Perturbation of a term (g/g^n) for the alias matrix, by central differences: exact for
+the linear reductions, second order (~1e-8 relative) for those normalised by the fitted
+K_I, and rounding amplified by 1e-16 / STEP only."""
 
 
 PRIOR_CHOICES = ("default", "none")
@@ -96,13 +97,15 @@ def with_type_b(data, red, method, terms=TERMS, priors="default"):
     priors = default_priors(terms, data.output_unit) if use else {}
     n_sens = len(red.sensors)
     p = len(red.sensors[0].names)
-    base = np.concatenate([e.values for e in red.sensors])
     columns, names = [], []
     for k, (term, z) in _columns(data, red, priors, terms, use):
-        outputs = np.array(data.outputs, dtype=float)
-        outputs[k] += STEP * z
-        moved = method(dataclasses.replace(data, outputs=outputs))
-        columns.append((np.concatenate([e.values for e in moved.sensors]) - base) / STEP)
+        ends = []
+        for step in (STEP, -STEP):
+            outputs = np.array(data.outputs, dtype=float)
+            outputs[k] += step * z
+            moved = method(dataclasses.replace(data, outputs=outputs))
+            ends.append(np.concatenate([e.values for e in moved.sensors]))
+        columns.append((ends[0] - ends[1]) / (2 * STEP))
         names.append((k, term))
     a = np.column_stack(columns)  # (n_sens p, number of terms)
     cov_all = np.zeros((n_sens * p, n_sens * p))
