@@ -185,9 +185,9 @@ def _sensors_equal(a, names, priors) -> np.ndarray:
 def _columns(data, red, priors, terms, bound):
     """``(sensor, (term, output change per unit term))`` of every unestimated term.
 
-    Besides :data:`TERMS`, each position where sensor k's a_i is zero (within
-    :data:`ZERO_A_I`) gets its own term ``K0_asym@<angle>``: there
-    ``sgn(a_i) K0'/2`` is +-K0'/2 by a sign no one knows (added to
+    Besides :data:`TERMS`, the positions where sensor k's a_i is zero (within
+    :data:`ZERO_A_I`) get a term ``K0_asym@<angle of the first>`` per zero
+    of a_i: there ``sgn(a_i) K0'/2`` is +-K0'/2 by a sign no one knows (added to
     ``priors`` when ``bound``, bounded as K0').
     """
     beta = data.angles()
@@ -197,10 +197,13 @@ def _columns(data, red, priors, terms, bound):
         z = design_matrix(beta[k], "PA", (*terms, "K1"))[:, :-1] * k_i
         for j, term in enumerate(terms):
             yield k, (term, z[:, j])
-        for j in np.flatnonzero(np.abs(np.sin(beta[k])) < ZERO_A_I):
-            term = f"K0_asym@{np.degrees(data.positions[j]):.6g}deg"
+        near = np.flatnonzero(np.abs(np.sin(beta[k])) < ZERO_A_I)
+        crossing = np.rint(beta[k][near] / np.pi)
+        for c in np.unique(crossing):
+            at = near[crossing == c]  # one zero of a_i: one sign, unknown
+            term = f"K0_asym@{np.degrees(data.positions[at[0]]):.6g}deg"
             if bound and asym is not None:
                 priors[term] = dataclasses.replace(asym, name=term)
             impulse = np.zeros(beta.shape[1])
-            impulse[j] = 0.5 * k_i
+            impulse[at] = 0.5 * k_i
             yield k, (term, impulse)
