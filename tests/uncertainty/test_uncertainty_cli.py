@@ -81,8 +81,10 @@ def test_mc_adds_columns_and_keeps_the_formal_ones(files, kind, capsys):
 
 
 def test_type_b_input_widens_the_head_interval(files, capsys):
+    # the Monte Carlo draws the noise (and the head error given): compared with the formal
+    # noise part, without the priors of the terms eq. (5) leaves out
     base = [*files["head"], "--format", "json", "--uncertainty", "mc", "--trials", "4000",
-            "--method", "single"]
+            "--method", "single", "--priors", "none"]
     plain = json.loads(_run(base, capsys)[1])
     wide = json.loads(_run([*base, "--angle-error-level", "3arcsec"], capsys)[1])
     k_f = [i for i, r in enumerate(plain) if r["coefficient"] == "K_F"]

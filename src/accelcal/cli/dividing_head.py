@@ -256,6 +256,13 @@ def reduce_cmd(
         help="joint: iterate on the exact (non-linearised) model (with the file's "
              "autocollimator readings, if any, as pseudo-observations).",
     ),
+    priors: str = typer.Option(
+        "default", "--priors",
+        help="Priors of the terms Dong2014 eq. (5) leaves out (K3, K0', K1', and K0'/2 of "
+             "unknown sign where a_i = 0): default (twice the embedded default "
+             "accelerometer's magnitude, rectangular), propagated as Type B; none (state only "
+             "how much each would move each row).",
+    ),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
     plot: Path | None = typer.Option(
         None, "--plot", help="Directory for figures (residuals, separated head error; PNG+SVG)."
@@ -298,7 +305,7 @@ def reduce_cmd(
         first_harmonic=None if first_harmonic is None else _pair(first_harmonic,
                                                                  "--first-harmonic"),
         first_harmonic_sd=first_harmonic_sd)
-    result = reduce(data, method, **options)
+    result = reduce(data, method, priors=priors, **options)
     rows = result.rows()
     if monte_carlo:
         from accelcal.methods.dividing_head import head_uncertainty

@@ -1,35 +1,43 @@
 """The reduction contract (tests/helpers/contract.py) for every indexing-head reduction."""
 
+import dataclasses
 from typing import ClassVar
 
 import numpy as np
 import pytest
 
-from accelcal.methods.dividing_head import COEFFICIENTS, HeadData, reduce
+import accelcal
+from accelcal.methods.dividing_head import HeadData, reduce
 from accelcal.model import ErrorModel
 from accelcal.rigs.dividing_head import AngleErrorProfile, DividingHeadRig, simulate
 from accelcal.units import ARCSEC
-from helpers.contract import ReductionContract
+from helpers.contract import ReductionContract, default_terms
 
 NOISE = 2.8e-6  # V, Dong2014 Table 1 column U
 
 
 class _HeadContract(ReductionContract):
     """Four sensors at 0/90/180/270 deg, 24 positions, random Dong2014-sized coefficients,
-    random misalignments (+-2 arcsec) and, where the method separates it, a random head error
-    of harmonics 2-5 (zero mean and first harmonic: no gauge, no alias)."""
+    every other term a rotation about PA excites (K3, Koo, K0', K1') at the default
+    accelerometer's magnitude with a random sign, random misalignments (+-2 arcsec) and, where
+    the method separates it, a random head error of harmonics 2-5 (zero mean and first
+    harmonic: no gauge, no alias)."""
 
     METHOD = ""
     OPTIONS: ClassVar[dict] = {}
     HEAD_ERROR = True
+    TYPE_B = True  # K3, K0', K1' are bounded by the default priors, not estimated
+    EXTRA = ("K3", "Koo", "K0_asym", "K1_asym")
 
     def truth(self, rng):
-        models = tuple(
-            ErrorModel.from_dong2014(K_F=rng.normal(0, 1e-3), K_I=rng.uniform(1.2, 1.4),
-                                     K_O=rng.normal(0, 1e-5), K_IO=rng.normal(0, 2e-5),
-                                     K_II=rng.normal(0, 2e-5))
-            for _ in range(4)
-        )
+        models = []
+        for _ in range(4):
+            k_i = rng.uniform(1.2, 1.4)
+            models.append(ErrorModel(
+                K1=k_i, K0=rng.normal(0, 1e-3) / k_i, Ko=rng.normal(0, 1e-5) / k_i,
+                Kio=rng.normal(0, 2e-5) / k_i, K2=rng.normal(0, 2e-5) / k_i,
+                **default_terms(accelcal.default_model(), rng, self.EXTRA)))
+        models = tuple(models)
         terms = {(m, cs): rng.normal(0, 1.0) * ARCSEC for m in range(2, 6) for cs in "cs"}
         profile = AngleErrorProfile.harmonics(terms) if self.HEAD_ERROR else AngleErrorProfile()
         return {"models": models, "eta": rng.uniform(-2, 2, 4) * ARCSEC, "profile": profile}
@@ -45,13 +53,29 @@ class _HeadContract(ReductionContract):
         return reduce(data, self.METHOD, **self.OPTIONS)
 
     def expected(self, truth):
-        # K_O* = K_O + K_I (eta + d0) [DOMAIN step 6]; d0 = 0 (harmonics >= 2 only)
+        # K_O* = K_O + K_I (eta + d0) [DOMAIN step 6]; d0 = 0 (harmonics >= 2 only); the rows
+        # K_F+K_OO and K_II-K_OO (K_OO = K_I Koo) by the truth of the combination
         out = []
         for model, eta in zip(truth["models"], truth["eta"], strict=True):
-            want = {c: model.to_dong2014()[c] for c in COEFFICIENTS}
-            want["K_O"] += want["K_I"] * eta
-            out.append(want)
+            k_i = model.K1
+            out.append({"K_F": k_i * (model.K0 + model.Koo), "K_I": k_i,
+                        "K_O": k_i * model.Ko + k_i * eta, "K_IO": k_i * model.Kio,
+                        "K_II": k_i * (model.K2 - model.Koo)})
         return out
+
+    def test_noise_free_recovers_truth(self):
+        # Every truth term sits at the default magnitude, half its prior's bound (u = 2 a /
+        # sqrt 3): one term alone moves a row by at most 0.87 u, but two or three aligned by
+        # up to 1.2-1.5 u; noise-free rows are checked at k = 2 (the default case at k = 1)
+        truth, red = self._run(self.SEEDS[0], noisy=False)
+        for k, name, want, got, std in self._pairs(truth, red):
+            tol = self.noise_free_tolerance(name, want) + 2.0 * std
+            assert abs(got - want) <= tol, f"sensor {k} {name}: {got!r} vs {want!r} (tol {tol})"
+
+    def default_case(self):
+        model = accelcal.default_model()
+        truth = {"models": (model,) * 4, "eta": np.zeros(4), "profile": AngleErrorProfile()}
+        return self.simulate(truth, None, noisy=False), self.expected(truth)
 
     def noise_free_tolerance(self, name, value):
         # Every reduction is linear in the head error and misalignment eps = |d| + |eta|
@@ -95,7 +119,12 @@ class TestJointContract(_HeadContract):
     METHOD = "joint"
 
     def test_shared_head_error_and_gauge(self):
-        truth, red = self._run(self.SEEDS[0], noisy=False)
+        # without the terms Dong2014 eq. (5) leaves out (their harmonics >= 3 would enter
+        # the separated head error)
+        truth = self.truth(np.random.default_rng(self.SEEDS[0]))
+        truth["models"] = tuple(dataclasses.replace(m, **dict.fromkeys(self.EXTRA, 0.0))
+                                for m in truth["models"])
+        red = self.reduce(self.simulate(truth, None, noisy=False))
         # noise-free: the separated head error is the simulated one (second order, ~1e-10 rad)
         alpha = red.observations["positions"]
         want = truth["profile"].draw(alpha, 1, None)[0]

@@ -27,6 +27,7 @@ from accelcal.methods.dividing_head.joint import joint
 from accelcal.methods.dividing_head.result import K_O_STAR, head_reduction
 from accelcal.methods.dividing_head.single import single
 from accelcal.methods.dividing_head.theory import COEFFICIENTS, METHODS, coefficient_units, psi
+from accelcal.methods.dividing_head.unestimated import PRIOR_CHOICES, with_type_b
 from accelcal.results import Estimate, Reduction
 from accelcal.validation import shown
 
@@ -70,7 +71,11 @@ def reduce(data, method: str = "joint", **options) -> Reduction:
     method (:data:`OPTIONS`; an option given as None counts as not given):
     ``first_harmonic``, ``first_harmonic_sd``; for ``four`` also
     ``covariance``; for ``joint`` also ``mean_error``, ``autocollimator``,
-    ``autocollimator_sd``, ``gauss_newton``, ``max_iterations``. ``tumble``
+    ``autocollimator_sd``, ``gauss_newton``, ``max_iterations``; for every
+    method ``priors`` (``"default"``: the terms Dong2014 eq. (5) leaves out
+    bounded by the embedded default priors and propagated as Type B,
+    :mod:`~accelcal.methods.dividing_head.unestimated`; ``"none"``: only
+    their aliases listed). ``tumble``
     uses the IEEE 1293 multipoint Fourier reduction of
     :mod:`accelcal.methods.tumble` on each sensor, with the head axis along
     PA.
@@ -94,9 +99,15 @@ def reduce(data, method: str = "joint", **options) -> Reduction:
     if isinstance(data, HeadRecord):
         options = lab_options(data, method, **options)
         data = HeadData.from_record(data)
+    priors = options.pop("priors", None) or "default"
+    if priors not in PRIOR_CHOICES:
+        raise AccelcalError(f"{shown(priors)} is not one of {', '.join(PRIOR_CHOICES)}",
+                            parameter="priors")
     given = check_options(method, options)
-    return {"single": single, "four": four, "joint": joint, "tumble": tumble}[method](
-        data, **given)
+    if method == "tumble":
+        return with_type_b(data, tumble(data), tumble, terms=(), priors=priors)
+    run = {"single": single, "four": four, "joint": joint}[method]
+    return with_type_b(data, run(data, **given), lambda d: run(d, **given), priors=priors)
 
 
 def lab_options(record: HeadRecord, method: str, **given) -> dict:

@@ -1,0 +1,209 @@
+"""The indexing head's unestimated terms: their aliases and Type B contributions.
+
+Dong2014's basis ``Psi(beta) = [1, sin, cos, sin cos, sin^2]`` (a_p = 0)
+leaves out terms every real sensor has: the cubic and quartic K3, K4 and
+the asymmetry ``sgn(a_i)(K0' + K1' a_i)/2``. Over a full turn
+``sin^3 = (3 sin - sin 3b)/4`` puts ``3/4 K_I K3`` into K_I, ``sgn(sin)/2``
+has the Fourier series ``(2/pi)(sin b + sin 3b/3 + ...)`` and puts
+``(2/pi) K_I K0'`` into K_I, and ``|sin|/2 = 1/pi - (2/3pi) cos 2b - ...``
+moves K_F and K_II by K1'. (Koo is not among them: no rotation about PA
+separates it, and the rows K_F+K_OO, K_II-K_OO are named for it.)
+
+The alias matrix ``A`` (row unit per term unit, :mod:`accelcal.aliasing`)
+is the reduction applied to each term's columns: sensor k's outputs
+``U_k + K_I,k f_z(beta_k) dz`` (``f_z`` of
+:func:`accelcal.physics.tumble.design_matrix`, about PA) are reduced again
+and the change of every sensor's rows divided by ``dz``. The reductions
+are linear in the outputs (or linearised at the solution), so this is the
+first-order alias, exact for ``single`` and ``four``; the shared head
+error lets a term of one sensor move the others' rows. Each term of each
+sensor is bounded by its prior (independent between sensors) and
+propagated as a Type B covariance ``A u^2 A'``, itemised in
+``Reduction.type_b``; terms without a prior are listed in
+``Reduction.aliases`` with the rows they would move per unit.
+
+References
+----------
+.. [Dong2014] Dong C., Liu Q., Ren S., Test methods of four integrated
+   accelerometers on an indexing head, 2014, eq. (5).
+.. [Guan2021] Guan et al., the asymmetry terms, eq. (3).
+.. [GUM] JCGM 100:2008, secs. 4.3.7, 5.1.2.
+.. [Montgomery] Montgomery D. C., Design and Analysis of Experiments, 8th
+   ed., Wiley, 2013, sec. 10.3 (alias matrix).
+"""
+
+import dataclasses
+
+import numpy as np
+
+from accelcal.aliasing import Contribution, aliases, default_priors, propagate
+from accelcal.errors import AccelcalError
+from accelcal.model import term_unit
+from accelcal.physics.tumble import design_matrix
+from accelcal.validation import shown
+
+TERMS = ("K3", "K4", "K0_asym", "K1_asym")
+"""Terms of the error model a rotation about PA excites that Dong2014 eq. (5) leaves out
+(and the positions could separate from the estimated ones)."""
+
+ZERO_A_I = 1e-4
+"""|sin beta| (rad) below which a position's a_i is zero to within the misalignment and
+head error (20 arcsec): the sign of a_i there, and so that of K0'/2, is unknown."""
+
+EQUAL = "sensors' terms equal"
+"""Input name of the Type B part a row gets beyond that of independent sensors' terms when
+the sensors' terms are taken as equal, in the worst sign (:func:`_sensors_equal`)."""
+
+STEP = 1e-4
+"""Perturbation of a term (g/g^n) for the alias matrix, by central differences: exact for
+the linear reductions, second order (~1e-8 relative) for those normalised by the fitted
+K_I, and rounding amplified by 1e-16 / STEP only."""
+
+
+PRIOR_CHOICES = ("default", "none")
+"""``priors`` of :func:`with_type_b`: the embedded default accelerometer's, or none (the
+aliases only)."""
+
+
+def with_type_b(data, red, method, terms=TERMS, priors="default"):
+    """``red`` with the unestimated terms' Type B covariance, contributions and aliases.
+
+    Parameters
+    ----------
+    data : HeadData
+        The data ``red`` was reduced from.
+    red : Reduction
+        A ``single``, ``four`` or ``joint`` reduction of ``data``.
+    method : callable
+        ``data -> Reduction``: the same reduction with the same options.
+    terms : tuple of str
+        The terms of :data:`TERMS` the reduction leaves out (the ``tumble``
+        route estimates K3 and K4 and bounds K0', K1' itself: none); the
+        positions where a_i = 0 are always added.
+    priors : {"default", "none"}
+        ``"none"``: nothing propagated; every term's aliases listed.
+
+    Returns
+    -------
+    Reduction
+        Each sensor's covariance plus ``sum_z A_z u_z^2 A_z'`` (and the
+        coefficient block of ``red.covariance``), ``type_b``, ``aliases``
+        of the terms without a prior and ``priors``.
+    """
+    if priors not in PRIOR_CHOICES:
+        raise AccelcalError(f"priors {shown(priors)} is not one of {', '.join(PRIOR_CHOICES)}",
+                            parameter="priors")
+    use = priors == "default"
+    priors = default_priors(terms, data.output_unit) if use else {}
+    n_sens = len(red.sensors)
+    p = len(red.sensors[0].names)
+    columns, names = [], []
+    for k, (term, z) in _columns(data, red, priors, terms, use):
+        ends = []
+        for step in (STEP, -STEP):
+            outputs = np.array(data.outputs, dtype=float)
+            outputs[k] += step * z
+            moved = method(dataclasses.replace(data, outputs=outputs))
+            ends.append(np.concatenate([e.values for e in moved.sensors]))
+        columns.append((ends[0] - ends[1]) / (2 * STEP))
+        names.append((k, term))
+    a = np.column_stack(columns)  # (n_sens p, number of terms)
+    cov_all = np.zeros((n_sens * p, n_sens * p))
+    for i, (_, term) in enumerate(names):
+        if term in priors:
+            cov_all += np.outer(a[:, i], a[:, i]) * priors[term].standard**2
+    worst = _sensors_equal(a, names, priors)
+    excess = np.maximum(worst - np.diagonal(cov_all), 0.0)
+    cov_all += np.diag(excess)
+    type_b, entries = [], []
+    for k, est in enumerate(red.sensors):
+        rows = tuple(est.label(n) for n in est.names)
+        units = {est.label(n): est.units[n] for n in est.names}
+        block = slice(k * p, (k + 1) * p)
+        for m in range(n_sens):
+            cols = [i for i, (s, _) in enumerate(names) if s == m]
+            sub = a[block][:, cols]
+            terms = tuple(names[i][1] for i in cols)
+            # another sensor's term moves this sensor's rows: name it so
+            named = terms if m == k else tuple(f"{t}[{data.sensors[m] if data.sensors else m}]"
+                                                for t in terms)
+            used = {s: priors[t] for s, t in zip(named, terms, strict=True) if t in priors}
+            _, parts = propagate(sub, rows, named, used, row_units=units, sensor=k)
+            type_b += parts
+            free = [i for i, t in enumerate(terms) if t not in priors]
+            entries += aliases(sub[:, free], rows, tuple(named[i] for i in free),
+                               row_units=units,
+                               term_units={named[i]: term_unit(terms[i].split("@")[0],
+                                                                  data.output_unit)
+                                           for i in free}, sensor=k)
+        type_b += [Contribution(row, EQUAL, 1.0, float(np.sqrt(x)), float(np.sqrt(x)),
+                                unit=units[row], source="default", sensor=k)
+                   for row, x in zip(rows, excess[block], strict=True) if x > 0.0]
+    sensors = tuple(dataclasses.replace(e, covariance=e.covariance + cov_all[k * p:(k + 1) * p,
+                                                                               k * p:(k + 1) * p])
+                    for k, e in enumerate(red.sensors))
+    covariance = red.covariance
+    if covariance is not None and np.ndim(covariance) == 2 and covariance.shape[0] >= n_sens * p:
+        covariance = np.array(covariance, dtype=float)
+        covariance[:n_sens * p, :n_sens * p] += cov_all
+    bounds = [f"{pr.name} +-{pr.value:.3g} {pr.unit}" for pr in priors.values()
+              if "@" not in pr.name]
+    note = ("terms the reduction leaves out bounded by the embedded default priors, "
+            "propagated as Type B to the rows they move (the larger of the sensors' terms "
+            "independent and equal): " + ", ".join(
+                [*bounds, "K0'/2 of unknown sign at each position where a_i = 0"]))
+    free = sorted({e.term.split("@")[0].split("[")[0] for e in entries})
+    if not use:
+        note = "priors none: no Type B propagated"
+    if free:
+        note += (f"; {', '.join(free)} (of every sensor and, for K0_asym, at each position "
+                 "where a_i = 0) taken as zero, no prior: see the aliases")
+    return dataclasses.replace(red, sensors=sensors, covariance=covariance,
+                               type_b=(*red.type_b, *type_b), aliases=(*red.aliases, *entries),
+                               priors=(*red.priors, *priors.values()),
+                               notes=(*red.notes, note))
+
+
+def _sensors_equal(a, names, priors) -> np.ndarray:
+    """Each row's Type B variance with the sensors' terms equal, in the worst sign.
+
+    The terms of one kind (K3, K0', ...; every ``K0_asym@`` of unknown sign
+    counts as K0') move a row through every sensor; with the sensors'
+    terms correlated in an unknown way (GUM 5.2.2: ``|r| <= 1``) the
+    contributions of one kind add at most linearly:
+    ``(sum_m |a_m| u)^2``.
+    """
+    worst = np.zeros(a.shape[0])
+    for kind in TERMS:
+        cols = [i for i, (_, t) in enumerate(names) if t.split("@")[0] == kind and t in priors]
+        if cols:
+            u = np.array([priors[names[i][1]].standard for i in cols])
+            worst += (np.abs(a[:, cols]) @ u) ** 2
+    return worst
+
+
+def _columns(data, red, priors, terms, bound):
+    """``(sensor, (term, output change per unit term))`` of every unestimated term.
+
+    Besides :data:`TERMS`, the positions where sensor k's a_i is zero (within
+    :data:`ZERO_A_I`) get a term ``K0_asym@<angle of the first>`` per zero
+    of a_i: there ``sgn(a_i) K0'/2`` is +-K0'/2 by a sign no one knows (added to
+    ``priors`` when ``bound``, bounded as K0').
+    """
+    beta = data.angles()
+    asym = default_priors(("K0_asym",), data.output_unit).get("K0_asym")
+    for k, est in enumerate(red.sensors):
+        k_i = float(est["K_I"])
+        z = design_matrix(beta[k], "PA", (*terms, "K1"))[:, :-1] * k_i
+        for j, term in enumerate(terms):
+            yield k, (term, z[:, j])
+        near = np.flatnonzero(np.abs(np.sin(beta[k])) < ZERO_A_I)
+        crossing = np.rint(beta[k][near] / np.pi)
+        for c in np.unique(crossing):
+            at = near[crossing == c]  # one zero of a_i: one sign, unknown
+            term = f"K0_asym@{np.degrees(data.positions[at[0]]):.6g}deg"
+            if bound and asym is not None:
+                priors[term] = dataclasses.replace(asym, name=term)
+            impulse = np.zeros(beta.shape[1])
+            impulse[at] = 0.5 * k_i
+            yield k, (term, impulse)

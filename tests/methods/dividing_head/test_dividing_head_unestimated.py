@@ -1,0 +1,113 @@
+"""The indexing head's unestimated terms: aliases that predict the error, Type B that bounds it."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import accelcal
+from accelcal.cli import main
+from accelcal.io.formats.dividing_head import write_head_record
+from accelcal.methods.dividing_head import HeadData, reduce, single
+from accelcal.methods.dividing_head.unestimated import EQUAL
+from accelcal.rigs.dividing_head import DividingHeadRig, simulate
+
+METHODS = ("single", "four", "joint")
+
+
+def _data(**terms):
+    """Noise-free data of the default accelerometer with only ``terms`` of K3, K0', K1', Koo."""
+    off = dict.fromkeys(("K3", "K0_asym", "K1_asym", "Koo"), 0.0)
+    model = dataclasses.replace(accelcal.default_model(), **{**off, **terms})
+    # start at 7.5 deg: no position has a_i = 0, so K0'/2 has a known sign everywhere
+    rig = DividingHeadRig.uniform(24, (model,) * 4, noise=0.0)
+    rig = dataclasses.replace(rig, positions=rig.positions + np.radians(7.5))
+    run = simulate(rig, None)
+    return HeadData.build(rig.positions, run.outputs, rig.mounts), model
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("term", ["K3", "K0_asym", "K1_asym"])
+def test_aliases_predict_the_error_of_each_term(method, term):
+    # with no prior the aliases state how much the term moves each row per unit: times
+    # the term's true value they are the error of every row (first order, every sensor)
+    model = accelcal.default_model()
+    value = getattr(model, term)
+    data, _ = _data(**{term: value})
+    clean, _ = _data()
+    red = reduce(data, method, priors="none")
+    base = reduce(clean, method, priors="none")
+    for k in range(4):
+        est = red.sensors[k]
+        for name in est.names:
+            row = est.label(name)
+            moved = sum(a.sensitivity * value for a in red.aliases
+                        if a.sensor == k and a.row == row and a.term.split("[")[0] == term)
+            err = est[name] - base.sensors[k][name]
+            assert abs(err - moved) <= 1e-3 * abs(moved) + 1e-12, (k, row, err, moved)
+    # K0' and K3 move K_I, and visibly (> 0.1 uV/g), which the Type A SD misses
+    if term in ("K0_asym", "K3"):
+        assert any(a.row == "K_I" and abs(a.sensitivity * value) > 1e-7 for a in red.aliases
+                   if a.term == term)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_default_priors_add_their_itemised_type_b(method):
+    data, _ = _data(K3=1e-7, K0_asym=2e-6, K1_asym=1e-6)
+    plain = reduce(data, method, priors="none")
+    red = reduce(data, method)
+    assert not plain.type_b
+    assert plain.aliases
+    assert {p.name for p in red.priors} >= {"K3", "K0_asym", "K1_asym"}
+    for k, (a, b) in enumerate(zip(plain.sensors, red.sensors, strict=True)):
+        for name in a.names:
+            row = a.label(name)
+            parts = [c for c in red.type_b if c.sensor == k and c.row == row]
+            # the sensors' terms equal (worst sign) or independent: the larger variance
+            equal = sum(c.contribution**2 for c in parts if c.input == EQUAL)
+            indep = sum(c.contribution**2 for c in parts if c.input != EQUAL)
+            np.testing.assert_allclose(b.std_of(name)**2 - a.std_of(name)**2, indep + equal,
+                                       rtol=1e-6, atol=1e-24)
+    k_i = [c for c in red.type_b if c.sensor == 0 and c.row == "K_I" and c.input == "K0_asym"]
+    assert k_i
+    assert k_i[0].source == "default"
+    # K0' bound: twice the default magnitude, rectangular: u = 2 a / sqrt 3
+    assert k_i[0].u == pytest.approx(2 * accelcal.default_model().K0_asym / np.sqrt(3))
+
+
+def test_positions_where_a_i_is_zero_carry_k0_of_unknown_sign():
+    data, _ = _data(K0_asym=2e-6)
+    at_zero = HeadData.build(data.positions - np.radians(7.5), data.outputs, data.mounts)
+    red = reduce(at_zero, "single")
+    terms = {c.input for c in red.type_b if c.sensor == 0}
+    assert {"K0_asym@0deg", "K0_asym@180deg"} <= terms
+    assert not any("@" in c.input for c in reduce(data, "single").type_b)
+
+
+def test_direct_method_call_has_no_type_b():
+    # the per-method functions stay the bare reductions; reduce() adds the Type B
+    data, _ = _data(K0_asym=2e-6)
+    assert single(data).type_b == ()
+    assert reduce(data, "single").type_b
+
+
+def test_cli_priors_option(tmp_path, capsys):
+    model = accelcal.default_model()
+    rig = DividingHeadRig.uniform(24, (model,) * 4, noise=1e-6)
+    run = simulate(rig, 1)
+    path = tmp_path / "h.csv"
+    write_head_record(path, rig.positions, run.outputs, rig.mounts)
+    with pytest.raises(SystemExit) as exc:
+        main(["dividing-head", "reduce", str(path), "--method", "single", "--priors", "maybe"])
+    _out, err = capsys.readouterr()
+    assert exc.value.code == 2
+    assert "maybe" in err
+    assert "default" in err
+    assert "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    for choice in ("default", "none"):
+        with pytest.raises(SystemExit) as exc:
+            main(["dividing-head", "reduce", str(path), "--method", "single", "--priors",
+                  choice, "--format", "json"])
+        assert exc.value.code == 0
+        capsys.readouterr()
