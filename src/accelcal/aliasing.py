@@ -45,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from accelcal.errors import AccelcalError
 from accelcal.identifiability import combination_name, inseparable
 from accelcal.terms import TERMS
 
@@ -319,6 +320,47 @@ def default_priors(terms, output_unit: str = "V") -> dict:
             out[t] = Prior(t, DEFAULT_PRIOR_FACTOR * value, term_unit(t, output_unit),
                            "rectangular", math.inf, "default")
     return out
+
+def priors_of(priors, left, allowed, what: str) -> dict:
+    """Term -> :class:`Prior` of the terms ``left`` out of a fit, from a ``priors`` argument.
+
+    Parameters
+    ----------
+    priors : {"default", "none"} or dict or None
+        ``"default"``: :func:`default_priors`; ``"none"`` or None: no prior;
+        a dict maps a term to a :class:`Prior` or a number (a standard
+        uncertainty, normal, in the term's unit, from the user).
+    left : sequence of str
+        The terms the fit leaves out; a prior of any other term is not used.
+    allowed : collection of str
+        The terms a prior may name (the model's, for this method).
+    what : str
+        What ``allowed`` is, for the refusal (``"a term of the shaker model"``).
+
+    Raises
+    ------
+    AccelcalError
+        For another string, or a prior of a term not in ``allowed`` or not a number.
+    """
+    if priors is None or (isinstance(priors, str) and priors == "none"):
+        return {}
+    if isinstance(priors, str):
+        if priors != "default":
+            raise AccelcalError(f"priors {priors[:40]!r} is not one of 'default', 'none' or "
+                                "a dict of priors", parameter="priors")
+        return default_priors(left)
+    chosen = {}
+    for name, p in dict(priors).items():
+        if name not in allowed:
+            raise AccelcalError(f"prior of {str(name)[:40]!r}: not {what}", parameter="priors")
+        if isinstance(p, Prior):
+            chosen[name] = p
+            continue
+        try:  # a number: a standard uncertainty (normal) in the term's unit, from the user
+            chosen[name] = Prior(name, float(p), TERMS[name].unit, "normal")
+        except (TypeError, ValueError) as exc:
+            raise AccelcalError(f"prior of {name}: {exc}", parameter="priors") from None
+    return {t: p for t, p in chosen.items() if t in left}
 
 
 def alias_text(entries) -> list[str]:

@@ -29,19 +29,22 @@ import dataclasses
 
 import numpy as np
 
-from accelcal.aliasing import Prior, default_priors, unestimated
+from accelcal.aliasing import priors_of, unestimated
 from accelcal.errors import AccelcalError
 from accelcal.fitting import least_squares
 from accelcal.identifiability import analyse
 from accelcal.io.formats.shaker import MAX_MAGNITUDE, MIN_SCALE_FACTOR, ShakerRecords
 from accelcal.methods.transverse.estimators import record_phasors, w_ratio
-from accelcal.model import TERMS, ErrorModel
+from accelcal.model import ErrorModel
 from accelcal.results import Assumption, Reduction
 
 FIT_TERMS = ("K0", "Ki", "K2", "K3", "K4", "Ko", "Kp", "Koo", "Kpp", "Kop", "Kio", "Kip",
              "K0_asym", "K1_asym")
 """Terms whose DC, w and 2w regressors :func:`identify` knows (``Ki`` is the
 coefficient of a_i, 1 by definition of K1)."""
+
+PRIOR_TERMS = tuple(t for t in FIT_TERMS if t != "Ki")
+"""Terms a prior may bound (every fitted term but ``Ki``)."""
 
 ROUTES = ("2w", "dc", "both", "w")
 """Components used by :func:`identify` besides the w phasor."""
@@ -349,7 +352,8 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
     ident = analyse(design, terms, units=units)
     un = unestimated(design, terms, left, sigma=None,
                      identified=[t in ident.identifiable for t in terms],
-                     priors=_priors(priors, tuple(left)))
+                     priors=priors_of(priors, tuple(left), PRIOR_TERMS,
+                                      "a term of the shaker model"))
     est = dataclasses.replace(est, covariance=est.covariance + un.covariance, labels=un.labels)
     source = ("given" if scale_factor is not None else
               "from the model" if base is not None else "from the records")
@@ -387,34 +391,6 @@ def identify(records: ShakerRecords, *, route: str = "2w", terms=DEFAULT_FIT,
         provenance={**provenance, "route": route, "terms": list(terms)}, notes=notes,
     )
 
-
-def _priors(priors, left) -> dict:
-    """Term -> Prior of the terms left out, from the ``priors`` argument.
-
-    A dict maps a term to a :class:`~accelcal.aliasing.Prior` or a number (a
-    standard uncertainty, normal, in the term's unit); a prior of a fitted or
-    held term is not used.
-    """
-    if priors is None or (isinstance(priors, str) and priors == "none"):
-        return {}
-    if isinstance(priors, str):
-        if priors != "default":
-            raise AccelcalError(f"priors {priors[:40]!r} is not one of 'default', 'none' or "
-                                "a dict of priors", parameter="priors")
-        return default_priors(left)
-    chosen = {}
-    for name, p in dict(priors).items():
-        if name not in FIT_TERMS or name == "Ki":
-            raise AccelcalError(f"prior of {str(name)[:40]!r}: not a term of the shaker model",
-                                parameter="priors")
-        if isinstance(p, Prior):
-            chosen[name] = p
-            continue
-        try:  # a number: a standard uncertainty (normal) in the term's unit, from the user
-            chosen[name] = Prior(name, float(p), TERMS[name].unit, "normal")
-        except (TypeError, ValueError) as exc:
-            raise AccelcalError(f"prior of {name}: {exc}", parameter="priors") from None
-    return {t: p for t, p in chosen.items() if t in left}
 
 
 ROUTE_TEXT = {

@@ -24,11 +24,16 @@ References
 """
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from accelcal.aliasing import Alias, Contribution, Prior, aliases, default_priors, propagate
+from accelcal.aliasing import (
+    Prior,
+    Unestimated,
+    aliases,
+    default_priors,
+    propagate,
+)
 from accelcal.errors import AccelcalError
 from accelcal.identifiability import combination_name, inseparable
 from accelcal.model import term_unit
@@ -37,35 +42,6 @@ from accelcal.physics.tumble import ASYMMETRY_TERMS, FULL_TERMS, design_matrix
 PRIOR_CHOICES = ("default", "none")
 """``priors`` given as text: the embedded default accelerometer's, or none."""
 
-
-@dataclass(frozen=True)
-class Unestimated:
-    """What the unestimated terms do to one tumble reduction.
-
-    Attributes
-    ----------
-    terms : tuple of str
-        The terms taken as zero.
-    named : tuple of str
-        Those the positions cannot separate (they are in the rows' names).
-    labels : dict
-        Row name of each estimated coefficient that estimates a combination.
-    covariance : numpy.ndarray
-        Type B covariance of the coefficients (g/g^n, K1 in output unit/g).
-    contributions : tuple of Contribution
-    aliases : tuple of Alias
-        Entries of the alias matrix of the separable terms.
-    priors : tuple of Prior
-        The priors propagated.
-    """
-
-    terms: tuple[str, ...]
-    named: tuple[str, ...]
-    labels: dict
-    covariance: np.ndarray
-    contributions: tuple[Contribution, ...]
-    aliases: tuple[Alias, ...]
-    priors: tuple[Prior, ...]
 
 
 def check_priors(priors, terms, output_unit: str) -> dict:
