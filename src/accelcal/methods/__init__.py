@@ -2,7 +2,7 @@
 
 Every method package under :mod:`accelcal.methods` returns a
 :class:`~accelcal.results.Reduction` from its reductions and provides, for
-the generic code paths (plots, reports), three names:
+the generic code paths (plots, reports), these names:
 
 ``figures(reduction, **context)``
     The method's figures, read from the Reduction's fields only: a list of
@@ -12,6 +12,13 @@ the generic code paths (plots, reports), three names:
 ``ERRATA``
     Short corrections of the method's paper that a report shows, each with
     its entry in docs/errata.md.
+``from_inputs(files, record)``
+    Where the method writes calibration records: candidate reductions of
+    the input files a ``record`` names (found by their SHA-256, in the
+    record's order), as ``(reduction, context)`` pairs with the settings the
+    record and the files determine, else those of ``accelcal demo`` and of
+    the method's command by default; :func:`accelcal.report.rebuild.rebuild`
+    keeps the first that reproduces the record.
 
 :data:`REGISTRY` maps a Reduction's ``family`` to its package; it is
 derived from the methods' descriptors (:data:`accelcal.catalog.METHODS`),

@@ -114,15 +114,7 @@ def reduce(records, **options):
 
 
 def from_inputs(files, record):
-    """Candidate reductions of a record's input files, for its report's figures.
-
-    ``files`` are the input files the calibration ``record`` names (found by
-    their SHA-256, in the record's order); yields ``(reduction, context)``
-    with the settings the record and the files determine, else those of
-    ``accelcal demo`` and of the method's command by default
-    (:func:`accelcal.report.rebuild.rebuild` keeps the first that reproduces
-    the record).
-    """
+    """Candidate reductions of a record's input files (:mod:`accelcal.methods`)."""
     from accelcal.io.formats import thermal
 
     return [(reduce_thermal(thermal.read(files[0])), {})]

@@ -191,15 +191,7 @@ def uncertainty(reduction, records, *, trials: int, seed: int, **options):
 
 
 def from_inputs(files, record):
-    """Candidate reductions of a record's input files, for its report's figures.
-
-    ``files`` are the input files the calibration ``record`` names (found by
-    their SHA-256, in the record's order); yields ``(reduction, context)``
-    with the settings the record and the files determine, else those of
-    ``accelcal demo`` and of the method's command by default
-    (:func:`accelcal.report.rebuild.rebuild` keeps the first that reproduces
-    the record).
-    """
+    """Candidate reductions of a record's input files (:mod:`accelcal.methods`)."""
     from accelcal.io.formats.shaker import read_records, shaker_files
     from accelcal.method_ids import route_of
     from accelcal.methods.transverse import identify
