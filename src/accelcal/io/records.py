@@ -408,6 +408,27 @@ def _read_parquet(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
     return meta, columns
 
 
+PARQUET_CODEC = "lz4"
+"""Compression of the Parquet records accelcal writes.
+
+Noise-like float channels barely compress, so the codec is chosen for speed;
+dictionary encoding, pyarrow's default, spent most of an import's write on
+float columns whose values never repeat (``benchmarks/import.py`` times the
+import beside one read of the same file)."""
+
+
+def parquet_options(schema) -> dict:
+    """Writer options of a record's Parquet file: no dictionary on float channels, LZ4.
+
+    A dictionary only pays on columns of few distinct values (a point index,
+    text); float samples get none (:data:`PARQUET_CODEC`).
+    """
+    import pyarrow as pa
+
+    keep = [f.name for f in schema if not pa.types.is_floating(f.type)]
+    return {"use_dictionary": keep or False, "compression": PARQUET_CODEC}
+
+
 def _write_parquet(path, header: dict, columns: dict[str, np.ndarray]) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -416,7 +437,7 @@ def _write_parquet(path, header: dict, columns: dict[str, np.ndarray]) -> None:
         {"accelcal": json.dumps(header, allow_nan=False)}
     )
     with atomic_path(path) as tmp:
-        pq.write_table(table, tmp)
+        pq.write_table(table, tmp, **parquet_options(table.schema))
 
 
 def _is_parquet(path) -> bool:
