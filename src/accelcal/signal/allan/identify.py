@@ -270,10 +270,13 @@ def _interval_alphas(x, m, kind, cap):
     reliable = n // np.maximum(m, 1) >= RELIABLE_POINTS
     if not reliable.any():
         return noise_alphas(x, m, kind), ("guessed",) * m.size
+    low, high = alpha_range(kind)
+    dmax = 3 if low == -4 else 2
     alphas = np.empty(m.size, dtype=np.int64)
-    for k in np.flatnonzero(reliable):
-        part = x if m[k] * cap >= n else np.asarray(x[:int(m[k]) * cap + 1])
-        alphas[k] = noise_alphas(part, m[k:k + 1], kind)[0]
+    for k in np.flatnonzero(reliable):  # >= 128 averages: the lag-1 ACF rule
+        mk = int(m[k])
+        z = np.diff(np.asarray(x[:min(n, mk * cap) + 1:mk])) / mk  # cap + 1 phase points read
+        alphas[k] = min(max(acf_alpha(z, dmax)[0], low), high)
     pooled = alphas[np.flatnonzero(reliable)[-POOLED_TAUS:]]
     alphas[~reliable] = int(np.round(np.median(pooled)))
     return alphas, tuple("identified" if r else "carried" for r in reliable)
