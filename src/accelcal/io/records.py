@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.arrow_numbers import floats
 from accelcal.io.atomic import atomic_path
 from accelcal.io.limits import MAX_JSON_BYTES, check_regular_file, load_json, read_rest
 from accelcal.validation import one_line, shown, shown_name
@@ -278,7 +279,7 @@ def _parse_rows(body: bytes, names: list[str], path) -> dict[str, np.ndarray]:
         _raise_first_bad_cell(body, names, path)
     if table.num_rows == 0:
         raise AccelcalError(f"{path}: the record has no data rows")
-    columns = {n: table.column(i).to_numpy() for i, n in enumerate(names)}
+    columns = {n: floats(table.column(i)) for i, n in enumerate(names)}
     bad = np.flatnonzero(~np.logical_and.reduce([np.isfinite(c) for c in columns.values()]))
     if bad.size:
         row = int(bad[0])
@@ -400,7 +401,7 @@ def _read_parquet(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
         if column.null_count:
             raise AccelcalError(f"{path}: column {shown_name(name)} has {column.null_count} "
                                 "missing values")
-        columns[name] = column.to_numpy().astype(float)
+        columns[name] = floats(column)
         bad = np.flatnonzero(~np.isfinite(columns[name]))
         if bad.size:
             raise AccelcalError(
