@@ -92,7 +92,8 @@ QUANTITY_DIMENSIONS: dict[str, tuple[str, ...]] = {
 limit's unit may have, per quantity: the model's coefficients (a scale
 factor in an output unit per g, or in ppm of a relative deviation or
 shift) and the acceptance tests' quantities. A limit on ``Q`` also applies
-to the rows ``Q at ...`` (``hysteresis at +0.5 g``)."""
+to the rows ``Q at ...`` and ``Q (...)`` (``hysteresis at +0.5 g``, ``input range
+(+)``, ``bias repeatability (K_F)``)."""
 
 _LIMIT_KEYS = ("quantity", "lower", "upper", "unit", "serial", "method", "guard")
 _SPEC_KEYS = ("title", "document", "decision_rule", "limit")
@@ -112,8 +113,9 @@ class Limit:
     """Guard band w in ``unit`` for the guarded rule (None: w = U)."""
 
     def matches(self, quantity: str) -> bool:
-        """True for the quantity itself and its rows ``<quantity> at ...``."""
-        return quantity == self.quantity or quantity.startswith(self.quantity + " at ")
+        """True for the quantity itself and its rows ``<quantity> at ...``, ``<quantity> (...)``."""
+        return quantity == self.quantity or quantity.startswith(
+            (self.quantity + " at ", self.quantity + " ("))
 
     def applies(self, serial: str | None = None, method: str | None = None) -> bool:
         """True unless the limit names another serial or method (``family/x`` matches ``x``)."""
