@@ -180,18 +180,18 @@ class Decision:
 
 def coverage_factor(dof) -> float:
     """The coverage factor k for 95.45 %: 2 for infinite ``dof``, else the t-quantile."""
-    from scipy.stats import t
+    from scipy.special import stdtrit
 
     dof = math.inf if dof is None else float(dof)
     if math.isinf(dof):
         return 2.0
-    return float(t.ppf(0.5 + COVERAGE_PROBABILITY / 2.0, dof))
+    return float(stdtrit(dof, 0.5 + COVERAGE_PROBABILITY / 2.0))
 
 
 def _cdf(x: float, dof: float) -> float:
-    from scipy.stats import norm, t
+    from scipy.special import ndtr, stdtr
 
-    return float(norm.cdf(x) if math.isinf(dof) else t.cdf(x, dof))
+    return float(ndtr(x) if math.isinf(dof) else stdtr(dof, x))
 
 
 def decide(estimate, u, dof=None, lower=None, upper=None, *, rule: str = "simple",

@@ -137,10 +137,11 @@ def reduce_range(record, *, settle: float = 0.0, limit: float = LIMIT,
     edges = record.dwells()
     clipped_dwell = np.add.reduceat(clip.mask, edges[:-1]) > 0
     zero = np.flatnonzero(a == 0.0)
-    peak = int(np.argmax(np.abs(a)))
+    peak = int(np.flatnonzero(np.abs(a) == np.abs(a).max())[-1])
     if not (zero.size and zero[0] < peak < zero[-1]):
-        raise AccelcalError("a range test needs zero-input dwells before and after the largest "
-                            "input (the bias before and after the overload)")
+        raise AccelcalError("a range test needs zero-input dwells before the first and after "
+                            "the last of its largest inputs (the bias before and after the "
+                            "overload)")
     ref = np.maximum.accumulate(np.where(a == 0.0, np.arange(a.size), 0))
     span = linear_span if linear_span is not None else np.abs(a).max() / 3.0
     fit = (np.abs(a) <= span) & ~clipped_dwell & (a != 0.0)
@@ -174,7 +175,7 @@ def reduce_range(record, *, settle: float = 0.0, limit: float = LIMIT,
     before, after = zero[0], zero[-1]
     shift = (m[after] - m[before]) / k1
     u_shift = float(np.hypot(se[after], se[before]) / abs(k1))
-    p_shift = float(2.0 * ndtr(-abs(shift) / u_shift)) if u_shift > 0 else 0.0
+    p_shift = float(2.0 * ndtr(-abs(shift) / u_shift)) if u_shift > 0 else float(shift == 0)
     keep = [i for i in range(2) if np.isfinite(found[i])]
     names = (*(SIDES[i][1] for i in keep), "clipped_samples", "bias_before", "bias_after",
              "overload_shift")
@@ -187,9 +188,10 @@ def reduce_range(record, *, settle: float = 0.0, limit: float = LIMIT,
     notes = [f"no input range on the {'positive' if i == 0 else 'negative'} side: the "
              f"nonlinearity stays within {limit:g} up to the largest input"
              for i in range(2) if not np.isfinite(found[i])]
+    z_shift = shift / u_shift if u_shift > 0 else (np.inf if shift else 0.0)
     if p_shift < 0.05:
         notes.append(f"the bias after the overload differs from the bias before by "
-                     f"{shift * 1e6:.3g} ug (z {shift / u_shift:.2f}, p {p_shift:.2g})")
+                     f"{shift * 1e6:.3g} ug (z {z_shift:.2f}, p {p_shift:.2g})")
     units = dict.fromkeys(names, "g") | {"clipped_samples": "1"}
     est = Estimate(names=names, values=values, covariance=cov, units=units, method=METHOD,
                    dof=dw.dof, notes=tuple(notes))
@@ -208,8 +210,8 @@ def reduce_range(record, *, settle: float = 0.0, limit: float = LIMIT,
                       "dwell_clipped": clipped_dwell, "fit": fit},
         quantities={n: "bias" for n in names if n != "clipped_samples"},
         provenance={"test": "range", "output_unit": record.output_unit,
-                    "scale_factor": k1, "limit": limit, "shift_z": float(shift / u_shift)
-                    if u_shift > 0 else None, "shift_p": p_shift,
+                    "scale_factor": k1, "limit": limit, "shift_z": float(z_shift),
+                    "shift_p": p_shift,
                     "line_scale_factor": _line(a, m, se, fit, ref)[1],
                     "range_u_noise_g": u_noise.tolist(), "range_u_interp_g": u_interp.tolist()},
     )

@@ -153,7 +153,7 @@ def compare(before, after) -> list[dict]:
     AccelcalError
         For records of different serials or different methods.
     """
-    from scipy.stats import norm, t
+    from scipy.special import ndtr, stdtr
 
     if before.serial != after.serial:
         raise AccelcalError(f"the records are of different serials ({shown(before.serial)} and "
@@ -174,10 +174,10 @@ def compare(before, after) -> list[dict]:
         d, u = x2 - x1, math.hypot(u1, u2)
         if before.dof and after.dof and u > 0:
             dof = u**4 / (u1**4 / before.dof + u2**4 / after.dof)
-            stat, p = "t", float(2 * t.sf(abs(d) / u, dof))
+            stat, p = "t", float(2 * stdtr(dof, -abs(d) / u))
         else:
             dof, stat = None, "z"
-            p = float(2 * norm.sf(abs(d) / u)) if u > 0 else (0.0 if d else 1.0)
+            p = float(2 * ndtr(-abs(d) / u)) if u > 0 else (0.0 if d else 1.0)
         en = d / (EN_K * u) if u > 0 else math.copysign(math.inf, d) if d else 0.0
         rows.append({"quantity": name, "before": x1, "after": x2, "estimate": d, "std": u,
                      "unit": unit, "En": en, "statistic": stat,

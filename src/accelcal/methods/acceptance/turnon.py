@@ -42,11 +42,11 @@ MIN_TURN_ONS = 3
 
 def sd_interval(s: float, n: int, level: float = 0.95) -> tuple[float, float]:
     """The ``level`` chi-square interval of a standard deviation ``s`` of ``n`` values."""
-    from scipy.stats import chi2
+    from scipy.special import chdtri
 
-    dof = n - 1
-    return (float(s * np.sqrt(dof / chi2.ppf(0.5 + level / 2, dof))),
-            float(s * np.sqrt(dof / chi2.ppf(0.5 - level / 2, dof))))
+    dof = n - 1  # chdtri(v, q): the chi-square quantile with upper-tail probability q
+    return (float(s * np.sqrt(dof / chdtri(dof, 0.5 - level / 2))),
+            float(s * np.sqrt(dof / chdtri(dof, 0.5 + level / 2))))
 
 
 def _turn_on(a, t, m, se):
