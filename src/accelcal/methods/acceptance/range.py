@@ -130,12 +130,12 @@ def reduce_range(record, *, settle: float = 0.0, limit: float = LIMIT,
         raise AccelcalError(f"a {record.test} record is not a range test")
     if not 0 < limit < 0.5:
         raise AccelcalError("the nonlinearity limit must be in (0, 0.5)", parameter="limit")
-    dw = dwell_means(record, settle)
-    a, m, se, k1_nominal = dw.input, dw.mean, dw.se, record.scale_factor
     rail = record.metadata.get("rail")
     clip = clipped(record.output, rails=None if rail is None else (-rail, rail))
     edges = record.dwells()
     clipped_dwell = np.add.reduceat(clip.mask, edges[:-1]) > 0
+    dw = dwell_means(record, settle, pool=~clipped_dwell)
+    a, m, se, k1_nominal = dw.input, dw.mean, dw.se, record.scale_factor
     zero = np.flatnonzero(a == 0.0)
     peak = int(np.flatnonzero(np.abs(a) == np.abs(a).max())[-1])
     if not (zero.size and zero[0] < peak < zero[-1]):
@@ -202,7 +202,8 @@ def reduce_range(record, *, settle: float = 0.0, limit: float = LIMIT,
             Assumption("linear_span", float(span), "g", f"straight line fitted to the "
                        f"unclipped dwells within {span:.3g} g"),
             Assumption("noise", "white", "", f"white output noise, {dw.sigma:.3g} "
-                       f"{record.output_unit} per sample pooled over the dwells ({dw.dof} dof)"),
+                       f"{record.output_unit} per sample pooled over the dwells without clipped "
+                       f"samples ({dw.dof} dof)"),
             Assumption("rail", rail, record.output_unit, "clipping at the record's rail"
                        if rail is not None else "clipping at the recording's extremes"),
         ),
