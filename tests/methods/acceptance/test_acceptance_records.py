@@ -105,3 +105,19 @@ def test_cli_compare_with_a_guarded_spec(tmp_path, capsys):
     assert "guarded rule" in err
     code, _, err = run_cli(["acceptance", "compare", one, two, "--decision-rule", "lax"], capsys)
     assert code == 2
+
+
+def test_a_noise_record_gives_the_in_run_stability_beside():
+    from accelcal.io.calibration_record import CalibrationRecord
+    from accelcal.results import Estimate
+
+    est = Estimate(("N", "B", "K"), np.array([2e-5, 5e-6, 2e-7]), np.diag([1e-12, 1e-14, 1e-16]),
+                   {"N": "g*sqrt(s)", "B": "g", "K": "g/sqrt(s)"}, "noise/ieee952-fit")
+    noise = CalibrationRecord.from_estimate(est, serial="SN-1", date="2026-03-01T00:00:00+00:00")
+    rows = repeatability([*records(3), noise])
+    assert rows[-1]["quantity"] == "in-run stability (B)"
+    assert rows[-1]["estimate"] == pytest.approx(5.0)
+    assert rows[-1]["unit"] == "ug"
+    assert all(r["n"] == 3 for r in rows[:-1])
+    with pytest.raises(AccelcalError, match="at least 3"):
+        repeatability([*records(2), noise])

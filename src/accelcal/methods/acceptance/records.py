@@ -12,7 +12,10 @@ present in at least three records, the sample standard deviation of its N
 values, its standard uncertainty ``s / sqrt(2 (N-1))`` and 95 % chi-square
 interval (:func:`~accelcal.methods.acceptance.turnon.sd_interval`), beside
 the RMS of the records' own standard uncertainties (a spread well above it
-is the sensor's, not the calibrations').
+is the sensor's, not the calibrations'). A noise record of the serial
+(method ``noise/...``) is not pooled: the bias instability B of the latest
+one is given beside, as the in-run stability (IEEE 1293; Allan deviation,
+DOMAIN section 7).
 
 Before/after an environment: for each coefficient of both records the
 shift ``d = x_after - x_before``, its standard uncertainty ``u = sqrt(u_1^2
@@ -107,13 +110,15 @@ def repeatability(records) -> list[dict]:
     from accelcal.methods.acceptance.turnon import sd_interval
 
     records = list(records)
-    if len(records) < MIN_RECORDS:
-        raise AccelcalError(f"{len(records)} calibration record(s): a repeatability needs at "
-                            f"least {MIN_RECORDS}")
     serials = sorted({r.serial for r in records})
     if len(serials) > 1:
         raise AccelcalError(f"the records are of {len(serials)} serials "
                             f"({', '.join(map(shown, serials[:3]))}): give one serial's")
+    noise = [r for r in records if canonical(r.method).startswith("noise")]
+    records = [r for r in records if not canonical(r.method).startswith("noise")]
+    if len(records) < MIN_RECORDS:
+        raise AccelcalError(f"{len(records)} calibration record(s): a repeatability needs at "
+                            f"least {MIN_RECORDS}")
     values: dict[str, list] = {}
     for rec in records:
         for name, v in coefficients(rec).items():
@@ -135,7 +140,22 @@ def repeatability(records) -> list[dict]:
                      "within": float(np.sqrt(np.mean(u**2)))})
     if not rows:
         raise AccelcalError("no coefficient is in at least three of the records with one unit")
-    return rows
+    return rows + _in_run(noise)
+
+
+def _in_run(noise) -> list[dict]:
+    """The in-run stability row (B of the latest noise record, ug), or none."""
+    from accelcal.units import UNIT_SIZES, convert
+
+    latest = max(noise, key=lambda r: r.date, default=None)
+    if latest is None or "B" not in latest.names:
+        return []
+    i = latest.names.index("B")
+    value, std, unit = float(np.real(latest.estimates[i])), float(latest.std[i]), latest.units["B"]
+    if unit in UNIT_SIZES["acceleration"]:
+        value, std, unit = float(convert(value, unit, "ug")), float(convert(std, unit, "ug")), "ug"
+    return [{"quantity": "in-run stability (B)", "estimate": value, "std": std, "unit": unit,
+             "low": math.nan, "high": math.nan, "n": 1, "mean": math.nan, "within": math.nan}]
 
 
 def compare(before, after) -> list[dict]:
