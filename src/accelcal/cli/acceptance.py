@@ -199,6 +199,9 @@ def compare(
     after: Path = typer.Argument(..., help="Calibration record after it (JSON), same serial "
                                            "and method."),
     *,
+    correlation: float = typer.Option(
+        0.0, "--correlation", help="Correlation of the two calibrations' errors, in [-1, 1] "
+                                   "(a shared reference or rig error); 0: independent."),
     spec: Path | None = typer.Option(None, "--spec", help=_SPEC_HELP + " The limits apply "
                                                           "to the shifts."),
     decision_rule: str | None = typer.Option(None, "--decision-rule", help=_RULE_HELP),
@@ -211,7 +214,7 @@ def compare(
     check_format(fmt)
     specification = _load_spec(spec, decision_rule)
     one, two = CalibrationRecord.load(before), CalibrationRecord.load(after)
-    rows = compare_records(one, two)
+    rows = compare_records(one, two, correlation=correlation)
     _emit_with_spec(rows, fmt, f"Shift from {one.date} to {two.date}, {one.serial} "
                                f"({one.method})", specification, decision_rule,
                     serial=one.serial, method=one.method, dof=None)

@@ -121,3 +121,12 @@ def test_a_noise_record_gives_the_in_run_stability_beside():
     assert all(r["n"] == 3 for r in rows[:-1])
     with pytest.raises(AccelcalError, match="at least 3"):
         repeatability([*records(2), noise])
+
+
+def test_a_known_correlation_shrinks_the_shift_uncertainty():
+    one = make_record(date="2026-01-01T00:00:00+00:00")
+    two = make_record(date="2026-02-01T00:00:00+00:00", shift=5e-6)
+    free, tied = compare(one, two)[0], compare(one, two, correlation=0.5)[0]
+    assert tied["std"] == pytest.approx(free["std"] / math.sqrt(2.0), rel=1e-9)  # equal u
+    with pytest.raises(AccelcalError, match="correlation"):
+        compare(one, two, correlation=1.5)

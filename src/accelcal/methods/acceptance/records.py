@@ -19,7 +19,9 @@ DOMAIN section 7).
 
 Before/after an environment: for each coefficient of both records the
 shift ``d = x_after - x_before``, its standard uncertainty ``u = sqrt(u_1^2
-+ u_2^2)`` (two independent calibrations: no correlation between them), the
++ u_2^2 - 2 r u_1 u_2)`` (r the correlation between the two calibrations'
+errors where known, e.g. from a shared reference or rig error; 0 for two
+independent calibrations), the
 normalised error ``E_n = d / (k u)`` with k = 2 (ISO 13528: ``|E_n| > 1``,
 the shift exceeds what the uncertainties allow), and a test of ``d = 0``:
 Welch's t with the Welch-Satterthwaite degrees of freedom ``nu = u^4 /
@@ -158,8 +160,11 @@ def _in_run(noise) -> list[dict]:
              "low": math.nan, "high": math.nan, "n": 1, "mean": math.nan, "within": math.nan}]
 
 
-def compare(before, after) -> list[dict]:
+def compare(before, after, *, correlation: float = 0.0) -> list[dict]:
     """Rows of the shift of each coefficient from ``before`` to ``after`` (module docs).
+
+    ``correlation`` (r, in [-1, 1]) is that of the two records' errors, the
+    same for every coefficient; 0 for independent calibrations.
 
     Returns
     -------
@@ -181,6 +186,9 @@ def compare(before, after) -> list[dict]:
     if canonical(before.method) != canonical(after.method):
         raise AccelcalError(f"the records are of different methods ({shown(before.method)} and "
                             f"{shown(after.method)}): compare two calibrations by one method")
+    if not -1.0 <= correlation <= 1.0:
+        raise AccelcalError(f"the correlation must be in [-1, 1], not {correlation:g}",
+                            parameter="correlation")
     one, two = coefficients(before), coefficients(after)
     rows = []
     for name in (n for n in one if n in two):
@@ -191,7 +199,8 @@ def compare(before, after) -> list[dict]:
         if name in _SCALE:
             x2, u1, u2, x1, unit = ((x2 / x1 - 1.0) * 1e6, u1 / abs(x1) * 1e6,
                                     u2 / abs(x1) * 1e6, 0.0, "ppm")
-        d, u = x2 - x1, math.hypot(u1, u2)
+        d = x2 - x1
+        u = math.sqrt(max(u1**2 + u2**2 - 2.0 * correlation * u1 * u2, 0.0))
         if before.dof and after.dof and u > 0:
             dof = u**4 / (u1**4 / before.dof + u2**4 / after.dof)
             stat, p = "t", float(2 * stdtr(dof, -abs(d) / u))
