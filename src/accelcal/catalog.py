@@ -223,7 +223,8 @@ METHODS: tuple[Method, ...] = (
                   "specification file."),
         verbs=("simulate", "reduce"),
         report="accelcal.methods.acceptance.report_text", docs="docs/acceptance.md",
-        paper="IEEE1293"),
+        paper="IEEE1293", demo="accelcal.methods.acceptance.demo", demo_order=8,
+        demo_sensors="one", demo_test="acceptance tests"),
     Method(
         name="response", family="response", title="frequency response",
         package=_m("response"), kinds=("response",), formats=("accelcal.io.formats.response",),

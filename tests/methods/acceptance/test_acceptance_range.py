@@ -100,8 +100,6 @@ def test_cli_simulates_and_reduces_range_with_a_spec(tmp_path, capsys):
 
 
 def test_range_and_turn_on_figures(range_record):
-    import matplotlib.pyplot as plt
-
     for red, stem in ((acceptance.reduce(range_record), "acceptance-range"),
                       (acceptance.reduce(simulate_turn_on(seed=2, dwell=1.0, turn_ons=4)),
                        "acceptance-turn-on")):
@@ -111,4 +109,3 @@ def test_range_and_turn_on_figures(range_record):
         if stem == "acceptance-range":  # the clipped dwells are marked
             labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
             assert "clipped samples in the dwell" in labels
-        plt.close(fig)

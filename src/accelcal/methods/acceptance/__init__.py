@@ -50,8 +50,8 @@ from accelcal.methods.acceptance.turnon import reduce_turn_on
 
 __all__ = [
     "ERRATA", "FAMILY", "MAX_ERROR", "RULE", "TARGET", "Dwells", "compare", "dwell_means",
-    "figures", "quantity_rows", "reduce", "reduce_hysteresis", "reduce_range", "reduce_steps",
-    "reduce_turn_on", "repeatability", "report_text", "simulate",
+    "figures", "from_inputs", "quantity_rows", "reduce", "reduce_hysteresis", "reduce_range",
+    "reduce_steps", "reduce_turn_on", "repeatability", "report_text", "simulate",
 ]
 
 ERRATA = ()
@@ -100,6 +100,18 @@ def simulate(test: str = "threshold", *, seed=None, **settings):
     if test == "turn-on":
         return acceptance_runs.simulate_turn_on(seed=seed, **settings)
     return rig_simulate(test, seed=seed, **settings)
+
+
+def from_inputs(files, record):
+    """Candidate reductions of a record's input files (:mod:`accelcal.methods`).
+
+    The step record the record names, reduced with the command's defaults.
+    """
+    from accelcal.method_ids import canonical
+
+    if not canonical(record.method).startswith(f"{FAMILY}/") or not files:
+        return []
+    return [(reduce(files[0]), {})]
 
 
 def reduce(records, *, test: str | None = None, settle: float = 0.0,

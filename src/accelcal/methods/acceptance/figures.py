@@ -41,11 +41,12 @@ def figures(reduction, **context) -> list:
 
 
 def _steps(reduction):
-    import matplotlib.pyplot as plt
+    from accelcal.plotting import new_figure
 
     obs, test = reduction.observations, reduction.provenance["test"]
     size = obs["size"] * 1e6
-    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    fig = new_figure(figsize=(6.4, 4.0))
+    ax = fig.subplots()
     ax.errorbar(size, obs["response"], yerr=1.96 * obs["response_std"], fmt="o", capsize=3,
                 label="response (95 %)")
     ax.axhline(0.5, color="C3", ls="--", label="50 % rule")
@@ -54,7 +55,6 @@ def _steps(reduction):
     ax.set_xlabel("input increment (µg)")
     ax.set_ylabel("output change / predicted change")
     ax.legend(loc="best")
-    fig.tight_layout()
     caption = (f"Mean output change per predicted change for each increment about "
                f"{reduction.provenance['set_point_g']:.3g} g; the {test} is the smallest "
                "increment reaching 50 % (error probability "
@@ -63,13 +63,14 @@ def _steps(reduction):
 
 
 def _loop(reduction):
-    import matplotlib.pyplot as plt
+    from accelcal.plotting import new_figure
 
     obs, k1 = reduction.observations, reduction.provenance["scale_factor"]
     a, m, d = obs["dwell_input"], obs["dwell_mean"], obs["dwell_direction"]
     dev = m / k1 - a
     dev = (dev - np.mean(dev)) * 1e6
-    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    fig = new_figure(figsize=(6.4, 4.0))
+    ax = fig.subplots()
     ax.plot(a, dev, color="0.7", lw=0.8)
     for sign, label, marker in ((1.0, "increasing input", "^"), (-1.0, "decreasing input", "v")):
         sel = d == sign
@@ -78,7 +79,6 @@ def _loop(reduction):
     ax.set_xlabel("input (g)")
     ax.set_ylabel("output / K1 − input, about its mean (µg)")
     ax.legend(loc="best")
-    fig.tight_layout()
     caption = ("The output's departure from the scale-factor line at each dwell of the cycle "
                "0 → +1 g → 0 → −1 g → 0 (95 % intervals); the hysteresis at a point is the "
                "decreasing leg minus the increasing one.")
@@ -86,7 +86,7 @@ def _loop(reduction):
 
 
 def _range(reduction):
-    import matplotlib.pyplot as plt
+    from accelcal.plotting import new_figure
 
     obs, prov = reduction.observations, reduction.provenance
     a, m = obs["dwell_input"], obs["dwell_mean"]
@@ -95,7 +95,8 @@ def _range(reduction):
     on = a != 0.0
     n = (m[on] - m[ref][on] - k1 * a[on]) / (k1 * a[on])
     clip = np.asarray(obs["dwell_clipped"], dtype=bool)[on]
-    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    fig = new_figure(figsize=(6.4, 4.0))
+    ax = fig.subplots()
     ax.semilogy(np.abs(a[on])[~clip & (a[on] > 0)], np.abs(n)[~clip & (a[on] > 0)], "^",
                 label="positive input")
     ax.semilogy(np.abs(a[on])[~clip & (a[on] < 0)], np.abs(n)[~clip & (a[on] < 0)], "v",
@@ -112,7 +113,6 @@ def _range(reduction):
     ax.set_xlabel("|input| (g)")
     ax.set_ylabel("|nonlinearity| / input")
     ax.legend(loc="best", fontsize="small")
-    fig.tight_layout()
     caption = ("The output's departure from the straight line, relative to the input, at "
                "each dwell of the ladder; the input range is where it leaves the limit; "
                "dwells with clipped samples are marked with crosses.")
@@ -120,13 +120,14 @@ def _range(reduction):
 
 
 def _turn_on(reduction):
-    import matplotlib.pyplot as plt
+    from accelcal.plotting import new_figure
 
     obs = reduction.observations
     j = obs["turn_on"]
     bias = obs["bias"] * 1e6
     scale = (obs["scale"] / obs["scale"].mean() - 1.0) * 1e6
-    fig, axes = plt.subplots(2, 1, figsize=(6.4, 5.2), sharex=True)
+    fig = new_figure(figsize=(6.4, 5.2))
+    axes = fig.subplots(2, 1, sharex=True)
     for ax, y, u, label, name in (
             (axes[0], bias, obs["bias_std"] * 1e6, "bias (µg)", "bias_repeatability"),
             (axes[1], scale, obs["scale_std"] / obs["scale"].mean() * 1e6,
@@ -138,7 +139,6 @@ def _turn_on(reduction):
         ax.set_ylabel(label)
         ax.legend(loc="best", fontsize="small")
     axes[1].set_xlabel("turn-on")
-    fig.tight_layout()
     caption = ("Bias and scale factor at each turn-on (95 % intervals of each turn-on's "
                "measurement) with the mean and the turn-on-to-turn-on standard deviation.")
     return ("acceptance-turn-on", "Turn-on repeatability", fig, caption)
