@@ -263,7 +263,8 @@ def evaluate(spec: Spec, rows, *, serial=None, method=None, rule: str | None = N
     Each row (a dict; an optional ``dof`` key overrides ``dof``) whose
     quantity a limit of ``spec`` matches, for ``serial`` and ``method``, is
     converted to the limit's unit and decided by ``rule`` (default the
-    spec's). Rows in a unit that does not fit the limit's are skipped.
+    spec's). Rows in a unit that does not fit the limit's, or without a
+    finite estimate and standard uncertainty, are skipped.
 
     Returns
     -------
@@ -278,7 +279,9 @@ def evaluate(spec: Spec, rows, *, serial=None, method=None, rule: str | None = N
             try:
                 value = float(convert(row["estimate"], row["unit"], lim.unit))
                 std = float(convert(row["std"], row["unit"], lim.unit))
-            except ValueError:
+            except (ValueError, TypeError):
+                continue
+            if not (math.isfinite(value) and math.isfinite(std)):
                 continue
             d = decide(value, std, row.get("dof", dof), lim.lower, lim.upper, rule=rule,
                        guard=lim.guard)

@@ -85,6 +85,7 @@ def test_spec_file_round_trip_and_matching(tmp_path):
     assert not spec.limits_for("hysteresis at +0.5 g", method="acceptance/threshold")
     assert not spec.limits_for("K1", serial="SN-2")
     rows = [{"quantity": "K0", "estimate": 0.006, "std": 0.0001, "unit": "g"},
+            {"quantity": "K0", "estimate": 0.001, "std": float("nan"), "unit": "g"},
             {"quantity": "K2", "estimate": 1.0, "std": 1.0, "unit": "ug/g^2"}]
     (out,) = evaluate(spec, rows)
     assert out["estimate"] == pytest.approx(6000.0)

@@ -186,8 +186,8 @@ def reduce_range(record, *, settle: float = 0.0, limit: float = LIMIT,
     cov[-1, -3] = cov[-3, -1] = -((se[before] / k1) ** 2)
     cov[-1, -2] = cov[-2, -1] = (se[after] / k1) ** 2
     notes = [f"no input range on the {'positive' if i == 0 else 'negative'} side: the "
-             f"nonlinearity stays within {limit:g} up to the largest input"
-             for i in range(2) if not np.isfinite(found[i])]
+             f"nonlinearity stays within {limit:g} up to the largest input, or leaves it at "
+             "the first" for i in range(2) if not np.isfinite(found[i])]
     z_shift = shift / u_shift if u_shift > 0 else (np.inf if shift else 0.0)
     if p_shift < 0.05:
         notes.append(f"the bias after the overload differs from the bias before by "
