@@ -109,3 +109,21 @@ def test_range_and_turn_on_figures(range_record):
         if stem == "acceptance-range":  # the clipped dwells are marked
             labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
             assert "clipped samples in the dwell" in labels
+
+
+def test_a_turn_on_recording_imports_with_its_turn_on_column(tmp_path):
+    from accelcal.io.recordings.kinds import layout
+    from accelcal.io.records import write_record
+
+    got = layout("steps", {"input": "A", "output": "U", "turn_on": "N"},
+                 {"A": "g", "U": "V", "N": "-"}, 10.0)
+    assert got.units["turn_on"] == "-"
+    assert got.metadata["output_unit"] == "V"
+    rec = simulate_turn_on(seed=1, turn_ons=3, dwell=1.0)
+    write_record(tmp_path / "imported.csv", "steps",
+                 {"units": {"t": "s", "input": "g", "output": "g", "turn_on": "-"},
+                  "test": "turn-on", "output_unit": "g", "scale_factor": 1.0},
+                 {"t": rec.t, "input": rec.input, "output": rec.output, "turn_on": rec.turn_on})
+    back = steps_format.read(tmp_path / "imported.csv")
+    np.testing.assert_array_equal(back.turn_on, rec.turn_on)
+    assert acceptance.reduce(back).provenance["turn_ons"] == 3

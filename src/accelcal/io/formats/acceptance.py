@@ -19,7 +19,7 @@ Columns:
     A dwell is a run of rows with the same input.
 ``output`` (output unit)
     The accelerometer's output.
-``turn_on`` (integer, turn-on tests only, required there)
+``turn_on`` (``1`` or ``-``: an index; turn-on tests only, required there)
     The turn-on (power cycle) the sample belongs to, 1, 2, ...; a dwell
     ends where it changes.
 
@@ -197,7 +197,7 @@ def read(path) -> StepRecord:
         raise AccelcalError(f"{path}: the output column's unit {shown(units['output'])} is not "
                             f"metadata output_unit {shown(meta['output_unit'])}")
     for name, unit in (("input", "g"), ("angle", "deg"), ("t", "s"), ("turn_on", "1")):
-        if name in cols and units[name] != unit:
+        if name in cols and units[name] != unit and not (name == "turn_on" and units[name] == "-"):
             raise AccelcalError(f"{path}: column {name} must be in {unit}, not "
                                 f"{shown(units[name])}")
     angle = cols.get("angle")
