@@ -69,12 +69,16 @@ class DataModel:
     output_unit : str
     rotation_axis : str
         ``"OA"`` or ``"PA"`` (the axis the head's tilt puts gravity along).
+    vectors : dict
+        Per-position inputs -> the keyword of ``reduce`` they perturb (rad,
+        one per position); absent ones perturb ``angles``.
     """
 
     reduce: object
     n_positions: int
     output_unit: str = "V"
     rotation_axis: str = "OA"
+    vectors: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -91,7 +95,7 @@ class _Row:
     native_std: float
     native_unit: str
     base: float
-    sensitivities: dict = field(default_factory=dict)
+    relative: bool = False
 
 
 def _eng_kind(reduction, label: str, plain: str) -> str | None:
@@ -118,7 +122,7 @@ def _rows(reduction) -> list[_Row]:
                             r["eng_estimate"], r["eng_std"], std, r["unit"], est))
         elif kind == "scale" and est:
             out.append(_Row(sensor, plain, r["coefficient"], kind, "ppm", 0.0,
-                            std / abs(est) * 1e6, std, r["unit"], est))
+                            std / abs(est) * 1e6, std, r["unit"], est, relative=True))
         else:
             out.append(_Row(sensor, plain, r["coefficient"], kind, r["unit"], est, std, std,
                             r["unit"], est))
@@ -136,7 +140,7 @@ def _values(reduction, rows: list[_Row]) -> list[float]:
             out.append(math.nan)
         elif row.unit == r.get("eng_unit"):
             out.append(r["eng_estimate"])
-        elif row.kind == "scale" and row.unit == "ppm":
+        elif row.relative:
             out.append((r["estimate"] / row.base - 1.0) * 1e6)
         else:
             out.append(r["estimate"])
@@ -150,18 +154,21 @@ def _kragten(model: DataModel, rows, key: str, step: float, per_unit: float) -> 
     return [(p - m) / (2.0 * step) for p, m in zip(plus, minus, strict=True)]
 
 
-def _positions(model: DataModel, rows, step_rad: float) -> list[float]:
-    """RSS over positions of the per-position sensitivities, per radian."""
+def per_position(model: DataModel, rows, step_rad: float, key: str = "angles"):
+    """Sensitivities of every row to each position's error, per radian: shape (rows, positions).
+
+    Central differences with ``step_rad``, one position at a time.
+    """
     import numpy as np
 
-    total = np.zeros(len(rows))
+    out = np.zeros((len(rows), model.n_positions))
     for i in range(model.n_positions):
         shift = np.zeros(model.n_positions)
         shift[i] = step_rad
-        plus = np.array(_values(model.reduce(angles=shift), rows))
-        minus = np.array(_values(model.reduce(angles=-shift), rows))
-        total += ((plus - minus) / (2.0 * step_rad)) ** 2
-    return list(np.sqrt(total))
+        plus = np.array(_values(model.reduce(**{key: shift}), rows))
+        minus = np.array(_values(model.reduce(**{key: -shift}), rows))
+        out[:, i] = (plus - minus) / (2.0 * step_rad)
+    return out
 
 
 def _temperature_slope(row: _Row, model, temperature: float) -> float | None:
@@ -176,6 +183,12 @@ def _temperature_slope(row: _Row, model, temperature: float) -> float | None:
     dt = temperature - terms.reference
     slope = sum(k * coefficients.get(f"{base}_T{k}", 0.0) * dt ** (k - 1) for k in (1, 2, 3))
     return slope * 1e6 if row.unit in ("ug", "ppm", "urad", "ug/g^2") else slope
+
+
+def _prior_of(reduction, name: str):
+    """The reduction's prior behind a contribution's input (``K0_asym@90deg[U2]``: ``K0_asym``)."""
+    plain = name.split("[", 1)[0].split("@", 1)[0]
+    return next((p for p in reduction.priors if p.name in (name, plain)), None)
 
 
 def _lab_input(std, quantity=None) -> Input:
@@ -211,6 +224,7 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
     declared = [q for q in inputs if q in lab.standards]
     current = data_model is not None and data_model.output_unit == "mA"
     gain = None
+    vectors = {}
     for q in declared:
         std = lab.standards[q]
         if q == "local_gravity":
@@ -251,14 +265,13 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
                 dt = float(lab.environment.get("temperature_tolerance_degC", 1.0))
                 out[q] = [-c * dt * std._factor("1/degC") for c in gain]
         elif q in ("head_angle", "autocollimator"):
-            step = std.u_in("rad") or 1e-6
-            key = "_positions"
-            if key not in out:
-                out[key] = _positions(data_model, rows, step)
-            out[q] = [c * std._factor("rad") for c in out[key]]
+            key = data_model.vectors.get(q, "angles")
+            if key not in vectors:
+                vectors[key] = per_position(data_model, rows, std.u_in("rad") or 1e-6, key)
+            rss = (vectors[key] ** 2).sum(axis=1) ** 0.5  # independent errors, one u
+            out[q] = [float(c) * std._factor("rad") for c in rss]
         elif q == "head_axis_tilt":
             out[q] = _tilt(rows, reduction, model, data_model, std)
-    out.pop("_positions", None)
     return rows, out
 
 
@@ -298,6 +311,10 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
                      f"budget): {', '.join(missing)}")
     if not inputs:
         notes.append(NO_MODEL)
+    late = [s for s in lab.expired() if s.quantity in inputs]
+    if late:
+        notes.append("standard(s) past their due date used: " + ", ".join(
+            f"{s.quantity} (certificate {s.certificate or '?'}, due {s.due})" for s in late))
     rows, sens = sensitivities(reduction, lab, data_model, inputs, model=model, notes=notes)
     dof_a = reduction.dof if reduction.dof > 0 else math.inf
     out = []
@@ -308,9 +325,11 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
         for c in reduction.contributions(row.label, row.sensor):
             part = c.contribution * factor
             type_b += part * part
-            terms.append((Input(f"prior {c.input}", 0.0, c.u, "", "rectangular"
-                                if c.source == "default" else "normal", c.dof, "prior",
-                                c.source), abs(c.sensitivity) * factor))
+            prior = _prior_of(reduction, c.input)
+            terms.append((Input(f"prior {c.input}", 0.0 if prior is None else prior.value, c.u,
+                                "" if prior is None else prior.unit,
+                                "normal" if prior is None else prior.distribution, c.dof,
+                                "prior", c.source), c.sensitivity * factor))
         var_a = max(row.std**2 - type_b, 0.0)
         terms.insert(0, (Input("Type A", row.estimate, math.sqrt(var_a), row.unit, "student-t"
                                if math.isfinite(dof_a) else "normal", dof_a, "type A",
@@ -318,9 +337,13 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
         for q, cs in sens.items():
             terms.append((_lab_input(lab.standards[q]), cs[i]))
         serial = reduction.sensor_names[row.sensor]
+        own = list(notes)
+        if row.relative:
+            own.insert(0, f"{row.label} = {row.base:.10g} {row.native_unit}; no nominal scale "
+                          "factor given: its budget in ppm of the estimate")
         out.append(combine(row.label, row.estimate, row.unit, terms,
                            correlation=lab.correlations, sensor=row.sensor, serial=serial,
-                           notes=notes))
+                           notes=own))
     return out
 
 

@@ -36,8 +36,9 @@ DIVISORS = {"normal": 1.0, "rectangular": math.sqrt(3.0), "triangular": math.sqr
             "u-shaped": math.sqrt(2.0)}
 """Bounds +-a of each distribution over its standard uncertainty (GUM 4.3.7, 4.3.9)."""
 
-DISTRIBUTIONS = (*DIVISORS, "student-t")
-"""How an input's uncertainty is distributed; ``student-t``: a Type A input with its dof."""
+DISTRIBUTIONS = (*DIVISORS, "student-t", "two-point")
+"""How an input's uncertainty is distributed; ``student-t``: a Type A input with its dof;
+``two-point``: ``+-u`` with equal probability (a term of unknown sign and known size)."""
 
 
 def from_expanded(expanded: float, k: float) -> float:

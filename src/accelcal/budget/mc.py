@@ -3,7 +3,7 @@
 Each input of a :class:`~accelcal.budget.gum.Budget` is sampled from its
 distribution with its standard uncertainty (JCGM 101 6.4): normal,
 rectangular (``a = sqrt 3 u``), triangular (``a = sqrt 6 u``), U-shaped or
-arcsine (``a = sqrt 2 u``), and the Type A part as a scaled and shifted t
+arcsine (``a = sqrt 2 u``), two-point (``+-u``), and the Type A part as a scaled and shifted t
 with its degrees of freedom (6.4.9: scale ``u``, ``nu`` dof; normal when
 ``nu`` is infinite). Correlated inputs share a Gaussian copula with the
 stated ``r`` (each marginal kept). The samples go through the budget's
@@ -90,6 +90,8 @@ def sample(distribution: str, u: float, dof: float, size: int, rng, *, normal=No
                         a - a * np.sqrt(2.0 * (1.0 - uniform)))
     if distribution == "u-shaped":
         return -u * math.sqrt(2.0) * np.cos(np.pi * uniform)
+    if distribution == "two-point":
+        return np.where(uniform < 0.5, -u, u)
     if distribution == "student-t" and math.isfinite(dof):
         return u * stats.t.ppf(uniform, dof)  # JCGM 101 6.4.9.7: scale u, nu dof
     return u * (normal if normal is not None else stats.norm.ppf(uniform))

@@ -33,6 +33,8 @@ def data_model(reduction, record):
     ``record`` is the :class:`~accelcal.io.formats.tumble.TumbleRecord`
     (or its file) the reduction was made from.
     """
+    if isinstance(record, list | tuple):  # the input files a calibration record names
+        record = record[0] if record else None
     if record is None:
         return None
     import numpy as np
