@@ -73,6 +73,7 @@ def test_without_a_lab_the_type_a_and_priors(tumble_file, capsys):
     assert "Type A" in quantities
     assert any(q.startswith("prior ") for q in quantities)
     assert not quantities & {"daq_gain", "local_gravity"}
+    assert "no lab file given: the Type A part and the priors only" in json.loads(out)[0]["notes"]
 
 
 def test_check_mc_reports_both_intervals(tumble_file, capsys):

@@ -306,7 +306,7 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
     """
     notes = list(notes)
     missing = [q for q in inputs if q not in lab.standards]
-    if missing:
+    if missing and lab.sha256:  # a lab file (not the empty lab of no file)
         notes.append(f"inputs of the method's model not declared in the lab file (not in the "
                      f"budget): {', '.join(missing)}")
     if not inputs:
