@@ -76,3 +76,18 @@ def test_triad_scale_factors_move_with_gravity_one_to_one(write_lab):
     g = red.assumed("gravity")
     assert _row(s_x, "local_gravity").sensitivity == pytest.approx(s_x.estimate / g, rel=1e-4)
     assert math.isfinite(s_x.u_c)
+
+
+def test_every_declared_input_is_in_the_vocabulary_and_modelled():
+    import importlib
+
+    from accelcal import catalog
+    from accelcal.budget.lab import QUANTITIES
+
+    modelled = [m for m in catalog.METHODS if m.budget_inputs]
+    assert {m.name for m in modelled} >= {"tumble", "dividing-head", "centrifuge", "triad",
+                                          "thermal"}
+    for m in modelled:
+        assert set(m.budget_inputs) <= set(QUANTITIES), m.name
+        assert len(set(m.budget_inputs)) == len(m.budget_inputs), m.name
+        assert callable(importlib.import_module(f"{m.package}.budget").data_model), m.name

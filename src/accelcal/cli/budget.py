@@ -219,8 +219,11 @@ def _table(b) -> str:
     from rich.table import Table
 
     unit = _unit(b.unit)
-    table = Table(title=f"{b.serial} {b.coefficient} = {_cell(b.estimate, 7)} {unit}",
-                  show_lines=False)
+    title = f"{b.serial} {b.coefficient} = {_cell(b.estimate, 7)} {unit}"
+    relative = next((n for n in b.notes if n.startswith(f"{b.coefficient} = ")), None)
+    if relative is not None:  # a scale factor without a nominal: its budget in ppm of itself
+        title = f"{b.serial} {relative.split(';', 1)[0]} (budget in ppm of the estimate)"
+    table = Table(title=title, show_lines=False)
     for c in COLUMNS:
         table.add_column(c, justify="left" if c in ("quantity", "unit", "distribution")
                          else "right")
