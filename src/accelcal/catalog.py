@@ -246,7 +246,9 @@ METHODS: tuple[Method, ...] = (
                   "magnitude and phase, fit the transfer function."),
         verbs=("simulate", "reduce"),
         report="accelcal.methods.response.report_text", docs="docs/response.md",
-        paper="ISO16063-21"),
+        paper="ISO16063-21",
+        budget_inputs=("reference_sensitivity", "reference_phase", "frequency", "daq_gain",
+                       "daq_linearity")),
 )
 """Every test method, in the order ``accelcal --help`` lists their groups."""
 

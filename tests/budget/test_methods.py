@@ -91,3 +91,23 @@ def test_every_declared_input_is_in_the_vocabulary_and_modelled():
         assert set(m.budget_inputs) <= set(QUANTITIES), m.name
         assert len(set(m.budget_inputs)) == len(m.budget_inputs), m.name
         assert callable(importlib.import_module(f"{m.package}.budget").data_model), m.name
+
+
+def test_response_reference_in_closed_form_and_a_common_gain_cancels(tmp_path, write_lab):
+    from accelcal.io.formats.response import write
+    from accelcal.methods import response
+
+    path = tmp_path / "response.csv"
+    write(path, response.simulate(seed=3, frequencies=(20.0, 160.0)))
+    lab = load_lab(write_lab(lab_text(
+        standard("reference_sensitivity", 10.0, "mV/g", U=0.5, k=2, uncertainty_unit="%"),
+        standard("reference_phase", 0.0, "deg", u=0.2),
+        standard("daq_gain", 0.0, "ppm", u=8.0))))
+    bs = budgets(response.reduce(path), lab, records=path)
+    mag = _by(bs, "S(160 Hz) magnitude")
+    phase = _by(bs, "S(160 Hz) phase")
+    assert mag.unit == "%"
+    assert _row(mag, "reference_sensitivity").contribution == pytest.approx(0.25)  # 0.5 %, k=2
+    assert _row(phase, "reference_phase").contribution == pytest.approx(0.2)
+    assert _row(mag, "reference_phase").contribution == 0.0
+    assert abs(_row(mag, "daq_gain").sensitivity) < 1e-9  # the same DAQ on both channels

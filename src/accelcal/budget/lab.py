@@ -148,11 +148,11 @@ class Standard:
 
     def value_in(self, unit: str) -> float:
         """The value in another unit of the same dimension."""
-        return self.value * self._factor(unit)
+        return self.value * self.factor(unit)
 
     def u_in(self, unit: str) -> float:
         """The standard uncertainty in another unit of the same dimension."""
-        return self.u * self._factor(unit)
+        return self.u * self.factor(unit)
 
     def relative_u(self) -> float:
         """``u / |value|`` (a relative dimension: ``u`` as a fraction; infinite at value 0)."""
@@ -160,7 +160,8 @@ class Standard:
             return self.u_in("1")
         return self.u / abs(self.value) if self.value else math.inf
 
-    def _factor(self, unit: str) -> float:
+    def factor(self, unit: str) -> float:
+        """Size of one ``self.unit`` in ``unit`` (same dimension), e.g. 1e-6 from ppm to 1."""
         dim = self.dimension
         if unit not in UNITS[dim]:
             raise AccelcalError(f"{self.quantity}: cannot express {self.unit} in {unit}")
