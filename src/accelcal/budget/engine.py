@@ -268,12 +268,19 @@ def _gravity(rows, std) -> list[float]:
 
 
 def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model=None,
-                  notes: list | None = None) -> dict:
-    """Sensitivity of every row to every declared input: ``quantity -> [c per row]``.
+                  notes: list | None = None) -> tuple[list, dict]:
+    """The budget rows of a reduction and their sensitivity to every declared input.
 
     ``inputs`` are the method's input quantities; those the lab declares
     and the model can evaluate get a column; ``notes`` collects why others
     do not.
+
+    Returns
+    -------
+    rows : list
+        One per reported coefficient (and part of a complex one).
+    columns : dict
+        ``quantity -> [c per row]``, result unit per lab unit.
     """
     notes = [] if notes is None else notes
     rows = _rows(reduction)
