@@ -200,7 +200,7 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce"),
         report="accelcal.methods.noise.report_text", docs="docs/noise.md", paper="IEEE952",
         demo="accelcal.methods.noise.demo", demo_order=4, demo_sensors="one",
-        demo_test="still recording"),
+        demo_test="still recording", budget_inputs=("daq_gain",)),
     Method(
         name="thermal", family="thermal", title="temperature", package=_m("thermal"),
         kinds=("thermal",), formats=("accelcal.io.formats.thermal",), rig="accelcal.rigs.thermal",

@@ -86,7 +86,7 @@ def test_every_declared_input_is_in_the_vocabulary_and_modelled():
 
     modelled = [m for m in catalog.METHODS if m.budget_inputs]
     assert {m.name for m in modelled} >= {"tumble", "dividing-head", "centrifuge", "triad",
-                                          "thermal"}
+                                          "thermal", "response", "noise"}
     for m in modelled:
         assert set(m.budget_inputs) <= set(QUANTITIES), m.name
         assert len(set(m.budget_inputs)) == len(m.budget_inputs), m.name
@@ -111,3 +111,12 @@ def test_response_reference_in_closed_form_and_a_common_gain_cancels(tmp_path, w
     assert _row(phase, "reference_phase").contribution == pytest.approx(0.2)
     assert _row(mag, "reference_phase").contribution == 0.0
     assert abs(_row(mag, "daq_gain").sensitivity) < 1e-9  # the same DAQ on both channels
+
+
+def test_noise_coefficients_scale_with_the_gain(write_lab):
+    from accelcal.methods import noise
+
+    lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=10.0))))
+    bs = budgets(noise.reduce(EXAMPLES / "still.csv"), lab)
+    n = _by(bs, "N")
+    assert _row(n, "daq_gain").contribution == pytest.approx(n.estimate * 10e-6, rel=1e-12)
