@@ -158,7 +158,8 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "uncertainty"),
         report="accelcal.methods.transverse.report_text", docs="docs/transverse.md",
         paper="GuanTang", demo="accelcal.methods.transverse.demo", demo_order=2,
-        demo_sensors="one", demo_test="shaker transverse sweep"),
+        demo_sensors="one", demo_test="shaker transverse sweep",
+        budget_inputs=("reference_sensitivity",)),
     Method(
         name="dividing-head", family="dividing-head", title="indexing head",
         package=_m("dividing_head"), kinds=("dividing-head",),

@@ -86,7 +86,7 @@ def test_every_declared_input_is_in_the_vocabulary_and_modelled():
 
     modelled = [m for m in catalog.METHODS if m.budget_inputs]
     assert {m.name for m in modelled} >= {"tumble", "dividing-head", "centrifuge", "triad",
-                                          "thermal", "response", "noise"}
+                                          "thermal", "response", "noise", "transverse"}
     for m in modelled:
         assert set(m.budget_inputs) <= set(QUANTITIES), m.name
         assert len(set(m.budget_inputs)) == len(m.budget_inputs), m.name
@@ -120,3 +120,16 @@ def test_noise_coefficients_scale_with_the_gain(write_lab):
     bs = budgets(noise.reduce(EXAMPLES / "still.csv"), lab)
     n = _by(bs, "N")
     assert _row(n, "daq_gain").contribution == pytest.approx(n.estimate * 10e-6, rel=1e-12)
+
+
+def test_transverse_orders_of_the_amplitude(write_lab):
+    from accelcal.methods import transverse
+
+    lab = load_lab(write_lab(lab_text(standard("reference_sensitivity", 10.0, "mV/g", u=0.05))))
+    bs = budgets(transverse.reduce(EXAMPLES / "shaker"), lab)
+    ko, koo = _by(bs, "Ko"), _by(bs, "Koo")
+    # 0.05 mV/g of 10 mV/g is 0.5 %: Ko (order 1) moves 0.5 %, Koo (order 2) 1 %
+    assert _row(ko, "reference_sensitivity").contribution == pytest.approx(
+        abs(ko.estimate) * 0.005, rel=1e-9)
+    assert _row(koo, "reference_sensitivity").contribution == pytest.approx(
+        abs(koo.estimate) * 0.01, rel=1e-9)
