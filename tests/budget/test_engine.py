@@ -165,3 +165,28 @@ def test_simulated_tumble_budget_is_complete(tumble_file, write_lab):
     # the example's DAQ offset, 2 uV on a sensor of about 1.3 V/g: 2e-6 / 1.3 g
     assert _row(k0, "daq_offset").contribution == pytest.approx(2e-6 / red.value("K1") * 1e6,
                                                                 rel=1e-3)
+
+
+def test_gravity_exponents_against_reductions_at_another_gravity():
+    from accelcal.budget.engine import ORDER_EXPONENT
+    from accelcal.io.formats.tumble import TumbleRecord
+
+    theta = 2 * np.pi * np.arange(12) / 12
+    k1, k0, k2 = 1.3, 5e-4, 2e-5
+
+    def reduced(s):  # a tumble where 1 g of the positions is s g_n
+        a = s * np.cos(theta)
+        rec = TumbleRecord(theta, k1 * (k0 + a + k2 * a**2), "OA", "V")
+        red = tumble.reduce(rec, terms=["K0", "K1", "K2"], sigma=1e-7, priors="none")
+        return {n: red.value(n) for n in ("K0", "K1", "K2")}
+
+    eps = 1e-4
+    up, down = reduced(1 + eps), reduced(1 - eps)
+    # the reduction's coefficient moves as s^q with the true 1 g: the coefficient per g_n is
+    # the reduction's times g^-q, the budget's exponent p = -q (K1 in V/g, K0 = b0/b1 in g,
+    # K2 = b2/b1 in g/g^2)
+    q = {n: (math.log(up[n]) - math.log(down[n])) / (math.log(1 + eps) - math.log(1 - eps))
+         for n in up}
+    assert -q["K1"] == pytest.approx(ORDER_EXPONENT["scale"], abs=1e-6)
+    assert -q["K0"] == pytest.approx(ORDER_EXPONENT["bias"], abs=1e-6)
+    assert -q["K2"] == pytest.approx(ORDER_EXPONENT["second"], abs=1e-6)
