@@ -190,3 +190,11 @@ def test_gravity_exponents_against_reductions_at_another_gravity():
     assert -q["K1"] == pytest.approx(ORDER_EXPONENT["scale"], abs=1e-6)
     assert -q["K0"] == pytest.approx(ORDER_EXPONENT["bias"], abs=1e-6)
     assert -q["K2"] == pytest.approx(ORDER_EXPONENT["second"], abs=1e-6)
+
+
+def test_a_non_zero_error_value_is_named_as_an_unapplied_correction(linear, write_lab):
+    record, red, _ = linear
+    lab = load_lab(write_lab(lab_text(standard("daq_gain", 5.0, "ppm", u=2.0))))
+    b = _by(budgets(red, lab, records=record), "K1")
+    assert any(n.startswith("daq_gain: the declared value 5 ppm is a correction") for n in b.notes)
+    assert _row(b, "daq_gain").contribution == pytest.approx(2.0, rel=1e-5)

@@ -52,6 +52,12 @@ ORDER_EXPONENT = {"bias": 1, "scale": -1, "ratio": 0, "misalignment": 0, "transv
 
 NO_MODEL = "no lab inputs modelled for this method"
 
+CORRECTIONS = ("head_angle", "head_axis_tilt", "autocollimator", "daq_gain", "daq_offset",
+               "daq_linearity", "load_resistor", "centrifuge_rate", "frequency",
+               "reference_phase")
+"""Inputs whose value is an error (zero when none is known): a non-zero value is a
+correction, which the budget names but does not apply."""
+
 
 @dataclass
 class DataModel:
@@ -291,6 +297,10 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
     vectors = {}
     for q in declared:
         std = lab.standards[q]
+        if q in CORRECTIONS and std.value != 0 and (std.dimension == "relative" or q not in (
+                "centrifuge_rate", "frequency", "load_resistor")):
+            notes.append(f"{q}: the declared value {std.value:g} {std.unit} is a correction "
+                         "the reduction has not applied; only its uncertainty is in the budget")
         if data_model is not None and q in data_model.analytic:
             out[q] = [data_model.analytic[q](r, std) for r in rows]
         elif data_model is not None and data_model.reduce and q in data_model.parameters:
