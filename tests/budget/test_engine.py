@@ -198,3 +198,14 @@ def test_a_non_zero_error_value_is_named_as_an_unapplied_correction(linear, writ
     b = _by(budgets(red, lab, records=record), "K1")
     assert any(n.startswith("daq_gain: the declared value 5 ppm is a correction") for n in b.notes)
     assert _row(b, "daq_gain").contribution == pytest.approx(2.0, rel=1e-5)
+
+
+def test_the_vector_row_keeps_its_per_position_sensitivities(linear):
+    record, red, lab = linear
+    row = _row(_by(budgets(red, lab, records=record), "K1"), "head_angle")
+    assert len(row.components) == record.angles_rad.size
+    assert row.sensitivity == pytest.approx(math.sqrt(sum(c * c for c in row.components)))
+    # sin(2 theta_i) / N per radian on K1 (uniform positions), in ppm per arcsec
+    theta = record.angles_rad
+    expected = 1e6 * np.sin(2 * theta) / theta.size * math.pi / 648000
+    assert np.allclose(np.abs(row.components), np.abs(expected), rtol=1e-3, atol=1e-9)

@@ -254,9 +254,9 @@ def _prior_of(reduction, name: str):
     return next((p for p in reduction.priors if p.name in (name, plain)), None)
 
 
-def _lab_input(std, quantity=None) -> Input:
-    return Input(quantity or std.quantity, std.value, std.u, std.unit, std.distribution, std.dof,
-                 "lab", std.certificate)
+def _lab_input(std, components=()) -> Input:
+    return Input(std.quantity, std.value, std.u, std.unit, std.distribution, std.dof, "lab",
+                 std.certificate, tuple(components))
 
 
 def _gravity(rows, std) -> list[float]:
@@ -274,7 +274,7 @@ def _gravity(rows, std) -> list[float]:
 
 
 def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model=None,
-                  notes: list | None = None) -> tuple[list, dict]:
+                  notes: list | None = None) -> tuple[list, dict, dict]:
     """The budget rows of a reduction and their sensitivity to every declared input.
 
     ``inputs`` are the method's input quantities; those the lab declares
@@ -287,6 +287,9 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
         One per reported coefficient (and part of a complex one).
     columns : dict
         ``quantity -> [c per row]``, result unit per lab unit.
+    components : dict
+        ``quantity -> [per-position sensitivities per row]`` of the vector
+        inputs (their column is the root-sum-square).
     """
     notes = [] if notes is None else notes
     rows = _rows(reduction)
@@ -294,7 +297,7 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
     declared = [q for q in inputs if q in lab.standards]
     current = data_model is not None and data_model.output_unit == "mA"
     gain = None
-    vectors = {}
+    vectors, components = {}, {}
     for q in declared:
         std = lab.standards[q]
         if q in CORRECTIONS and std.value != 0 and (std.dimension == "relative" or q not in (
@@ -356,11 +359,12 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
             key = data_model.vectors.get(q, "angles")
             if key not in vectors:
                 vectors[key] = per_position(data_model, rows, std.u_in("rad") or 1e-6, key)
-            rss = (vectors[key] ** 2).sum(axis=1) ** 0.5  # independent errors, one u
-            out[q] = [float(c) * std.factor("rad") for c in rss]
+            each = vectors[key] * std.factor("rad")
+            out[q] = [float(c) for c in (each**2).sum(axis=1) ** 0.5]  # independent, one u
+            components[q] = [tuple(float(c) for c in line) for line in each]
         elif q == "head_axis_tilt":
             out[q] = _tilt(rows, reduction, model, data_model, std)
-    return rows, out
+    return rows, out, components
 
 
 def _tilt(rows, reduction, model, data_model, std) -> list[float]:
@@ -403,7 +407,8 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
     if late:
         notes.append("standard(s) past their due date used: " + ", ".join(
             f"{s.quantity} (certificate {s.certificate or '?'}, due {s.due})" for s in late))
-    rows, sens = sensitivities(reduction, lab, data_model, inputs, model=model, notes=notes)
+    rows, sens, components = sensitivities(reduction, lab, data_model, inputs, model=model,
+                                           notes=notes)
     dof_a = reduction.dof if reduction.dof > 0 else math.inf
     out = []
     for i, row in enumerate(rows):
@@ -425,7 +430,8 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
                                reduction.method), 1.0))
         for q, cs in sens.items():
             if math.isfinite(cs[i]):
-                terms.append((_lab_input(lab.standards[q]), cs[i]))
+                parts = components[q][i] if q in components else ()
+                terms.append((_lab_input(lab.standards[q], parts), cs[i]))
             else:
                 own.append(f"{q}: the reduction run again on the perturbed data did not give "
                            f"{row.title}; not in this budget")
