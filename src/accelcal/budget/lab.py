@@ -153,12 +153,6 @@ class Standard:
         """The standard uncertainty in another unit of the same dimension."""
         return self.u * self.factor(unit)
 
-    def relative_u(self) -> float:
-        """``u / |value|`` (a relative dimension: ``u`` as a fraction; infinite at value 0)."""
-        if self.dimension == "relative":
-            return self.u_in("1")
-        return self.u / abs(self.value) if self.value else math.inf
-
     def factor(self, unit: str) -> float:
         """Size of one ``self.unit`` in ``unit`` (same dimension), e.g. 1e-6 from ppm to 1."""
         dim = self.dimension
