@@ -209,3 +209,20 @@ def test_the_vector_row_keeps_its_per_position_sensitivities(linear):
     theta = record.angles_rad
     expected = 1e6 * np.sin(2 * theta) / theta.size * math.pi / 648000
     assert np.allclose(np.abs(row.components), np.abs(expected), rtol=1e-3, atol=1e-9)
+
+
+def test_a_failing_re_run_leaves_the_input_out_with_a_note(linear, write_lab):
+    from accelcal.budget.engine import DataModel, itemise
+    from accelcal.errors import AccelcalError
+
+    _, red, _ = linear
+    lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=10.0))))
+
+    def refuse(**_):
+        raise AccelcalError("the perturbed data cannot be reduced")
+
+    bs = itemise(red, lab, data_model=DataModel(refuse, 12), inputs=("daq_gain",))
+    b = _by(bs, "K1")
+    assert "daq_gain" not in {r.quantity for r in b.rows}
+    assert any("daq_gain: the reduction run again on the perturbed data did not give K1" in n
+               for n in b.notes)

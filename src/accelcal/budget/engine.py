@@ -210,10 +210,22 @@ def _values(reduction, rows: list[_Row]) -> list[float]:
     return out
 
 
+def _run(model: DataModel, rows, **shift) -> list[float]:
+    """The rows' values in the reduction of the perturbed data (NaN where it fails)."""
+    import numpy as np
+
+    from accelcal.errors import AccelcalError
+
+    try:
+        return _values(model.reduce(**shift), rows)
+    except (AccelcalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return [math.nan] * len(rows)
+
+
 def _kragten(model: DataModel, rows, key: str, step: float, per_unit: float) -> list[float]:
     """Central differences of every row for a perturbation ``key`` of ``step`` (lab unit)."""
-    plus = _values(model.reduce(**{key: step * per_unit}), rows)
-    minus = _values(model.reduce(**{key: -step * per_unit}), rows)
+    plus = _run(model, rows, **{key: step * per_unit})
+    minus = _run(model, rows, **{key: -step * per_unit})
     return [(p - m) / (2.0 * step) for p, m in zip(plus, minus, strict=True)]
 
 
@@ -228,8 +240,8 @@ def per_position(model: DataModel, rows, step_rad: float, key: str = "angles"):
     for i in range(model.n_positions):
         shift = np.zeros(model.n_positions)
         shift[i] = step_rad
-        plus = np.array(_values(model.reduce(**{key: shift}), rows))
-        minus = np.array(_values(model.reduce(**{key: -shift}), rows))
+        plus = np.array(_run(model, rows, **{key: shift}))
+        minus = np.array(_run(model, rows, **{key: -shift}))
         out[:, i] = (plus - minus) / (2.0 * step_rad)
     return out
 
