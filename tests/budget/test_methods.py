@@ -133,3 +133,17 @@ def test_transverse_orders_of_the_amplitude(write_lab):
         abs(ko.estimate) * 0.005, rel=1e-9)
     assert _row(koo, "reference_sensitivity").contribution == pytest.approx(
         abs(koo.estimate) * 0.01, rel=1e-9)
+
+
+def test_dividing_head_from_its_data_in_memory(write_lab):
+    from accelcal.io.formats.dividing_head import read_head_record
+    from accelcal.methods import dividing_head
+
+    data = dividing_head.HeadData.from_record(read_head_record(EXAMPLES / "indexing_head.csv"))
+    red = dividing_head.reduce(data, "single")
+    lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=8.0))))
+    bs = budgets(red, lab, records=data)
+    k_i = [b for b in bs if b.coefficient == "K_I"]
+    assert len(k_i) == 4  # every sensor
+    for b in k_i:
+        assert _row(b, "daq_gain").sensitivity == pytest.approx(1.0, rel=1e-3)
