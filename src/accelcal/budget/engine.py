@@ -87,7 +87,8 @@ class DataModel:
         Inputs that enter through the reduction's parameters, perturbed
         and re-run rather than analytic: ``quantity -> {dimension:
         (keyword, unit)}``, the keyword of ``reduce`` taking a shift in
-        ``unit`` for a lab value of that dimension.
+        ``unit`` for a lab value of that dimension (``"/value"``: a relative
+        shift, the lab's uncertainty over its value).
     """
 
     reduce: object
@@ -324,8 +325,9 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
                 notes.append(f"{q}: a value in {std.unit} does not enter this model; not in "
                              "the budget")
                 continue
-            out[q] = _kragten(data_model, rows, keyword[0], std.u or 1.0,
-                              std.factor(keyword[1]))
+            per = (1.0 / std.value if keyword[1] == "/value" and std.value else
+                   std.factor(keyword[1]))  # "/value": a relative error of the value
+            out[q] = _kragten(data_model, rows, keyword[0], std.u or 1.0, per)
         elif q == "local_gravity":
             out[q] = _gravity(rows, std)
             unknown = sorted({r.label for r in rows if r.kind is None})
