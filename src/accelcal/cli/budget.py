@@ -48,6 +48,10 @@ def budget(
     data: list[Path] = typer.Option(
         [], "--data", help="A directory holding the records' input files (also searched two "
         "levels deep). Repeatable."),
+    model_file: Path | None = typer.Option(
+        None, "--model", help="The sensor's error model file with temperature terms (e.g. "
+        "accelcal thermal reduce --model-out), for the sensor temperature's sensitivity; "
+        "default: the reduction's own models."),
 ) -> None:
     """Itemised uncertainty budgets (GUM): each reported coefficient's inputs, largest first.
 
@@ -73,6 +77,11 @@ def budget(
 
             raise AccelcalError(f"{shown_path(d)}: not a directory; give the directory "
                                 "holding the records' input files", parameter="data")
+    model = None
+    if model_file is not None:
+        from accelcal.cli.common import load_model
+
+        model = load_model(model_file)
     the_lab = None
     if lab is not None:
         from accelcal.budget.lab import load_lab
@@ -85,7 +94,7 @@ def budget(
         if the_lab is not None:
             _check_due(the_lab, method, allow_expired, warned)
             _warn_missing(method, the_lab)
-        found = budgets(reduction, the_lab, records=inputs,
+        found = budgets(reduction, the_lab, records=inputs, model=model,
                         check={"trials": trials, "seed": seed} if check else None)
         out += [b for b in found if (sensors is None or b.sensor in sensors)
                 and (coefficient is None or coefficient in (b.coefficient,))]
