@@ -158,3 +158,19 @@ def test_vre_amplitude_through_the_identification(write_lab):
     # dU1 = K2 A^2 / 2 + ...: K2 ~ A^-2, so 0.5 % on A is 1 % on K2
     assert _row(b, "reference_sensitivity").contribution == pytest.approx(
         0.01 * abs(b.estimate), rel=0.01)
+
+
+def test_docs_list_each_methods_inputs():
+    import re
+
+    from accelcal import catalog
+    from helpers.paths import ROOT
+
+    text = (ROOT / "docs" / "budget.md").read_text(encoding="utf-8")
+    table = dict(re.findall(r"^\| ([a-z, -]+) \| ([a-z_, ]+) \|", text, re.M))
+    same = tuple(table["tumble"].split(", "))  # "the same": the row above, the tumble's
+    for m in catalog.METHODS:
+        listed = next((v for k, v in table.items() if m.name in k.split(", ")), None)
+        assert listed is not None, m.name
+        expected = {"the same": same, "none yet": ()}.get(listed, tuple(listed.split(", ")))
+        assert m.budget_inputs == expected, m.name
