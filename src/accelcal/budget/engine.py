@@ -362,8 +362,8 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
                                          std.value_in("degC")) for r in rows]
             if all(s is None for s in slopes):
                 notes.append("sensor_temperature: the sensor's temperature coefficients are "
-                             "not known (give a model with temperature terms); not in the "
-                             "budget")
+                             "not known (give a model with temperature terms: --model); not "
+                             "in the budget")
                 continue
             out[q] = [s or 0.0 for s in slopes]
         elif data_model is None or data_model.reduce is None:
