@@ -226,3 +226,11 @@ def test_a_failing_re_run_leaves_the_input_out_with_a_note(linear, write_lab):
     assert "daq_gain" not in {r.quantity for r in b.rows}
     assert any("daq_gain: the reduction run again on the perturbed data did not give K1" in n
                for n in b.notes)
+
+
+def test_unreadable_data_leave_the_data_inputs_out(linear, tmp_path):
+    _, red, lab = linear
+    bad = tmp_path / "gone.csv"
+    b = _by(budgets(red, lab, records=bad), "K1")
+    assert {r.quantity for r in b.rows} == {"Type A", "local_gravity"}
+    assert any(n.startswith("the input data could not be read again") for n in b.notes)
