@@ -61,6 +61,7 @@ MEMORY_LIMIT = 6 * 2**30
 BASE: dict[str, list[str]] = {
     "demo": ["--out", "{out}/demo", "--seed", "1"],
     "report": ["{record}", "--out", "{out}/report.html"],
+    "budget": ["{tumble}"],
     "model show": [],
     "model new": ["--out", "{out}/model.json"],
     "model eval": ["--ai", "1"],
@@ -178,7 +179,7 @@ KINDS: dict[str, str] = {
 COMMAND_KINDS: dict[tuple[str, str], str] = {
     ("records history", "method"): "str", ("records stats", "method"): "str",
     ("transverse simulate", "out"): "output-dir", ("demo", "out"): "output-dir",
-    ("report", "data"): "input-dir",
+    ("report", "data"): "input-dir", ("budget", "data"): "input-dir",
 }
 """(command, parameter) -> kind, where the parameter name means something else there."""
 
