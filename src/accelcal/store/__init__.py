@@ -39,6 +39,7 @@ from accelcal.store.location import (
     DEFAULT_DB_ENV,
     ReadonlyFile,
     check_sqlite_path,
+    check_sqlite_tables,
     default_url,
     prepare_sqlite_file,
     remove_sqlite_files,
@@ -132,6 +133,7 @@ class Store:
                     poolclass=sa.pool.NullPool,
                 )
             else:
+                check_sqlite_tables(self.path, self._shown_url())
                 created = self.path if prepare_sqlite_file(self.path) else None
                 path = self.path
                 self.engine = sa.create_engine(

@@ -120,6 +120,10 @@ READ_SPECS = {
 """Checks of the columns each read gives (:meth:`RowChecker.check`)."""
 
 
+class BadRowError(AccelcalError):
+    """A row of a store that fails validation (changed outside accelcal)."""
+
+
 class RowChecker:
     """Checks rows read from a store; counts the rows it leaves out.
 
@@ -158,7 +162,7 @@ class RowChecker:
 
         Raises
         ------
-        AccelcalError
+        BadRowError
             Naming the first bad row (table, id, field, value), unless skipping.
         """
         bad = {}
@@ -182,7 +186,7 @@ class RowChecker:
             first = min(bad)
             table, row_id, name, problem = bad[first]
             more = f" ({len(bad)} bad rows in all)" if len(bad) > 1 else ""
-            raise AccelcalError(
+            raise BadRowError(
                 f"the records store {self.where} holds a bad row: table {table}, id "
                 f"{shown(row_id)}, field {name}: {problem}{more}; it was changed outside "
                 "accelcal (--skip-bad leaves such rows out)")

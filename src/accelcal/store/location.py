@@ -167,6 +167,37 @@ def prepare_sqlite_file(path: Path) -> bool:
     return new
 
 
+def check_sqlite_tables(path: Path, where: str) -> None:
+    """Refuse, before writing anything, an existing SQLite file that is not a records store.
+
+    Read through a read-only connection: a writable one would switch
+    another application's database to write-ahead logging.
+
+    Raises
+    ------
+    AccelcalError
+        For another application's database (:func:`accelcal.store.schema.refuse_foreign`)
+        or a file that is not a database.
+    """
+    import sqlite3
+
+    from accelcal.store.schema import refuse_foreign
+
+    try:
+        if not path.exists() or path.stat().st_size == 0:
+            return
+        conn = connect(path, readonly=True)
+        try:
+            names = {r[0] for r in conn.execute(
+                "SELECT name FROM sqlite_master WHERE type = 'table'")}
+        finally:
+            conn.close()
+    except (OSError, sqlite3.Error) as exc:
+        reason = " ".join(str(getattr(exc, "strerror", None) or exc).split())
+        raise AccelcalError(f"cannot open the records store {where}: {reason}") from None
+    refuse_foreign(names, where)
+
+
 def store_exists(path: Path) -> bool:
     """Whether an SQLite store file exists (an unusable path is refused)."""
     try:

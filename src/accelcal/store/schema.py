@@ -185,6 +185,24 @@ MIGRATIONS = {1: _migrate_to_1, 2: _migrate_to_2, 3: _migrate_to_3, 4: _migrate_
 """Schema version -> function bringing the previous version to it."""
 
 
+def refuse_foreign(names: set[str], where: str) -> None:
+    """Refuse an SQLite database whose tables (``names``) are not a records store's.
+
+    Raises
+    ------
+    AccelcalError
+        When it has tables and not those of :data:`OURS`: another
+        application's database, which accelcal must never modify.
+    """
+    from accelcal.errors import AccelcalError
+
+    if names and not names >= OURS:
+        listed = ", ".join(sorted(names)[:5]) + (", ..." if len(names) > 5 else "")
+        raise AccelcalError(
+            f"{where} is an SQLite database but not an accelcal records store (its tables: "
+            f"{listed}); accelcal never modifies it: give a new or empty file")
+
+
 def stored_version(conn, tables_: dict, where: str) -> int:
     """The schema version of a store (0 for none); refuses a newer one.
 
@@ -209,11 +227,8 @@ def stored_version(conn, tables_: dict, where: str) -> int:
     from accelcal.validation import shown
 
     names = set(sa.inspect(conn).get_table_names())
-    if conn.dialect.name == "sqlite" and names and not names >= OURS:
-        listed = ", ".join(sorted(names)[:5]) + (", ..." if len(names) > 5 else "")
-        raise AccelcalError(
-            f"{where} is an SQLite database but not an accelcal records store (its tables: "
-            f"{listed}); accelcal never modifies it: give a new or empty file")
+    if conn.dialect.name == "sqlite":
+        refuse_foreign(names, where)
     if "schema_info" not in names:
         return 0
     info = tables_["schema_info"]
