@@ -146,6 +146,7 @@ def test_records_commands_name_the_bad_row_or_skip_it(capsys, tmp_path):
         assert "not-a-date" not in out
 
 
+@pytest.mark.faults
 def test_report_history_names_a_bad_row_or_skips_it(capsys, tmp_path):
     db = str(tmp_path / "s.sqlite")
     rec = tmp_path / "r.json"
