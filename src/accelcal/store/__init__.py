@@ -369,7 +369,8 @@ class Store:
         import sqlalchemy as sa
 
         cal, journal = self._tables["calibrations"], self._tables["journal"]
-        if conn.execute(sa.select(cal.c.id).where(cal.c.id == old_id)).first() is None:
+        if not 0 < old_id < 2**63 or conn.execute(
+                sa.select(cal.c.id).where(cal.c.id == old_id)).first() is None:
             raise AccelcalError(f"no record with id {old_id} in the store to supersede; see "
                                 "'accelcal records list'")
         later = conn.execute(sa.select(journal.c.calibration_id)
