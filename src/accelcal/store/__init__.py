@@ -32,7 +32,7 @@ from collections.abc import Iterable, Sequence
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.method_ids import ALIASES, spellings
-from accelcal.store.chain import ChainReport, append, journal_entries
+from accelcal.store.chain import ChainReport, append, check_supersedable, journal_entries
 from accelcal.store.chain import report as chain_report
 from accelcal.store.checks import HISTORY_COLUMNS, LIST_SPEC, READ_SPECS, RowChecker, date_problem
 from accelcal.store.location import (
@@ -129,8 +129,7 @@ class Store:
                 if not self._absent:
                     self._file = self._readonly_file()
                 self.engine = sa.create_engine(
-                    "sqlite://", creator=lambda: self._file.connect(),  # noqa: PLW0108 (lazy: None while absent)
-                    poolclass=sa.pool.NullPool,
+                    "sqlite://", creator=self._connect_readonly, poolclass=sa.pool.NullPool,
                 )
             else:
                 check_sqlite_tables(self.path, self._shown_url())
@@ -176,6 +175,10 @@ class Store:
         except sqlite3.Error as exc:
             raise AccelcalError(f"cannot open the records store {self._shown_url()}: "
                                 f"{' '.join(str(exc).split())}") from None
+
+    def _connect_readonly(self):
+        """A read-only connection to the SQLite file (the engine's creator)."""
+        return self._file.connect()
 
     @property
     def skipped(self) -> int:
@@ -334,7 +337,7 @@ class Store:
                 if conn.dialect.name == "postgresql":
                     conn.execute(sa.text(f"SELECT pg_advisory_xact_lock({WRITE_LOCK})"))
                 if correction is not None:
-                    self._check_supersedable(conn, correction[0])
+                    check_supersedable(conn, self._tables, correction[0])
                 stored = self._first_stored(conn, rows)
                 if stored is None:
                     ids = dict(conn.execute(sa.insert(cal).returning(cal.c.uid, cal.c.id),
@@ -363,21 +366,6 @@ class Store:
                 raise AccelcalError(record)
             raise AccelcalError(f"{names[stored]}: {record}; {none_added(records)}")
         return [int(ids[row["uid"]]) for row in rows]
-
-    def _check_supersedable(self, conn, old_id: int) -> None:
-        """Refuse superseding a record that is not stored, or is superseded already."""
-        import sqlalchemy as sa
-
-        cal, journal = self._tables["calibrations"], self._tables["journal"]
-        if not 0 < old_id < 2**63 or conn.execute(
-                sa.select(cal.c.id).where(cal.c.id == old_id)).first() is None:
-            raise AccelcalError(f"no record with id {old_id} in the store to supersede; see "
-                                "'accelcal records list'")
-        later = conn.execute(sa.select(journal.c.calibration_id)
-                             .where(journal.c.supersedes == old_id)).scalar()
-        if later is not None:
-            raise AccelcalError(f"record {old_id} is already superseded by record {later}; "
-                                f"supersede record {later} instead")
 
     def _first_stored(self, conn, rows: list[dict]) -> int | None:
         """Index of the first of ``rows`` whose record is in the store already, or None."""

@@ -151,6 +151,30 @@ def journal_entries(rows: list[dict], ids: dict, coefficients: list[list[dict]],
     return entries
 
 
+def check_supersedable(conn, tables: dict, old_id: int) -> None:
+    """Refuse superseding a record that is not stored, or is superseded already.
+
+    Raises
+    ------
+    AccelcalError
+        Naming the record, and the one superseding it already.
+    """
+    import sqlalchemy as sa
+
+    from accelcal.errors import AccelcalError
+
+    cal, journal = tables["calibrations"], tables["journal"]
+    if not 0 < old_id < 2**63 or conn.execute(
+            sa.select(cal.c.id).where(cal.c.id == old_id)).first() is None:
+        raise AccelcalError(f"no record with id {old_id} in the store to supersede; see "
+                            "'accelcal records list'")
+    later = conn.execute(sa.select(journal.c.calibration_id)
+                         .where(journal.c.supersedes == old_id)).scalar()
+    if later is not None:
+        raise AccelcalError(f"record {old_id} is already superseded by record {later}; "
+                            f"supersede record {later} instead")
+
+
 def stored_records(conn, tables: dict):
     """Every record of a store as (``calibrations`` row, its ``coefficients`` rows), by id.
 
