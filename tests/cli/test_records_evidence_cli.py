@@ -95,3 +95,23 @@ def test_report_history_prints_and_writes_the_chain_status(capsys, tmp_path):
     assert "chain verified: yes (3 records)" in out.read_text()
     code, _, err = run(capsys, "report", paths[0], "--out", out, "--skip-bad")
     assert_one_line_error(code, err, "--skip-bad goes with --history")
+
+
+def test_corrections_are_listed_with_who_when_and_why(capsys, tmp_path):
+    db = str(tmp_path / "s.sqlite")
+    (first,) = _files(tmp_path, records(1))
+    code, out, _ = run(capsys, "records", "corrections", "--db", db)
+    assert out == "the store holds no correction\n"
+    run(capsys, "records", "add", first, "--db", db)
+    fixed = tmp_path / "fixed.json"
+    make_record(shift=3e-7, date="2026-01-01T00:00:00+00:00", operator="B").save(fixed)
+    run(capsys, "records", "supersede", "1", "--by", fixed, "--who", "A. Tester", "--why",
+        "wrong reference voltage", "--db", db)
+    code, out, _ = run(capsys, "records", "corrections", "--db", db, "--format", "json")
+    (row,) = json.loads(out)
+    assert (row["id"], row["supersedes"], row["who"], row["why"]) == (
+        2, 1, "A. Tester", "wrong reference voltage")
+    assert row["stored_at"].endswith("+00:00")
+    code, out, _ = run(capsys, "records", "history", "SN-1", "--db", db)
+    assert out.splitlines()[-1].startswith("record 2 supersedes record 1: by A. Tester on ")
+    assert out.splitlines()[-1].endswith("because wrong reference voltage")

@@ -95,7 +95,11 @@ def history(  # noqa: PLR0917 - one parameter per command-line option
     with _store(db, readonly=True, skip_bad=skip_bad) as store:
         columns = store.history_columns(serial, method)
         _skipped(store)
+        fixes = store.corrections(serial) if fmt == "table" else []
     emit_columns(columns, fmt, title=f"Coefficient history of {serial}")
+    for fix in fixes:
+        typer.echo(f"record {fix['id']} supersedes record {fix['supersedes']}: by {fix['who']} "
+                   f"on {fix['stored_at']}, because {fix['why']}")
     if plot is not None:
         from accelcal.plotting import save_figure
         from accelcal.plotting.records import history_figure
@@ -165,6 +169,25 @@ def verify(
         typer.echo("\n".join(lines))
     if not report.verified:
         raise typer.Exit(1)
+
+
+@app.command("corrections")
+def corrections(
+    serial: str | None = typer.Option(None, "--serial", help="Only this serial number."),
+    db: str | None = typer.Option(None, "--db", help=_DB_HELP),
+    fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+) -> None:
+    """List the corrections ('records supersede'): which record supersedes which, who, when, why."""
+    from accelcal.validation import check_label
+
+    if serial is not None:
+        check_label(serial, "serial number")
+    with _store(db, readonly=True) as store:
+        rows = store.corrections(serial)
+    if not rows and fmt == "table":
+        typer.echo("the store holds no correction" + (f" of {serial}" if serial else ""))
+        return
+    emit(rows, fmt, title="Corrections")
 
 
 @app.command("supersede")

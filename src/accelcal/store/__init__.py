@@ -33,6 +33,7 @@ from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.method_ids import ALIASES, spellings
 from accelcal.store.chain import ChainReport, append, check_supersedable, journal_entries
+from accelcal.store.chain import corrections as chain_corrections
 from accelcal.store.chain import report as chain_report
 from accelcal.store.checks import HISTORY_COLUMNS, LIST_SPEC, READ_SPECS, RowChecker, date_problem
 from accelcal.store.location import (
@@ -557,18 +558,20 @@ class Store:
         return summarise(*self._history(serial, method, "calibrations", "coefficients",
                                         current_only=True))
 
+    def corrections(self, serial: str | None = None) -> list[dict]:
+        """Corrections of ``serial`` (all without): :func:`accelcal.store.chain.corrections`."""
+        if self._absent or self._version < 5:
+            return []
+        with self._errors("read"), self.engine.connect() as conn:
+            return chain_corrections(conn, self._tables, serial)
+
     def verify(self) -> ChainReport:
         """Check the records against the journal's hash chain, and the database itself.
 
-        Returns
-        -------
-        ChainReport
-            Every record changed, inserted or deleted outside accelcal and
-            every broken link of the chain (:mod:`accelcal.store.chain`), and
-            SQLite's ``PRAGMA integrity_check`` (on PostgreSQL ``not run``:
-            the chain and the count of records against the journal are what
-            is checked; the server checks its pages' checksums, when enabled,
-            as it reads them).
+        Every record changed, inserted or deleted outside accelcal, every
+        broken link, and SQLite's ``PRAGMA integrity_check`` (on PostgreSQL
+        ``not run``: the chain and the count of records against the journal
+        are checked): :func:`accelcal.store.chain.report`.
         """
         if self._absent:
             return ChainReport(records=0)

@@ -175,6 +175,23 @@ def check_supersedable(conn, tables: dict, old_id: int) -> None:
                             f"supersede record {later} instead")
 
 
+def corrections(conn, tables: dict, serial: str | None = None) -> list[dict]:
+    """The corrections stored (of ``serial``), in the order stored.
+
+    Each a dict: id (the correcting record), supersedes, serial, method,
+    date, stored_at, who, why.
+    """
+    import sqlalchemy as sa
+
+    journal = tables["journal"]
+    query = sa.select(journal.c.calibration_id.label("id"), journal.c.supersedes,
+                      journal.c.serial, journal.c.method, journal.c.date, journal.c.stored_at,
+                      journal.c.who, journal.c.why).where(journal.c.supersedes.is_not(None))
+    if serial is not None:
+        query = query.where(journal.c.serial == serial)
+    return [dict(r._mapping) for r in conn.execute(query.order_by(journal.c.seq))]
+
+
 def stored_records(conn, tables: dict):
     """Every record of a store as (``calibrations`` row, its ``coefficients`` rows), by id.
 
