@@ -246,10 +246,8 @@ def _write_records(directory: Path, outcomes):
 
 
 def _store(store, records):
-    import sqlalchemy as sa
-
     ids = store.add_many(records)
-    return sa.make_url(store.url).render_as_string(hide_password=True), ids
+    return store.shown, ids
 
 
 def _report(out: Path, store, outcomes, title: str, subtitle: str,  # noqa: PLR0917

@@ -128,7 +128,7 @@ class Store:
             if readonly:
                 self._absent = not store_exists(self.path)
                 if not self._absent:
-                    self._file = self._readonly_file()
+                    self._file = ReadonlyFile(self.path, self._shown_url())
                 self.engine = sa.create_engine(
                     "sqlite://", creator=self._connect_readonly, poolclass=sa.pool.NullPool,
                 )
@@ -167,16 +167,6 @@ class Store:
                 remove_sqlite_files(created)
             raise
 
-    def _readonly_file(self) -> ReadonlyFile:
-        """How to read the SQLite file read-only (a file that is not a database refused)."""
-        import sqlite3
-
-        try:
-            return ReadonlyFile(self.path, self._shown_url())
-        except sqlite3.Error as exc:
-            raise AccelcalError(f"cannot open the records store {self._shown_url()}: "
-                                f"{' '.join(str(exc).split())}") from None
-
     def _connect_readonly(self):
         """A read-only connection to the SQLite file (the engine's creator)."""
         return self._file.connect()
@@ -198,6 +188,11 @@ class Store:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+    @property
+    def shown(self) -> str:
+        """The store as messages show it: its path, or its URL without the password."""
+        return self._shown_url()
 
     def _shown_url(self) -> str:
         import sqlalchemy as sa

@@ -242,6 +242,11 @@ class ReadonlyFile:
         The store file (it exists).
     shown : str
         The store, as messages name it.
+
+    Raises
+    ------
+    AccelcalError
+        For a file that is not a database, or a log that cannot be copied.
     """
 
     def __init__(self, path: Path, shown: str) -> None:
@@ -250,9 +255,11 @@ class ReadonlyFile:
         self.path, self.immutable, self.copy = path, False, None
         try:
             self._probe(path)
-        except sqlite3.OperationalError as exc:
-            if "readonly" not in str(exc) and "unable to open" not in str(exc):
-                raise
+        except sqlite3.Error as exc:
+            reason = " ".join(str(exc).split())
+            if "readonly" not in reason and "unable to open" not in reason:
+                raise AccelcalError(f"cannot open the records store {shown}: {reason}"
+                                    ) from None
             wal = Path(f"{path}-wal")
             if not (wal.exists() and wal.stat().st_size > 0):
                 self.immutable = True
@@ -271,7 +278,7 @@ class ReadonlyFile:
     @staticmethod
     def _copied(path: Path, wal: Path, shown: str) -> str:
         """A temporary directory holding the store and its write-ahead log."""
-        directory = tempfile.mkdtemp(prefix="accelcal-store-")
+        directory = tempfile.mkdtemp(prefix=f"accelcal-store-{os.getpid()}-")
         try:
             shutil.copyfile(path, Path(directory) / path.name)
             shutil.copyfile(wal, Path(directory) / wal.name)
