@@ -470,7 +470,8 @@ class Store:
                 query = query.where(cal.c.method.in_(spellings(method)))
             if current_only and self._version >= 5:
                 journal = self._tables["journal"]
-                query = query.where(~sa.exists().where(journal.c.supersedes == cal.c.id))
+                query = query.where(cal.c.id.not_in(  # NOT IN: one look-up table, built once
+                    sa.select(journal.c.supersedes).where(journal.c.supersedes.is_not(None))))
             if name == "calibrations":
                 queries.append(query.order_by(cal.c.date, cal.c.id))
             else:
