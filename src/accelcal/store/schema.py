@@ -27,6 +27,12 @@ Schema versions:
    migration journals the records of an older store in id order, hashing
    them as they are then.
 
+A column added to ``calibrations`` or ``coefficients`` by a later schema joins
+the records' content hash by being listed in
+:data:`accelcal.store.chain.CALIBRATION_FIELDS` or ``COEFFICIENT_FIELDS``;
+records stored before it (NULL there) keep their hashes, so the migration
+need not rehash them.
+
 A store whose file holds other tables and not accelcal's (another
 application's SQLite database) is refused, never migrated; so is a
 ``schema_info`` table with other than one row or a version that is not an
