@@ -203,3 +203,36 @@ def test_concurrent_writers_chain_every_record(db):
     assert report.verified, [f.line() for f in report.findings]
     assert report.records == writers * per_writer
     assert [e["seq"] for e in _journal(db)] == list(range(1, writers * per_writer + 1))
+
+
+_BATCHES = textwrap.dedent(
+    """
+    import sys
+    sys.path.insert(0, {tests!r})
+    from helpers.records import records
+    from accelcal.store import Store
+    with Store({db!r}) as store:
+        for k in range(1000):
+            store.add_many(records(20, serial="K", start=20 * k))
+            print(k, flush=True)
+    """
+)
+
+
+@pytest.mark.faults
+def test_a_writer_killed_mid_batch_leaves_a_chain_that_verifies(db):
+    Store(db).close()
+    proc = subprocess.Popen([sys.executable, "-c", _BATCHES.format(tests=str(TESTS), db=db)],
+                            stdout=subprocess.PIPE, text=True)
+    for _ in range(3):  # killed after a few batches, most likely inside the next one
+        assert proc.stdout.readline(), "the writer stopped early"
+    proc.kill()
+    proc.wait(timeout=60)
+    proc.stdout.close()
+    report = verify_chain(db)
+    assert report.verified, [f.line() for f in report.findings]
+    assert report.records >= 60
+    assert report.records % 20 == 0  # whole batches only
+    with Store(db) as store:  # the store takes records again, chained after the survivors
+        store.add(make_record(serial="AFTER"))
+        assert store.verify().verified
