@@ -101,17 +101,18 @@ def test_corrections_are_listed_with_who_when_and_why(capsys, tmp_path):
     db = str(tmp_path / "s.sqlite")
     (first,) = _files(tmp_path, records(1))
     code, out, _ = run(capsys, "records", "corrections", "--db", db)
+    assert code == 0
     assert out == "the store holds no correction\n"
     run(capsys, "records", "add", first, "--db", db)
     fixed = tmp_path / "fixed.json"
     make_record(shift=3e-7, date="2026-01-01T00:00:00+00:00", operator="B").save(fixed)
     run(capsys, "records", "supersede", "1", "--by", fixed, "--who", "A. Tester", "--why",
         "wrong reference voltage", "--db", db)
-    code, out, _ = run(capsys, "records", "corrections", "--db", db, "--format", "json")
+    _, out, _ = run(capsys, "records", "corrections", "--db", db, "--format", "json")
     (row,) = json.loads(out)
     assert (row["id"], row["supersedes"], row["who"], row["why"]) == (
         2, 1, "A. Tester", "wrong reference voltage")
     assert row["stored_at"].endswith("+00:00")
-    code, out, _ = run(capsys, "records", "history", "SN-1", "--db", db)
+    _, out, _ = run(capsys, "records", "history", "SN-1", "--db", db)
     assert out.splitlines()[-1].startswith("record 2 supersedes record 1: by A. Tester on ")
     assert out.splitlines()[-1].endswith("because wrong reference voltage")
