@@ -61,11 +61,16 @@ def content_hash(calibration: dict, coefficients: list[dict]) -> str:
     -----
     Values are hashed with their type: a number stored as text, or a real
     stored as an integer, does not hash as the number. ``simulated`` is
-    hashed as a boolean when it is 0 or 1 (SQLite has no boolean).
+    hashed as a boolean when it is 0 or 1 (SQLite has no boolean). The
+    record's JSON (text) enters by its own SHA-256, which spares escaping
+    the long text into the canonical JSON.
     """
     cal = {k: calibration[k] for k in CALIBRATION_FIELDS if calibration.get(k) is not None}
     if type(cal.get("simulated")) is int and cal["simulated"] in (0, 1):
         cal["simulated"] = bool(cal["simulated"])
+    if type(cal.get("record_json")) is str:
+        cal["record_json"] = {"sha256": hashlib.sha256(cal["record_json"].encode(
+            "utf-8", "surrogatepass")).hexdigest()}
     coef = [{k: c[k] for k in COEFFICIENT_FIELDS if c.get(k) is not None}
             for c in coefficients]
     text = json.dumps({"calibration": cal, "coefficients": coef}, sort_keys=True,
@@ -208,14 +213,17 @@ def stored_records(conn, tables: dict):
         query = sa.select(*cal_columns).order_by(cal.c.id).limit(_BATCH)
         if last is not None:
             query = query.where(cal.c.id > last)
-        rows = [dict(r._mapping) for r in conn.execute(query)]
+        keys = [c.name for c in cal_columns]
+        rows = [dict(zip(keys, r, strict=True))
+                for r in conn.execute(query).cursor.fetchall()]  # the driver's tuples: fast
         if not rows:
             return
         ids = [r["id"] for r in rows]
         by_id = {i: [] for i in ids}
-        for c in conn.execute(sa.select(*coef_columns)
-                              .where(coef.c.calibration_id.in_(ids)).order_by(coef.c.id)):
-            by_id[c[0]].append(dict(c._mapping))
+        keys = [c.name for c in coef_columns]
+        for c in conn.execute(sa.select(*coef_columns).where(coef.c.calibration_id.in_(ids))
+                              .order_by(coef.c.id)).cursor.fetchall():
+            by_id[c[0]].append(dict(zip(keys, c, strict=True)))
         yield from ((r, by_id[r["id"]]) for r in rows)
         last = ids[-1]
 
@@ -344,9 +352,9 @@ def _findings(conn, tables: dict) -> tuple[int, int, str, list[Finding]]:
     import sqlalchemy as sa
 
     journal = tables["journal"]
-    columns = [journal.c[k] for k in (*ENTRY_FIELDS, "chain_hash")]
-    entries = [dict(r._mapping) for r in conn.execute(
-        sa.select(*columns).order_by(journal.c.seq))]
+    keys = (*ENTRY_FIELDS, "chain_hash")
+    entries = [dict(zip(keys, r, strict=True)) for r in conn.execute(
+        sa.select(*(journal.c[k] for k in keys)).order_by(journal.c.seq)).cursor.fetchall()]
     out = _chain_findings(entries)
     by_record = {}
     for entry in entries:
