@@ -68,7 +68,7 @@ PRIOR_CHOICES = ("default", "none")
 aliases only)."""
 
 
-def with_type_b(data, red, method, terms=TERMS, priors="default", linear=None):
+def with_type_b(data, red, method, terms=TERMS, priors="default", *, linear=None):
     """``red`` with the unestimated terms' Type B covariance, contributions and aliases.
 
     Parameters
