@@ -75,10 +75,18 @@ def history(
         None, "--plot", help="Directory for the history figure (PNG and SVG)."
     ),
 ) -> None:
-    """Every coefficient of every calibration of SERIAL (estimate and standard uncertainty)."""
+    """Every coefficient of every calibration of SERIAL (estimate and standard uncertainty).
+
+    The coefficient column follows a coefficient across its renaming (a row recorded as
+    K_F before and as K_F+K_OO after is coefficient K_F); each change of name is stated.
+    """
+    from accelcal.store.history import renamings
+
     with _store(db, readonly=True) as store:
         columns = store.history_columns(serial, method)
     emit_columns(columns, fmt, title=f"Coefficient history of {serial}")
+    for change in renamings(columns):
+        typer.echo("note: " + change.text(), err=True)
     if plot is not None:
         from accelcal.plotting import save_figure
         from accelcal.plotting.records import history_figure

@@ -395,7 +395,11 @@ class Store:
         Returns
         -------
         list of dict
-            id, date, method, name, unit, estimate, std (NaN when unknown).
+            id, date, method, name, unit, estimate, std (NaN when unknown), and
+            coefficient: the plain coefficient the row estimates (``K_F`` for a
+            row recorded as ``K_F+K_OO``,
+            :func:`accelcal.identifiability.plain_name`), which follows one
+            coefficient across its renaming (:mod:`accelcal.store.history`).
 
         Raises
         ------
@@ -403,8 +407,9 @@ class Store:
             If the store has no calibration of ``serial`` (by ``method``).
         """
         nan = math.nan
+        plain = _plain_names()
         return [{"id": i, "date": d, "method": m, "name": n, "unit": u, "estimate": e,
-                 "std": nan if s is None else s}
+                 "std": nan if s is None else s, "coefficient": plain(n)}
                 for i, d, m, n, u, e, s in self._history(serial, method, "history")[0]]
 
     def history_columns(self, serial: str, method: str | None = None) -> dict[str, list]:
@@ -417,6 +422,7 @@ class Store:
                            ("id", "date", "method", "name", "unit", "estimate", "std"))
         if None in columns["std"]:
             columns["std"] = [math.nan if s is None else s for s in columns["std"]]
+        columns["coefficient"] = list(map(_plain_names(), columns["name"]))
         return columns
 
     def stats(self, serial: str, method: str | None = None) -> list[CoefficientStats]:
@@ -438,6 +444,18 @@ class Store:
         .. [1] IEEE Std 1293-2018, definitions of repeatability and drift.
         """
         return summarise(*self._history(serial, method, "calibrations", "coefficients"))
+
+
+def _plain_names():
+    """``name -> plain coefficient`` (:func:`accelcal.identifiability.plain_name`), cached.
+
+    A history repeats a handful of names over many rows.
+    """
+    from functools import lru_cache
+
+    from accelcal.identifiability import plain_name
+
+    return lru_cache(maxsize=None)(plain_name)
 
 
 def _columns(rows: list[tuple], names: Sequence[str]) -> dict[str, list]:
