@@ -124,13 +124,13 @@ def test_linear_response_equals_central_differences(method, options):
     from accelcal.methods.dividing_head import four, joint
     from accelcal.methods.dividing_head.reduce import tumble
     from accelcal.methods.dividing_head.response import response
-    from accelcal.methods.dividing_head.unestimated import TERMS, _columns, central_differences
+    from accelcal.methods.dividing_head.unestimated import TERMS, central_differences, term_columns
 
     rig = DividingHeadRig.uniform(24, (accelcal.default_model(),) * 4, noise=1e-6)
     data = HeadData.build(rig.positions, simulate(rig, 3).outputs, rig.mounts)
     run = {"single": single, "four": four, "joint": joint, "tumble": tumble}[method]
     red = run(data, **options)
-    changes = [(k, z) for k, (_, z) in _columns(data, red, {}, () if method == "tumble"
+    changes = [(k, z) for k, (_, z) in term_columns(data, red, {}, () if method == "tumble"
                                                  else TERMS, False)]
     assert len(changes) == (8 if method == "tumble" else 24)
     fast = response(method, data, red, options)(changes)

@@ -104,7 +104,7 @@ def with_type_b(data, red, method, terms=TERMS, priors="default", *, linear=None
     priors = default_priors(terms, data.output_unit) if use else {}
     n_sens = len(red.sensors)
     p = len(red.sensors[0].names)
-    listed = list(_columns(data, red, priors, terms, use))
+    listed = list(term_columns(data, red, priors, terms, use))
     names = [(k, term) for k, (term, _) in listed]
     changes = [(k, z) for k, (_, z) in listed]
     if not changes:
@@ -204,7 +204,7 @@ def _sensors_equal(a, names, priors) -> np.ndarray:
     return worst
 
 
-def _columns(data, red, priors, terms, bound):
+def term_columns(data, red, priors, terms, bound):
     """``(sensor, (term, output change per unit term))`` of every unestimated term.
 
     Besides :data:`TERMS`, the positions where sensor k's a_i is zero (within
