@@ -47,6 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from accelcal.aliasing import Prior
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD
 from accelcal.methods.dividing_head.data import HeadData
@@ -181,12 +182,7 @@ class HeadSampler:
         sensors, columns, kinds, values = self.unestimated
         draws = np.empty((t, len(sensors)))
         for j, (kind, a) in enumerate(zip(kinds, values, strict=True)):
-            if kind == "rectangular":
-                draws[:, j] = rng.uniform(-a, a, t)
-            elif kind == "normal":
-                draws[:, j] = a * rng.standard_normal(t)
-            else:  # two-point
-                draws[:, j] = a * rng.choice((-1.0, 1.0), t)
+            draws[:, j] = Prior("term", a, distribution=kind).draw(rng, t)
         for ell in np.unique(sensors):
             at = np.flatnonzero(sensors == ell)
             out[:, ell] = draws[:, at] @ columns[at]
