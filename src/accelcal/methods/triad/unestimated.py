@@ -80,41 +80,10 @@ def with_type_b(red, means, reduce_again, *, gravity: float, up=None, priors="de
     if priors not in ("default", "none"):
         raise AccelcalError(f"priors {str(priors)[:40]!r} is not one of default, none",
                             parameter="priors")
-    from accelcal.rigs.triad_axes import axis_frames
-
     means = np.asarray(means, dtype=float)
-    n = means.shape[0]
-    labels = list(labels) if labels is not None else [f"P{j + 1}" for j in range(n)]
-    cal = calibration_of(red)
-    if up is not None:
-        force = gravity * np.asarray(up, dtype=float)
-        if cal.rotation is not None:
-            force = force @ cal.rotation
-    else:
-        force = cal.apply(means)
-    ia, oa, pa, norm = axis_frames(cal.t)
-    a_i, a_o, a_p = (force @ m.T / gravity for m in (ia, oa, pa))  # (n, 3), g
-    unit = red.provenance.get("input_unit", "m/s^2")
     use = priors == "default"
-    pri = default_priors(TERMS, "g") if use else {}
-    asym = default_priors(("K0_asym",), "g").get("K0_asym")
-    columns, names = [], []
-    per_g = gravity * norm / cal.scale  # input unit per g of each axis's indicated error
-    for i, axis in enumerate("xyz"):
-        regress = _regressors(a_i[:, i], a_o[:, i], a_p[:, i])
-        for term in TERMS:
-            col = np.zeros((n, 3))
-            col[:, i] = per_g[i] * regress[term]
-            columns.append(col)
-            names.append((f"{term}[{axis}]", term))
-        for j in np.flatnonzero(np.abs(a_i[:, i]) < ZERO_A_I):
-            name = f"K0_asym@{labels[j]}[{axis}]"
-            col = np.zeros((n, 3))
-            col[j, i] = 0.5 * per_g[i]
-            columns.append(col)
-            names.append((name, "K0_asym"))
-            if use and asym is not None:
-                pri[name] = dataclasses.replace(asym, name=name)  # +-K0': still within +-a
+    names, columns, pri = term_columns(red, means, gravity=gravity, up=up, labels=labels,
+                                       bound=use)
     est = red.sensors[0]
     a = np.column_stack([
         (reduce_again(means + STEP * c).sensors[0].values
@@ -144,8 +113,66 @@ def with_type_b(red, means, reduce_again, *, gravity: float, up=None, priors="de
     return dataclasses.replace(red, sensors=(sensor, *red.sensors[1:]), covariance=covariance,
                                type_b=(*red.type_b, *parts), aliases=(*red.aliases, *entries),
                                priors=(*red.priors, *used.values()),
-                               notes=(*red.notes, note),
-                               provenance={**red.provenance, "input_unit": unit})
+                               notes=(*red.notes, note))
+
+
+def term_columns(red, means, *, gravity: float, up=None, labels=None, bound: bool = True):
+    """Every axis's unestimated terms: names, change of the means per unit term, priors.
+
+    Parameters
+    ----------
+    red : Reduction
+        The triad reduction (its calibration gives the axes' frames).
+    means : numpy.ndarray, shape (n, 3)
+    gravity : float
+    up : array_like, optional
+        Known orientations; None: the calibrated means give the specific force.
+    labels : sequence of str, optional
+    bound : bool
+        Give each term its embedded default prior (and each ``K0_asym@`` one).
+
+    Returns
+    -------
+    names : list of (str, str)
+        ``(row name, term)``, e.g. ``("K2[x]", "K2")``.
+    columns : list of numpy.ndarray, shape (n, 3)
+        Input unit per unit term (g/g^n).
+    priors : dict
+        Row name or term -> Prior.
+    """
+    from accelcal.rigs.triad_axes import axis_frames
+
+    n = means.shape[0]
+    labels = list(labels) if labels is not None else [f"P{j + 1}" for j in range(n)]
+    cal = calibration_of(red)
+    if up is not None:
+        force = gravity * np.asarray(up, dtype=float)
+        if cal.rotation is not None:
+            force = force @ cal.rotation
+    else:
+        force = cal.apply(means)
+    ia, oa, pa, norm = axis_frames(cal.t)
+    a_i, a_o, a_p = (force @ m.T / gravity for m in (ia, oa, pa))  # (n, 3), g
+    pri = default_priors(TERMS, "g") if bound else {}
+    asym = default_priors(("K0_asym",), "g").get("K0_asym")
+    columns, names = [], []
+    per_g = gravity * norm / cal.scale  # input unit per g of each axis's indicated error
+    for i, axis in enumerate("xyz"):
+        regress = _regressors(a_i[:, i], a_o[:, i], a_p[:, i])
+        for term in TERMS:
+            col = np.zeros((n, 3))
+            col[:, i] = per_g[i] * regress[term]
+            columns.append(col)
+            names.append((f"{term}[{axis}]", term))
+        for j in np.flatnonzero(np.abs(a_i[:, i]) < ZERO_A_I):
+            name = f"K0_asym@{labels[j]}[{axis}]"
+            col = np.zeros((n, 3))
+            col[j, i] = 0.5 * per_g[i]
+            columns.append(col)
+            names.append((name, "K0_asym"))
+            if bound and asym is not None:
+                pri[name] = dataclasses.replace(asym, name=name)  # +-K0': still within +-a
+    return names, columns, pri
 
 
 def _regressors(a_i, a_o, a_p) -> dict:
