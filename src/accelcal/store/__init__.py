@@ -422,7 +422,9 @@ class Store:
                            ("id", "date", "method", "name", "unit", "estimate", "std"))
         if None in columns["std"]:
             columns["std"] = [math.nan if s is None else s for s in columns["std"]]
-        columns["coefficient"] = list(map(_plain_names(), columns["name"]))
+        plain = _plain_names()
+        distinct = {n: plain(n) for n in set(columns["name"])}
+        columns["coefficient"] = list(map(distinct.__getitem__, columns["name"]))
         return columns
 
     def stats(self, serial: str, method: str | None = None) -> list[CoefficientStats]:

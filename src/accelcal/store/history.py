@@ -69,6 +69,8 @@ def renamings(rows) -> list[Renaming]:
     """
     if isinstance(rows, dict):
         # a long history (300k rows) without a renaming: found from its distinct names
+        if rows["name"] == rows["coefficient"]:
+            return []  # every row under its plain name
         seen = set(zip(rows["method"], rows["coefficient"], rows["name"], strict=True))
         if len(seen) == len({(m, c) for m, c, _ in seen}):
             return []
