@@ -111,6 +111,18 @@ class Prior:
         """Standard uncertainty: a / sqrt 3 for a bound of half-width a (GUM 4.3.7), a for +-a."""
         return self.value / math.sqrt(3.0) if self.distribution == "rectangular" else self.value
 
+    def draw(self, rng, size) -> np.ndarray:
+        """Values of the term drawn from the prior (a Monte Carlo trial's): GUM-S1 6.4.
+
+        Uniform within ``+-value`` (rectangular), ``N(0, value^2)`` (normal),
+        ``+-value`` with equal odds (two-point).
+        """
+        if self.distribution == "rectangular":
+            return rng.uniform(-self.value, self.value, size)
+        if self.distribution == "normal":
+            return self.value * rng.standard_normal(size)
+        return self.value * rng.choice((-1.0, 1.0), size)
+
     def as_dict(self) -> dict:
         """JSON-ready form."""
         return {"name": self.name, "value": self.value, "unit": self.unit,

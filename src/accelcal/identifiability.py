@@ -39,6 +39,7 @@ References
    space of the design).
 """
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -311,6 +312,23 @@ def combination_name(plain: str, shares: dict) -> str:
         mag = "" if abs(abs(w) - 1.0) < 1e-9 else f"{abs(w):.6g}*"
         text += f"{'-' if w < 0 else '+'}{mag}{term}"
     return text
+
+
+_COMBINATION = re.compile(r"^([A-Za-z][\w']*?)((?:[+-](?:\d+(?:\.\d*)?(?:e[+-]?\d+)?\*)?"
+                          r"[A-Za-z][\w']*)+)$")
+"""A row name of :func:`combination_name`: the plain coefficient, then signed (weighted) terms."""
+
+
+def plain_name(name: str) -> str:
+    """The plain coefficient of a row name: the inverse of :func:`combination_name`.
+
+    ``"K0+Kpp"`` -> ``"K0"``, ``"K_F+K_OO"`` -> ``"K_F"``,
+    ``"K3+0.5*K1_asym"`` -> ``"K3"``; a name that is no combination
+    (``"K1"``, ``"K1_T1"``) is its own plain name. Used where only the name
+    survives (the store's rows) to follow a coefficient across its renaming.
+    """
+    match = _COMBINATION.match(name)
+    return match.group(1) if match else name
 
 
 def inseparable(design, unestimated, names, *, sigma=None, rtol=None) -> tuple[str, ...]:

@@ -295,9 +295,12 @@ def from_dict(data: dict, *, source: str = "<dict>", reduction, estimate, assump
 
     Read back: family, method, dof, every sensor's estimate (real or
     complex), the shared estimate, assumptions, fixed and nominal values,
-    provenance and notes. Not read back, because the JSON holds only their
-    summary: residuals, identifiability, combinations, observations and
-    models; nor quantity overrides, which it does not hold. ``reduction``,
+    provenance, notes, and the Type B contributions, aliases and priors of
+    the unestimated terms (:func:`type_b_from_dict`; a JSON written before
+    they existed has none, and reads as before). Not read back, because the
+    JSON holds only their summary: residuals, identifiability, combinations,
+    observations and models; nor quantity overrides, which it does not
+    hold. ``reduction``,
     ``estimate`` and ``assumption`` are the classes to build, passed in by
     :meth:`~accelcal.results.Reduction.from_dict` (this module does not
     import :mod:`accelcal.results`, which calls it).
@@ -332,9 +335,78 @@ def from_dict(data: dict, *, source: str = "<dict>", reduction, estimate, assump
             nominal={k: tuple(v) if isinstance(v, list) else v
                      for k, v in data.get("nominal", {}).items()},
             provenance=dict(data.get("provenance", {})), notes=tuple(data.get("notes", [])),
+            **type_b_from_dict(data, source),
         )
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise _fail(source, f"not a reduction's JSON ({type(exc).__name__}: {exc})") from None
+
+
+def type_b_from_dict(data: dict, source: str = "<dict>") -> dict:
+    """``type_b``, ``aliases`` and ``priors`` of a reduction's JSON, as their classes.
+
+    The inverse of the ``as_dict`` forms of :class:`~accelcal.aliasing.Contribution`,
+    :class:`~accelcal.aliasing.Alias` and :class:`~accelcal.aliasing.Prior`
+    (a null ``dof`` is infinite; ``standard`` is derived, not read). A key
+    that is missing reads as empty.
+
+    Raises
+    ------
+    AccelcalError
+        Naming ``source`` and the malformed entry.
+    """
+    from accelcal.aliasing import Alias, Contribution, Prior
+
+    def dof(d):
+        x = d.get("dof")
+        if x is None:
+            return math.inf
+        if not _is_number(x):
+            raise TypeError("dof must be a number or null")
+        return float(x)
+
+    def number(d, key):
+        if not _is_number(d[key]):
+            raise TypeError(f"{key} must be a number")
+        return float(d[key])
+
+    def text(d, key, default=""):
+        x = d.get(key, default)
+        if not isinstance(x, str):
+            raise TypeError(f"{key} must be a string")
+        return x
+
+    def sensor(d):
+        x = d.get("sensor", 0)
+        if isinstance(x, bool) or not isinstance(x, int):
+            raise TypeError("sensor must be an integer")
+        return x
+
+    build = {
+        "type_b": lambda d: Contribution(
+            text(d, "row"), text(d, "input"), number(d, "sensitivity"), number(d, "u"),
+            number(d, "contribution"), dof(d), text(d, "unit"), text(d, "source", "user"),
+            sensor(d)),
+        "aliases": lambda d: Alias(text(d, "row"), text(d, "term"), number(d, "sensitivity"),
+                                   text(d, "unit"), sensor(d)),
+        "priors": lambda d: Prior(text(d, "name"), number(d, "value"), text(d, "unit"),
+                                  text(d, "distribution", "rectangular"), dof(d),
+                                  text(d, "source", "user")),
+    }
+    out = {}
+    for key, make in build.items():
+        entries = data.get(key) or []
+        if not isinstance(entries, list):
+            raise _fail(source, f"{key} must be a list")
+        items = []
+        for i, d in enumerate(entries):
+            try:
+                if not isinstance(d, dict):
+                    raise TypeError("not an object")
+                items.append(make(d))
+            except (KeyError, TypeError, ValueError) as exc:
+                raise _fail(source, f"{key}[{i}]: {exc}") from None
+        out[key] = tuple(items)
+    return out
 
 
 def describe(reduction) -> list[str]:

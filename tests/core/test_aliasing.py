@@ -124,3 +124,32 @@ def test_a_reduction_read_back_from_json_keeps_its_row_names_and_plain_names():
     assert ("K0+Kpp", "K0") in keys
     assert [(r["coefficient"], r["plain"]) for r in back.rows()] == keys
     assert back.value("K0") == back.value("K0+Kpp") == red.value("K0")
+
+
+def test_a_reduction_read_back_from_json_keeps_its_type_b_aliases_and_priors():
+    import json
+
+    from accelcal.errors import AccelcalError
+    from accelcal.methods import tumble
+    from accelcal.results import Reduction
+    from accelcal.rigs.tumble import uniform_positions
+
+    rec = tumble.simulate(uniform_positions(24), accelcal.default_model(), noise=1e-6, seed=1)
+    red = tumble.reduce(rec, route="fourier")
+    assert red.type_b
+    assert red.priors
+    back = Reduction.from_json(red.to_json())
+    assert back.type_b == red.type_b
+    assert back.priors == red.priors
+    assert any(math.isinf(c.dof) for c in back.type_b)  # null dof reads back infinite
+    bare = tumble.reduce(rec, route="fourier", priors="none")
+    assert bare.aliases
+    assert Reduction.from_json(bare.to_json()).aliases == bare.aliases
+    # JSON written before these keys existed reads with none
+    old = {k: v for k, v in red.to_dict().items() if k not in ("type_b", "aliases", "priors")}
+    before = Reduction.from_dict(old)
+    assert (before.type_b, before.aliases, before.priors) == ((), (), ())
+    bad = red.to_dict()
+    bad["type_b"][0]["u"] = "big"
+    with pytest.raises(AccelcalError, match=r"type_b\[0\]: u must be a number"):
+        Reduction.from_json(json.dumps(bad))

@@ -90,8 +90,12 @@ def history(  # noqa: PLR0917 - one parameter per command-line option
 
     A calibration corrected by another record ('records supersede') is
     listed with the id of its correction in superseded_by; the figure
-    leaves it out.
+    leaves it out. The coefficient column follows a coefficient across its
+    renaming (a row recorded as K_F before and as K_F+K_OO after is
+    coefficient K_F); each change of name is stated.
     """
+    from accelcal.store.history import renamings
+
     with _store(db, readonly=True, skip_bad=skip_bad) as store:
         columns = store.history_columns(serial, method)
         _skipped(store)
@@ -100,6 +104,8 @@ def history(  # noqa: PLR0917 - one parameter per command-line option
     for fix in fixes:
         typer.echo(f"record {fix['id']} supersedes record {fix['supersedes']}: by {fix['who']} "
                    f"on {fix['stored_at']}, because {fix['why']}")
+    for change in renamings(columns):
+        typer.echo("note: " + change.text(), err=True)
     if plot is not None:
         from accelcal.plotting import save_figure
         from accelcal.plotting.records import history_figure

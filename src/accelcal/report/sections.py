@@ -152,6 +152,22 @@ def _column(sensor: str, record) -> str:
 
 
 # --------------------------------------------------------------------- history
+def coefficient_stats(rows) -> list:
+    """Repeatability and drift of each (method, plain coefficient) of history ``rows``.
+
+    :func:`accelcal.store.stats.summarise` of :meth:`~accelcal.store.Store.history`
+    rows with each row under its ``coefficient`` (the plain name): a
+    coefficient recorded under another name from some calibration on is one
+    coefficient (:mod:`accelcal.store.history`).
+    """
+    from accelcal.store.stats import summarise
+
+    calibrations = list(dict.fromkeys((r["id"], r["date"], r["method"]) for r in rows))
+    coefficients = [(r["id"], r["coefficient"], r["unit"], r["estimate"],
+                     None if not np.isfinite(r["std"]) else r["std"]) for r in rows]
+    return summarise(calibrations, coefficients)
+
+
 def history_section(store, serial: str, *, method: str | None = None,
                     chain: str | None = None) -> Section | None:
     """Calibration history of ``serial`` from a store (None when it has none).
@@ -180,18 +196,27 @@ def history_section(store, serial: str, *, method: str | None = None,
     from accelcal.errors import AccelcalError
     from accelcal.plotting.records import history_figure
     from accelcal.store.checks import BadRowError
+    from accelcal.store.history import renamings
 
     try:
         rows = store.history(serial, method, current_only=True)
-        stats = store.stats(serial, method)
     except BadRowError:
         raise
     except AccelcalError:
         return None
+    stats = coefficient_stats(rows)
+    changes = renamings(rows)
+    recorded = {}
+    for r in rows:
+        names = recorded.setdefault((r["method"], r["coefficient"]), [])
+        if r["name"] not in names:
+            names.append(r["name"])
     several = len({s.method for s in stats}) > 1
     table = [{
         **({"method": s.method} if several else {}),
-        "coefficient": s.name, "unit": format_unit(s.unit), "calibrations": s.n,
+        "coefficient": s.name,
+        **({"recorded as": " then ".join(recorded[(s.method, s.name)])} if changes else {}),
+        "unit": format_unit(s.unit), "calibrations": s.n,
         "mean": s.mean,
         "repeatability (1 σ)": s.repeatability if s.n > 1 else "n/a",
         "mean own σ": s.mean_std if np.isfinite(s.mean_std) else "n/a",
@@ -206,7 +231,8 @@ def history_section(store, serial: str, *, method: str | None = None,
         summary=(f"{n} stored calibration(s) of {serial}{which}. Repeatability is the spread "
                  "of the estimates across calibrations (n/a with one); compare it with the "
                  "calibrations' own standard uncertainties. 'accelcal records stats' adds the "
-                 "drift per year." + (f" Store: {chain}." if chain else "")),
+                 "drift per year." + "".join(f" {c.text()}." for c in changes)
+                 + (f" Store: {chain}." if chain else "")),
         figures=(Figure("History", figure_svg(fig), "Each coefficient against calibration "
                         "date; error bars k = 2."),),
     )

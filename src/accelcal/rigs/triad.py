@@ -110,7 +110,7 @@ def _check(value, name: str, low: float, *, strict: bool = True) -> float:
 
 def simulate(calibration, up, *, rate: float = 100.0, dwell: float = 5.0, motion: float = 2.0,
              still: float = 30.0, noise_sd: float = 0.0, seed=None, gravity: float = 9.80665,
-             lever_arm=(0.05, 0.03, 0.02), labels=None) -> TriadRecord:
+             lever_arm=(0.05, 0.03, 0.02), labels=None, axis_models=None) -> TriadRecord:
     """A triad recording of ``calibration`` through static positions.
 
     Parameters
@@ -136,6 +136,13 @@ def simulate(calibration, up, *, rate: float = 100.0, dwell: float = 5.0, motion
     labels : sequence of str, optional
         Position labels (default imucal's x_p ... for the six axis
         directions, else P1..Pn).
+    axis_models : "default" or sequence of three ErrorModel, optional
+        Simulate each axis as a pendulous accelerometer with these error
+        models' terms beyond the calibration's (K2, K3, K4, cross-coupling,
+        odd-input, asymmetry: :func:`accelcal.rigs.triad_axes.pendulous_readings`);
+        ``"default"``: the embedded default accelerometer
+        (:func:`accelcal.default_model`) on every axis. Default: the triad
+        model alone.
 
     Returns
     -------
@@ -209,7 +216,16 @@ def simulate(calibration, up, *, rate: float = 100.0, dwell: float = 5.0, motion
                           "stop": start + length})
         start += length
     frame = "reference" if calibration.rotation is not None else "body"
-    acc = calibration.readings(np.concatenate(force), frame=frame)
+    if axis_models is None:
+        acc = calibration.readings(np.concatenate(force), frame=frame)
+    else:
+        from accelcal.rigs.triad_axes import pendulous_readings
+
+        if isinstance(axis_models, str) and axis_models == "default":
+            from accelcal.defaults import default_model
+
+            axis_models = (default_model(),) * 3
+        acc = pendulous_readings(calibration, np.concatenate(force), frame, axis_models, g)
     if noise_sd > 0:
         acc = acc + noise_sd * rng.standard_normal(acc.shape)
     if not np.abs(acc).max() <= MAX_VALUE:
@@ -217,6 +233,9 @@ def simulate(calibration, up, *, rate: float = 100.0, dwell: float = 5.0, motion
                             "check the calibration's scale factors and unit")
     meta = {"gravity": g, "noise_sd": noise_sd, "rate": rate, "simulated": True,
             "true_calibration": calibration.to_dict()}
+    if axis_models is not None:
+        meta["axis_models"] = [m.to_dict() if hasattr(m, "to_dict") else str(m)
+                               for m in axis_models]
     if isinstance(seed, int | np.integer):
         meta["seed"] = int(seed)
     return TriadRecord(np.arange(total) / rate, acc, calibration.input_unit, positions, meta)

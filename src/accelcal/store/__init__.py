@@ -505,7 +505,10 @@ class Store:
         list of dict
             id, date, method, name, unit, estimate, std (NaN when unknown),
             superseded_by (the id of the record correcting the calibration,
-            or None).
+            or None), and coefficient: the plain coefficient the row estimates
+            (``K_F`` for a row recorded as ``K_F+K_OO``,
+            :func:`accelcal.identifiability.plain_name`), which follows one
+            coefficient across its renaming (:mod:`accelcal.store.history`).
 
         Raises
         ------
@@ -514,8 +517,9 @@ class Store:
             a bad row (without ``skip_bad``).
         """
         nan = math.nan
+        plain = _plain_names()
         return [{"id": i, "date": d, "method": m, "name": n, "unit": u, "estimate": e,
-                 "std": nan if s is None else s, "superseded_by": by}
+                 "std": nan if s is None else s, "superseded_by": by, "coefficient": plain(n)}
                 for i, d, m, n, u, e, s, by, _ in self._history(
                     serial, method, "history", current_only=current_only)[0]]
 
@@ -528,6 +532,9 @@ class Store:
         columns = _columns(self._history(serial, method, "history")[0], HISTORY_COLUMNS)
         if None in columns["std"]:
             columns["std"] = [math.nan if s is None else s for s in columns["std"]]
+        plain = _plain_names()
+        distinct = {n: plain(n) for n in set(columns["name"])}
+        columns["coefficient"] = list(map(distinct.__getitem__, columns["name"]))
         return columns
 
     def stats(self, serial: str, method: str | None = None) -> list[CoefficientStats]:
@@ -583,6 +590,18 @@ def verify_chain(db=None) -> ChainReport:
     """
     with Store(db, readonly=True) as store:
         return store.verify()
+
+
+def _plain_names():
+    """``name -> plain coefficient`` (:func:`accelcal.identifiability.plain_name`), cached.
+
+    A history repeats a handful of names over many rows.
+    """
+    from functools import lru_cache
+
+    from accelcal.identifiability import plain_name
+
+    return lru_cache(maxsize=None)(plain_name)
 
 
 def _columns(rows: list[tuple], names: Sequence[str]) -> dict[str, list]:

@@ -111,3 +111,39 @@ def test_cli_priors_option(tmp_path, capsys):
                   choice, "--format", "json"])
         assert exc.value.code == 0
         capsys.readouterr()
+
+
+@pytest.mark.parametrize(("method", "options"), [
+    ("single", {}), ("four", {}), ("four", {"first_harmonic": (1e-5, -2e-5)}),
+    ("joint", {}), ("joint", {"first_harmonic": (1e-5, -2e-5), "mean_error": 1e-5}),
+    ("tumble", {})])
+def test_linear_response_equals_central_differences(method, options):
+    # the alias matrix from the reductions' linear response (one batched product or solve)
+    # is the derivative the central differences approximate to ~1e-8 relative (STEP^2 of
+    # the normalisation by the fitted K_I); positions at a_i = 0 included
+    from accelcal.methods.dividing_head import four, joint
+    from accelcal.methods.dividing_head.reduce import tumble
+    from accelcal.methods.dividing_head.response import response
+    from accelcal.methods.dividing_head.unestimated import TERMS, central_differences, term_columns
+
+    rig = DividingHeadRig.uniform(24, (accelcal.default_model(),) * 4, noise=1e-6)
+    data = HeadData.build(rig.positions, simulate(rig, 3).outputs, rig.mounts)
+    run = {"single": single, "four": four, "joint": joint, "tumble": tumble}[method]
+    red = run(data, **options)
+    changes = [(k, z) for k, (_, z) in term_columns(data, red, {}, () if method == "tumble"
+                                                 else TERMS, False)]
+    assert len(changes) == (8 if method == "tumble" else 24)
+    fast = response(method, data, red, options)(changes)
+    slow = central_differences(data, lambda d: run(d, **options), changes)
+    assert fast.shape == slow.shape == (20, len(changes))
+    scale = np.max(np.abs(slow))
+    assert scale > 0.1
+    np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-7 * scale)
+
+
+def test_joint_with_autocollimator_falls_back_to_central_differences():
+    from accelcal.methods.dividing_head.response import response
+
+    data, _ = _data(K3=1e-7)
+    assert response("joint", data, None, {"autocollimator": np.zeros(24)}) is None
+    assert response("joint", data, None, {"gauss_newton": True}) is None

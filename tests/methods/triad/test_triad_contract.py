@@ -22,6 +22,7 @@ from accelcal.methods.triad import (
     calibrate_known,
     calibrate_unknown,
 )
+from accelcal.methods.triad.unestimated import with_type_b
 from accelcal.rigs.triad import random_directions, simulate, six_positions
 from helpers.contract import ReductionContract
 
@@ -32,6 +33,35 @@ class _TriadContract(ReductionContract):
     UNIT = "counts"
     NOISE = 4.0  # per sample, input unit (counts: a 16-bit triad's few-count noise)
     QUADRATIC = False
+    KNOWN = True
+    DEFAULT_K = 2.0
+    """The default accelerometer's case: every axis's terms at one sign (K2, Koo and Kpp all
+    move a bias the same way) add linearly against their independent priors: up to 1.7
+    stated SDs (docs/triad.md)."""
+
+    def reduce_means(self, data, means, counts):  # pragma: no cover - supplied by subclasses
+        raise NotImplementedError
+
+    def reduce(self, data):
+        # a record whose axes the rig simulated as pendulous accelerometers: their terms are
+        # bounded as Type B (accelcal.methods.triad.unestimated)
+        means, counts = data.interval_means()
+        red = self.reduce_means(data, means, counts)
+        if data.metadata.get("axis_models"):
+            red = with_type_b(red, means, lambda m: self.reduce_means(data, m, counts),
+                              gravity=G, up=data.up if self.KNOWN else None,
+                              labels=data.labels)
+        return red
+
+    def default_case(self):
+        # every axis the embedded default accelerometer (all its terms non-zero), noise-free
+        if self.QUADRATIC:
+            return None
+        rng = np.random.default_rng(7)
+        truth = self.truth(rng)
+        data = simulate(truth, self.directions(rng), rate=50.0, dwell=2.0, motion=1.0,
+                        still=4.0, noise_sd=0.0, seed=rng, gravity=G, axis_models="default")
+        return data, self.expected(truth)
 
     def directions(self, rng):
         return random_directions(30, rng)
@@ -63,9 +93,8 @@ class TestContractKnownSix(_TriadContract):
     def directions(self, rng):
         return six_positions()
 
-    def reduce(self, data):
+    def reduce_means(self, data, means, counts):
         # The first interval (still period + dwell) holds 3x the samples: weights by counts
-        means, counts = data.interval_means()
         return calibrate_known(means, data.up, G, input_unit=data.input_unit, counts=counts)
 
 
@@ -76,15 +105,15 @@ class TestContractKnownEighteen(_TriadContract):
     def directions(self, rng):
         return np.vstack([six_positions(), random_directions(12, rng)])
 
-    def reduce(self, data):
-        means, counts = data.interval_means()
+    def reduce_means(self, data, means, counts):
         return calibrate_known(means, data.up, G, input_unit=data.input_unit, counts=counts,
                                labels=data.labels)
 
 
 class TestContractGravityNorm(_TriadContract):
-    def reduce(self, data):
-        means, counts = data.interval_means()
+    KNOWN = False
+
+    def reduce_means(self, data, means, counts):
         return calibrate_unknown(means, G, input_unit=data.input_unit, counts=counts)
 
 
@@ -94,8 +123,9 @@ class TestContractGravityNormQuadratic(_TriadContract):
     def directions(self, rng):
         return random_directions(40, rng)
 
-    def reduce(self, data):
-        means, counts = data.interval_means()
+    KNOWN = False
+
+    def reduce_means(self, data, means, counts):
         return calibrate_unknown(means, G, input_unit=data.input_unit, counts=counts,
                                  quadratic=True)
 

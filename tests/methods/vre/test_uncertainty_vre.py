@@ -134,3 +134,29 @@ def test_bad_calibration_uncertainty():
     fit = identify(b, a, y, np.full(a.size, 1e-7))
     with pytest.raises(AccelcalError, match="amplitude"):
         vre_uncertainty(fit, trials=10, seed=0, amplitude_sd=-0.1)
+
+
+def test_monte_carlo_draws_the_priors_of_the_terms_left_out():
+    # two vibration directions: the cross-axis terms are separable but not fitted, and the
+    # default priors bound them (Type B); the Monte Carlo draws them in every trial, so its
+    # SD is the formal one with the Type B (the fit is linear: within 4 standard errors)
+    import accelcal
+    from accelcal.methods.vre import VRE_TERMS
+
+    b = np.repeat([1.0, 2.0, 4.0], 6)
+    a = np.tile(np.arange(5.0, 11.0), 3)
+    two = np.vstack([np.tile([1.0, 0.0, 0.0], (9, 1)), np.tile([1.0, 0.3, 0.2], (9, 1))])
+    model = accelcal.default_model()
+    cols = vre_columns(along_ia(b), a, two)
+    y = sum(getattr(model, t) * cols[t] for t in VRE_TERMS)
+    fit = identify(b, a, y, np.full(18, 1e-7), direction=two)
+    bare = identify(b, a, y, np.full(18, 1e-7), direction=two, priors="none")
+    assert {p.name for p in fit.priors} == {"Koo", "Kpp", "Kio", "Kip", "Kop"}
+    trials = 4000
+    mc = vre_uncertainty(fit, trials=trials, seed=3)
+    mc0 = vre_uncertainty(bare, trials=trials, seed=3)
+    band = 4 / np.sqrt(2 * (trials - 1))
+    assert np.all(np.abs(mc.mc_std / fit.estimate.std - 1) < band), mc.mc_std / fit.estimate.std
+    assert np.all(np.abs(mc0.mc_std / bare.estimate.std - 1) < band)
+    assert np.all(mc.mc_std > 3 * mc0.mc_std)
+    assert any("priors" in text for text in mc.inputs)

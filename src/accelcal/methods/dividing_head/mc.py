@@ -14,7 +14,16 @@ Synthetic data sets are drawn from the fitted coefficients of every sensor
   systematic bound of the formal uncertainty) adds a Gaussian first
   harmonic of that standard deviation;
 - **autocollimator** readings (method ``joint``, when the record has them):
-  the drawn head error plus Gaussian noise of their standard uncertainty.
+  the drawn head error plus Gaussian noise of their standard uncertainty;
+- the **terms Dong2014 eq. (5) leaves out** (K3, K4, K0', K1', and K0'/2 of
+  unknown sign at each position where a_i = 0), when the reduction bounded
+  them by priors (``Reduction.priors``,
+  :mod:`~accelcal.methods.dividing_head.unestimated`): each sensor's term
+  drawn from its prior as declared (rectangular, normal or two-point),
+  independently between sensors, and its output column added, so that
+  the interval includes them as the formal Type B does. (The formal path
+  also takes the sensors' terms equal where that is larger; the Monte Carlo
+  draws them independent, as the priors state them.)
 
 Each data set is reduced by the same linear operators as the measured data
 (:func:`~accelcal.methods.dividing_head.single.single_pinv`,
@@ -38,6 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from accelcal.aliasing import Prior
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD
 from accelcal.methods.dividing_head.data import HeadData
@@ -93,6 +103,10 @@ class HeadSampler:
     weight_sigma : float or None
         Normalised noise level that weights the data rows against the
         autocollimator rows (the measured data's value, held fixed).
+    unestimated : tuple
+        ``(sensors (q,), columns (q, n), distributions (q,), values (q,))``:
+        the output change per unit of each unestimated term of a sensor and
+        its prior (:meth:`draw_terms`); empty: none drawn.
 
     Calling ``sampler(rng, t)`` returns the errors ``(t, 5 K)`` (sensor-major)
     of ``t`` re-reduced synthetic data sets.
@@ -108,6 +122,7 @@ class HeadSampler:
     first_harmonic_sd: np.ndarray | None = None
     autocollimator_sd: float | None = None
     weight_sigma: float | None = None
+    unestimated: tuple = ()
 
     def __post_init__(self) -> None:
         if self.method not in MC_METHODS:
@@ -153,6 +168,26 @@ class HeadSampler:
             h1 = h1 + np.asarray(self.first_harmonic, dtype=float)
         return d + h1 @ ops["c1"].T
 
+    def draw_terms(self, rng: np.random.Generator, t: int) -> np.ndarray:
+        """Output changes of the unestimated terms of ``t`` data sets, ``(t, K, n)``.
+
+        Each term from its prior: uniform within ``+-a`` (rectangular),
+        ``N(0, a^2)`` (normal) or ``+-a`` with equal odds (two-point)
+        [GUM-S1 6.4].
+        """
+        k, n = np.shape(self.coefficients)[0], self.positions.size
+        out = np.zeros((t, k, n))
+        if not self.unestimated:
+            return out
+        sensors, columns, kinds, values = self.unestimated
+        draws = np.empty((t, len(sensors)))
+        for j, (kind, a) in enumerate(zip(kinds, values, strict=True)):
+            draws[:, j] = Prior("term", a, distribution=kind).draw(rng, t)
+        for ell in np.unique(sensors):
+            at = np.flatnonzero(sensors == ell)
+            out[:, ell] = draws[:, at] @ columns[at]
+        return out
+
     def __call__(self, rng: np.random.Generator, t: int) -> np.ndarray:
         """Errors of ``t`` re-reduced synthetic data sets, shape ``(t, 5 K)``.
 
@@ -174,6 +209,8 @@ class HeadSampler:
         gamma = ops["beta"][None] + d[:, None, :]
         u = np.einsum("tknp,kp->tkn", psi(gamma), coef)  # Eq. (5) [Dong2014], exact
         u = u + np.asarray(self.noise)[:, None] * rng.standard_normal((t, k, n))
+        if self.unestimated:
+            u = u + self.draw_terms(rng, t)
         readings = None
         if "autocollimator" in ops:
             readings = d + self.autocollimator_sd * rng.standard_normal((t, n))
@@ -327,12 +364,13 @@ def head_uncertainty(
     weight = None
     if autocollimator_sd is not None:
         weight = float(np.sqrt(joint_noise_variance(data)))  # the reduction's own weight
+    terms = prior_columns(data, result)
     sampler = HeadSampler(
         data.positions, data.mounts, coef, noise, method,
         angle_error_level=angle_error_level,
         first_harmonic=None if first_harmonic is None else np.asarray(first_harmonic, float),
         first_harmonic_sd=first_harmonic_sd, autocollimator_sd=autocollimator_sd,
-        weight_sigma=weight,
+        weight_sigma=weight, unestimated=terms,
     )
     names = sensor_names or result.sensor_names
     labels = [f"{s} {c}" for s in names for c in COEFFICIENTS]
@@ -346,6 +384,36 @@ def head_uncertainty(
                       f"{np.broadcast_to(np.asarray(first_harmonic_sd, float), (2,)).tolist()} rad")
     if autocollimator_sd is not None:
         inputs.append(f"autocollimator readings N(0, {autocollimator_sd:.3g}) rad")
+    if terms:
+        inputs.append("terms the reduction leaves out drawn from their priors, independent "
+                      "between sensors: " + ", ".join(
+                          f"{p.name} {p.distribution} {p.value:.3g} {p.unit}".rstrip()
+                          for p in result.priors if "@" not in p.name))
     return propagate(sampler, np.concatenate([e.values for e in result.sensors]), std,
                      names=labels, trials=trials, seed=seed, units=units, shortest=shortest,
                      inputs=inputs, progress=progress)
+
+
+def prior_columns(data: HeadData, result: Reduction) -> tuple:
+    """The :attr:`HeadSampler.unestimated` of the terms ``result`` bounded by priors.
+
+    The output change per unit of each term of each sensor (as the alias
+    matrix takes it, :mod:`~accelcal.methods.dividing_head.unestimated`) and
+    its prior from ``result.priors``; empty when the reduction propagated
+    none (``priors="none"``).
+    """
+    from accelcal.methods.dividing_head.unestimated import TERMS, term_columns
+
+    priors = {p.name: p for p in result.priors}
+    if not priors:
+        return ()
+    found = dict(priors)
+    chosen = [(k, priors[t], z) for k, (t, z) in term_columns(data, result, found,
+                                                            tuple(t for t in TERMS if t in priors),
+                                                            False) if t in priors]
+    if not chosen:
+        return ()
+    return (np.array([k for k, _, _ in chosen], dtype=int),
+            np.array([z for _, _, z in chosen], dtype=float),
+            tuple(p.distribution for _, p, _ in chosen),
+            np.array([p.value for _, p, _ in chosen], dtype=float))

@@ -24,6 +24,7 @@ from accelcal.io.formats.dividing_head import HeadRecord
 from accelcal.methods.dividing_head.data import HeadData
 from accelcal.methods.dividing_head.four import four
 from accelcal.methods.dividing_head.joint import joint
+from accelcal.methods.dividing_head.response import response
 from accelcal.methods.dividing_head.result import K_O_STAR, head_reduction
 from accelcal.methods.dividing_head.single import single
 from accelcal.methods.dividing_head.theory import COEFFICIENTS, METHODS, coefficient_units, psi
@@ -105,9 +106,13 @@ def reduce(data, method: str = "joint", **options) -> Reduction:
                             parameter="priors")
     given = check_options(method, options)
     if method == "tumble":
-        return with_type_b(data, tumble(data), tumble, terms=(), priors=priors)
+        red = tumble(data)
+        return with_type_b(data, red, tumble, terms=(), priors=priors,
+                           linear=response("tumble", data, red, given))
     run = {"single": single, "four": four, "joint": joint}[method]
-    return with_type_b(data, run(data, **given), lambda d: run(d, **given), priors=priors)
+    red = run(data, **given)
+    return with_type_b(data, red, lambda d: run(d, **given), priors=priors,
+                       linear=response(method, data, red, given))
 
 
 def lab_options(record: HeadRecord, method: str, **given) -> dict:

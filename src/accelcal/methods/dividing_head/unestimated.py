@@ -10,12 +10,14 @@ moves K_F and K_II by K1'. (Koo is not among them: no rotation about PA
 separates it, and the rows K_F+K_OO, K_II-K_OO are named for it.)
 
 The alias matrix ``A`` (row unit per term unit, :mod:`accelcal.aliasing`)
-is the reduction applied to each term's columns: sensor k's outputs
-``U_k + K_I,k f_z(beta_k) dz`` (``f_z`` of
-:func:`accelcal.physics.tumble.design_matrix`, about PA) are reduced again
-and the change of every sensor's rows divided by ``dz``. The reductions
-are linear in the outputs (or linearised at the solution), so this is the
-first-order alias, exact for ``single`` and ``four``; the shared head
+is the reduction applied to each term's columns: sensor k's output change
+``K_I,k f_z(beta_k)`` per unit term (``f_z`` of
+:func:`accelcal.physics.tumble.design_matrix`, about PA) taken through the
+reduction's linear response (:mod:`~accelcal.methods.dividing_head.response`:
+one batched product or solve for all columns), and, where the reduction is
+not linear in the normalised outputs (``joint`` with autocollimator
+readings or Gauss-Newton iterations), by central differences of two more
+reductions per column. This is the first-order alias; the shared head
 error lets a term of one sensor move the others' rows. Each term of each
 sensor is bounded by its prior (independent between sensors) and
 propagated as a Type B covariance ``A u^2 A'``, itemised in
@@ -55,9 +57,10 @@ EQUAL = "sensors' terms equal"
 the sensors' terms are taken as equal, in the worst sign (:func:`_sensors_equal`)."""
 
 STEP = 1e-4
-"""Perturbation of a term (g/g^n) for the alias matrix, by central differences: exact for
-the linear reductions, second order (~1e-8 relative) for those normalised by the fitted
-K_I, and rounding amplified by 1e-16 / STEP only."""
+"""Perturbation of a term (g/g^n) for the alias matrix by central differences, where the
+reduction has no linear response (:func:`~accelcal.methods.dividing_head.response.response`
+is None): second order (~1e-8 relative) for the reductions normalised by the fitted K_I,
+and rounding amplified by 1e-16 / STEP only."""
 
 
 PRIOR_CHOICES = ("default", "none")
@@ -65,7 +68,7 @@ PRIOR_CHOICES = ("default", "none")
 aliases only)."""
 
 
-def with_type_b(data, red, method, terms=TERMS, priors="default"):
+def with_type_b(data, red, method, terms=TERMS, priors="default", *, linear=None):
     """``red`` with the unestimated terms' Type B covariance, contributions and aliases.
 
     Parameters
@@ -82,6 +85,10 @@ def with_type_b(data, red, method, terms=TERMS, priors="default"):
         positions where a_i = 0 are always added.
     priors : {"default", "none"}
         ``"none"``: nothing propagated; every term's aliases listed.
+    linear : callable, optional
+        The reduction's linear response, ``columns -> A``
+        (:func:`~accelcal.methods.dividing_head.response.response`); without
+        it the alias matrix is taken by central differences of ``method``.
 
     Returns
     -------
@@ -97,17 +104,15 @@ def with_type_b(data, red, method, terms=TERMS, priors="default"):
     priors = default_priors(terms, data.output_unit) if use else {}
     n_sens = len(red.sensors)
     p = len(red.sensors[0].names)
-    columns, names = [], []
-    for k, (term, z) in _columns(data, red, priors, terms, use):
-        ends = []
-        for step in (STEP, -STEP):
-            outputs = np.array(data.outputs, dtype=float)
-            outputs[k] += step * z
-            moved = method(dataclasses.replace(data, outputs=outputs))
-            ends.append(np.concatenate([e.values for e in moved.sensors]))
-        columns.append((ends[0] - ends[1]) / (2 * STEP))
-        names.append((k, term))
-    a = np.column_stack(columns)  # (n_sens p, number of terms)
+    listed = list(term_columns(data, red, priors, terms, use))
+    names = [(k, term) for k, (term, _) in listed]
+    changes = [(k, z) for k, (_, z) in listed]
+    if not changes:
+        a = np.zeros((n_sens * p, 0))
+    elif linear is not None:
+        a = linear(changes)  # (n_sens p, number of terms)
+    else:
+        a = central_differences(data, method, changes)
     cov_all = np.zeros((n_sens * p, n_sens * p))
     for i, (_, term) in enumerate(names):
         if term in priors:
@@ -164,6 +169,23 @@ def with_type_b(data, red, method, terms=TERMS, priors="default"):
                                notes=(*red.notes, note))
 
 
+def central_differences(data, method, changes) -> np.ndarray:
+    """Alias matrix ``(K p, q)`` of ``method`` by central differences of :data:`STEP`.
+
+    ``changes`` are ``(sensor, output change per unit term)``; two reductions per column.
+    """
+    columns = []
+    for k, z in changes:
+        ends = []
+        for step in (STEP, -STEP):
+            outputs = np.array(data.outputs, dtype=float)
+            outputs[k] += step * z
+            moved = method(dataclasses.replace(data, outputs=outputs))
+            ends.append(np.concatenate([e.values for e in moved.sensors]))
+        columns.append((ends[0] - ends[1]) / (2 * STEP))
+    return np.column_stack(columns)
+
+
 def _sensors_equal(a, names, priors) -> np.ndarray:
     """Each row's Type B variance with the sensors' terms equal, in the worst sign.
 
@@ -182,7 +204,7 @@ def _sensors_equal(a, names, priors) -> np.ndarray:
     return worst
 
 
-def _columns(data, red, priors, terms, bound):
+def term_columns(data, red, priors, terms, bound):
     """``(sensor, (term, output change per unit term))`` of every unestimated term.
 
     Besides :data:`TERMS`, the positions where sensor k's a_i is zero (within

@@ -13,7 +13,11 @@ terms) with
   carry only the input-axis channel's share, to first order);
 - the **reference accelerometer's calibration** (Type B): every reference
   phasor (along the vibration, and the transverse and IA channels when
-  present) scaled by a common ``1 + e``, ``e ~ N(0, u_ref)``.
+  present) scaled by a common ``1 + e``, ``e ~ N(0, u_ref)``;
+- the **terms the identification leaves out** that it bounded by priors
+  (``Reduction.priors``): each drawn from its prior as declared and its
+  observation columns (at the measured phasors) added, so that the
+  interval includes them as the formal Type B does.
 
 Each set is reduced by the identification's whitened least-squares
 operator, vectorised over trials, at the phasor level (the sine fits are
@@ -80,6 +84,11 @@ class TransverseSampler:
         Whitened least-squares operator, ``(p, m q)``.
     reference_sd : float
         Relative standard uncertainty of the reference calibration (fraction).
+    priors : tuple of Prior
+        Priors of terms left out, drawn in every trial.
+    prior_columns : numpy.ndarray or None
+        Their observation columns at the measured phasors, output unit per
+        unit term, ``(len(priors), m, q)``.
 
     Calling ``sampler(rng, t)`` returns the errors ``(t, p)``.
     """
@@ -96,6 +105,8 @@ class TransverseSampler:
     noise_chol: np.ndarray
     operator: np.ndarray
     reference_sd: float = 0.0
+    priors: tuple = ()
+    prior_columns: np.ndarray | None = None
 
     def response(self, phasors: dict) -> np.ndarray:
         """The output's observations per angle for reference phasors ``phasors``, ``(..., m, q)``.
@@ -125,6 +136,9 @@ class TransverseSampler:
         shift = self.response(drawn) - self.response(self.phasors)  # (t, m, q)
         q = self.chol.shape[-1]
         noise = np.einsum("mij,tmj->tmi", self.noise_chol, rng.standard_normal((t, m, q)))
+        if self.priors:
+            draws = np.stack([p.draw(rng, t) for p in self.priors], axis=1)
+            shift = shift + np.einsum("tp,pmq->tmq", draws, self.prior_columns)
         white = np.linalg.solve(self.chol, (shift + noise)[..., None])[..., 0]
         return white.reshape(t, m * q) @ self.operator.T
 
@@ -203,12 +217,18 @@ def transverse_uncertainty(
     white = np.linalg.solve(chol[:, None], np.moveaxis(design, -1, 1)[..., None])[..., 0]
     dw = np.moveaxis(white, 1, -1).reshape(-1, len(terms))
     operator = np.linalg.pinv(dw)
+    priors = tuple(p for p in reduction.priors if p.name in FIT_TERMS)
+    prior_columns = (k1 * np.stack([observation_columns(reg, p.name, route) for p in priors])
+                     if priors else None)
     sampler = TransverseSampler(records.theta, float(records.gravity), phasors, phasor_chol,
                                 values, tuple(terms), route, float(k1), chol, noise_chol,
-                                operator, float(reference_sd))
+                                operator, float(reference_sd), priors, prior_columns)
     inputs = ["output noise (sine-fit covariance)", "reference-channel noise (sine fit)"]
     if reference_sd > 0:
         inputs.append(f"reference calibration N(0, {reference_sd:.3g}) relative")
+    if priors:
+        inputs.append("terms left out drawn from their priors: " + ", ".join(
+            f"{p.name} {p.distribution} {p.value:.3g} {p.unit}".rstrip() for p in priors))
     return propagate(sampler, estimate.values, estimate.std, names=terms, trials=trials,
                      seed=seed, units=dict(estimate.units), shortest=shortest, inputs=inputs,
                      progress=progress)

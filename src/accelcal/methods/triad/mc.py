@@ -10,7 +10,10 @@ Synthetic sets of interval means are drawn from the fitted calibration:
 plus Gaussian noise with the SD of each interval mean (observation
 ``means_sd``: given, or at the residual level) and, with a stated fixture
 tilt, the readings of a fixture turned by a random small rotation at each
-position (:mod:`accelcal.methods.triad.pairs`). Each set is re-reduced by
+position (:mod:`accelcal.methods.triad.pairs`), and, when the reduction
+bounds each axis's pendulous terms by priors
+(:func:`accelcal.methods.triad.unestimated.with_type_b`), those terms drawn
+from their priors and their change of the means added. Each set is re-reduced by
 the same estimator as the measured means (per-axis pairs or linear least
 squares and RQ split, or Levenberg-Marquardt from the fitted values); the
 sampler returns
@@ -70,6 +73,10 @@ class TriadSampler:
         reading error from the fixture tilt (None: no tilt stated).
     tilt_sd : float or None
         The stated fixture tilt, rad (the gls estimator weighs with it).
+    priors : tuple of Prior
+        Priors of the axes' pendulous terms, drawn in every trial.
+    prior_columns : numpy.ndarray or None
+        Their change of the means per unit term, ``(len(priors), n, 3)``.
 
     Calling ``sampler(rng, t)`` returns the errors ``(t, p)``.
     """
@@ -88,6 +95,8 @@ class TriadSampler:
     up: np.ndarray | None = None
     tilt: np.ndarray | None = None
     tilt_sd: float | None = None
+    priors: tuple = ()
+    prior_columns: np.ndarray | None = None
 
     def __call__(self, rng: np.random.Generator, t: int) -> np.ndarray:
         """Errors of ``t`` re-reduced synthetic sets, shape ``(t, p)``."""
@@ -98,6 +107,9 @@ class TriadSampler:
         if self.tilt is not None:
             z = rng.standard_normal((t, *self.clean.shape))
             noise = noise + np.einsum("kij,tkj->tki", self.tilt, z)
+        if self.priors:
+            draws = np.stack([p.draw(rng, t) for p in self.priors], axis=1)
+            noise = noise + np.einsum("tp,pki->tki", draws, self.prior_columns)
         out = np.empty((t, self.p))
         for r in range(t):
             u = self.clean + noise[r]
@@ -142,12 +154,32 @@ def sampler_of(reduction) -> TriadSampler:
         return TriadSampler("known", clean, sd, values, weights, force, prov["gravity"],
                             quadratic, est.values.size, estimator=prov.get(
                                 "estimator", "least-squares"), up=obs["up"], tilt=tilt,
-                            tilt_sd=prov.get("fixture_tilt"))
+                            tilt_sd=prov.get("fixture_tilt"),
+                            **_prior_fields(reduction, means, obs["up"]))
     cal = TriadCalibration.from_vector(est.values, prov["input_unit"])
     a = cal.apply(means)
     clean = cal.readings(prov["gravity"] * a / np.linalg.norm(a, axis=1)[:, None])
     return TriadSampler("unknown", clean, sd, est.values.copy(), rel, None, prov["gravity"],
-                        quadratic, est.values.size, given)
+                        quadratic, est.values.size, given,
+                        **_prior_fields(reduction, means, None))
+
+
+def _prior_fields(reduction, means, up) -> dict:
+    """``priors`` and ``prior_columns`` of the axes' pendulous terms the reduction bounds."""
+    if not reduction.priors:
+        return {}
+    from accelcal.methods.triad.unestimated import term_columns
+
+    prov = reduction.provenance
+    names, columns, _ = term_columns(reduction, means, gravity=prov["gravity"], up=up,
+                                     labels=prov.get("labels"), bound=False)
+    by_name = {p.name: p for p in reduction.priors}
+    chosen = [(by_name[full], col) for (full, _), col in zip(names, columns, strict=True)
+              if full in by_name]
+    if not chosen:
+        return {}
+    return {"priors": tuple(p for p, _ in chosen),
+            "prior_columns": np.array([c for _, c in chosen])}
 
 
 def triad_uncertainty(reduction, *, trials: int, seed: int, shortest: bool = False,
@@ -184,6 +216,10 @@ def triad_uncertainty(reduction, *, trials: int, seed: int, shortest: bool = Fal
     if reduction.provenance.get("fixture_tilt"):
         inputs.append(f"fixture tilt N(0, {reduction.provenance['fixture_tilt']:.3g} rad) about "
                       "each horizontal axis at each position (Type B)")
+    if sampler.priors:
+        inputs.append("each axis's pendulous terms drawn from their priors: " + ", ".join(
+            dict.fromkeys(f"{p.name.split('[')[0].split('@')[0]} {p.distribution} "
+                          f"{p.value:.3g} {p.unit}" for p in sampler.priors)))
     return propagate(sampler, est.values, est.std, names=est.names, trials=trials, seed=seed,
                      units=dict(est.units), shortest=shortest, inputs=inputs, progress=progress,
                      workers=workers, scheduler=scheduler)

@@ -272,6 +272,7 @@ def tumble_arrays(
     route: str = "auto",
     sigma=None,
     repeats: bool = False,
+    asymmetry=False,
 ) -> TumbleArrays:
     """:func:`reduce_tumble` of many trials at once, as arrays.
 
@@ -279,7 +280,9 @@ def tumble_arrays(
     may have leading trial axes: shape ``(..., N)`` (``(..., N, R)`` with
     ``repeats``). Each trial is reduced exactly as :func:`reduce_tumble`
     reduces it alone, without the priors' Type B part (the Monte Carlo
-    draws the terms themselves).
+    draws the terms themselves). ``asymmetry`` is that of
+    :func:`reduce_tumble`, default False here (the terms of the Fourier
+    relations on every route).
 
     Returns
     -------
@@ -292,7 +295,7 @@ def tumble_arrays(
     with np.errstate(over="ignore", invalid="ignore"):  # non-finite results refused in _solve
         sol = _solve(angles_rad, outputs, rotation_axis=rotation_axis, output_unit=output_unit,
                      terms=terms, route=route, sigma=sigma, repeats=repeats, single=False,
-                     asymmetry=False)
+                     asymmetry=asymmetry)
     return TumbleArrays(
         names=sol.terms, units={t: term_unit(t, output_unit) for t in sol.terms},
         route=sol.route, values=sol.values, covariance=sol.covariance,

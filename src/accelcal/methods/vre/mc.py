@@ -9,7 +9,12 @@ ones) over the measured (b, A) design, with
   ``1 + e_A``, ``e_A ~ N(0, u_A)`` (one reference accelerometer measures all
   points);
 - the **overload calibration** (Type B): every overload vector scaled by a
-  common ``1 + e_b``, ``e_b ~ N(0, u_b)`` (the centrifuge's radius and speed).
+  common ``1 + e_b``, ``e_b ~ N(0, u_b)`` (the centrifuge's radius and speed);
+- the **terms the fit leaves out** that the identification bounded by
+  priors (``Reduction.priors``, :mod:`accelcal.methods.vre.unestimated`):
+  each drawn from its prior as declared (rectangular, normal, two-point)
+  and its VRE column added, so that the interval includes them as the
+  formal Type B does.
 
 Each set is reduced by the same linear operator as the measured VRE
 (:func:`accelcal.methods.vre.identify`: weighted least squares, restricted
@@ -65,6 +70,8 @@ class VreSampler:
     amplitude_sd, overload_sd : float
         Relative standard uncertainties of the amplitude and overload
         calibrations (fractions).
+    priors : tuple of Prior
+        The priors of terms left out of the fit, drawn in every trial.
 
     Calling ``sampler(rng, t)`` returns the errors ``(t, p)``.
     """
@@ -79,6 +86,7 @@ class VreSampler:
     fixed: dict
     amplitude_sd: float = 0.0
     overload_sd: float = 0.0
+    priors: tuple = ()
 
     def __call__(self, rng: np.random.Generator, t: int) -> np.ndarray:
         """Errors of ``t`` re-identified synthetic VRE sets, shape ``(t, p)``.
@@ -91,6 +99,7 @@ class VreSampler:
         n = self.amplitude.size
         scale_a = 1.0 + self.amplitude_sd * rng.standard_normal((t, 1))
         scale_b = 1.0 + self.overload_sd * rng.standard_normal((t, 1, 1))
+        drawn = [(p.name, p.draw(rng, (t, 1))) for p in self.priors]
         coef = {**dict(zip(self.terms, self.values, strict=True)), **self.fixed}
         held = 0.0
         if self.fixed:
@@ -104,6 +113,8 @@ class VreSampler:
                                self.amplitude[None] * scale_a[part],
                                self.direction[None])  # Eqs. (9), (21) [Guan2021]
             y = sum((v * cols[k] for k, v in coef.items()), np.zeros((part.stop - start, n)))
+            for name, v in drawn:
+                y = y + v[part] * cols[name]
             y = y + self.noise * rng.standard_normal((part.stop - start, n))
             out[part] = (y - held) @ self.operator.T - self.values
         return out
@@ -189,13 +200,17 @@ def vre_uncertainty(
         noise = np.full(a.size, np.sqrt(float(est.residuals @ est.residuals) / est.dof))
     else:
         noise = sigma
+    priors = tuple(p for p in reduction.priors if p.name in cols)
     sampler = VreSampler(b, a, d, noise, terms, values, op, dict(reduction.fixed),
-                         float(amplitude_sd), float(overload_sd))
+                         float(amplitude_sd), float(overload_sd), priors)
     inputs = ["VRE noise N(0, u_j) g" if sigma is not None else
               f"VRE noise N(0, {noise[0]:.3g}) g (residual level)"]
     if amplitude_sd > 0:
         inputs.append(f"amplitude calibration N(0, {amplitude_sd:.3g}) relative")
     if overload_sd > 0:
         inputs.append(f"overload calibration N(0, {overload_sd:.3g}) relative")
+    if priors:
+        inputs.append("terms left out drawn from their priors: " + ", ".join(
+            f"{p.name} {p.distribution} {p.value:.3g} {p.unit}".rstrip() for p in priors))
     return propagate(sampler, est.values, est.std, names=terms, trials=trials, seed=seed,
                      units=dict(est.units), shortest=shortest, inputs=inputs, progress=progress)
