@@ -1,0 +1,341 @@
+"""The certificate's content: one JSON-ready document from the records and the lab file.
+
+:func:`build` gathers what ISO/IEC 17025 7.8 asks of a calibration
+certificate [ISO17025]_ (DOMAIN.md section 11) into one dict, the
+machine-readable certificate (``schema/certificate.schema.json``), which
+the HTML, PDF and DCC renderings only lay out. Nothing in it depends on
+the clock or the machine: the same records, lab file, options and issue
+date give the same document, byte for byte once written, so a certificate
+is reissued identically. Its number, unless given, is derived from the
+records' content (their budget blocks left out) and the lab file's SHA-256.
+
+The expanded uncertainty of each result is that of its budget: ``U = k
+u_c`` with ``k`` Student's t at 95.45 % for the Welch-Satterthwaite
+degrees of freedom [GUM]_ (:mod:`accelcal.budget.gum`). A record that kept
+its budgets (``budget`` block, :mod:`accelcal.io.calibration_record`) for a
+lab file of the same SHA-256 is certified from them, so a later accelcal
+reissues the same numbers; otherwise the budgets are made from the record
+and the lab file (:func:`record_budgets`).
+
+References
+----------
+.. [ISO17025] ISO/IEC 17025:2017, General requirements for the competence of
+   testing and calibration laboratories, 7.8.2 and 7.8.4.
+.. [GUM] JCGM 100:2008 (GUM), 6.3 and annex G.
+.. [JCGM106] JCGM 106:2012, The role of measurement uncertainty in
+   conformity assessment, secs. 7-9 (:mod:`accelcal.conformity`).
+"""
+
+import datetime as _dt
+import hashlib
+import json
+import math
+from dataclasses import dataclass, replace
+
+from accelcal.errors import AccelcalError
+
+FORMAT_VERSION = 1
+KIND = "accelcal.Certificate"
+TITLE = "Calibration certificate"
+
+STANDARDS = {
+    "Dong2014": "Dong C., Liu Q., Ren S., Test methods of four integrated accelerometers "
+                "on an indexing head (2014), as corrected in accelcal",
+    "GuanTang": "Guan W., Tang L., Shaker test method of transverse sensitivity of inertial "
+                "accelerometers, after ISO 16063-31",
+    "Guan2021": "Guan W., Metrology & Measurement Technology 41(3), 2021 (vibration "
+                "rectification)",
+    "IEEE1293": "IEEE Std 1293-2018",
+    "IEEE836": "IEEE Std 836-2009 (precision centrifuge testing)",
+    "IEEE952": "IEEE Std 952-1997, Annex C (Allan variance)",
+    "Tedaldi2014": "Tedaldi D. et al., IEEE ICRA 2014; Ferraris F. et al., Sensors and "
+                   "Materials 7(5), 1995",
+    "ISO16063-21": "ISO 16063-21:2003 (comparison to a reference transducer)",
+}
+"""The standard or paper each method follows, by its descriptor's ``paper`` key
+(docs/references.md)."""
+
+
+@dataclass(frozen=True)
+class Item:
+    """What the certificate says of the calibrated item beyond its serial number."""
+
+    make: str = ""
+    model: str = ""
+    received: str = ""
+    """Date of receipt, ISO 8601 (empty: not stated)."""
+
+
+def record_digest(record) -> str:
+    """SHA-256 of a record's content without its budget block (what it certifies)."""
+    data = record.to_dict()
+    data.pop("budget", None)
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def certificate_number(records, lab) -> str:
+    """``AC-`` and 12 hex digits of the SHA-256 of the records' digests and the lab file's.
+
+    The records' order does not matter; a changed record or lab file gives
+    another number.
+    """
+    digest = hashlib.sha256()
+    for d in sorted(record_digest(r) for r in records):
+        digest.update(d.encode())
+    digest.update(lab.sha256.encode())
+    return "AC-" + digest.hexdigest()[:12].upper()
+
+
+def record_budgets(record, lab) -> list:
+    """The budget of each coefficient of a record (real coefficients only).
+
+    The Type A part of each coefficient is the record's own standard
+    uncertainty, with the record's degrees of freedom (Student's t; normal
+    when they are unknown).
+
+    Returns
+    -------
+    list of accelcal.budget.gum.Budget
+    """
+    from accelcal.budget.gum import Input, combine
+
+    dof = math.inf if record.dof is None else float(record.dof)
+    out = []
+    for name, value, std in zip(record.names, record.estimates, record.std, strict=True):
+        unit = record.units.get(name, "")
+        if not math.isfinite(std):
+            continue
+        typea = Input("Type A (reduction)", float(value), float(std), unit,
+                      "student-t" if math.isfinite(dof) else "normal", dof,
+                      source="type A", reference=record.method)
+        out.append(combine(name, float(value), unit, [(typea, 1.0)], serial=record.serial))
+    return out
+
+
+def kept_budgets(record, lab) -> list[dict] | None:
+    """The budgets a record kept for this lab file (None: none kept, or another lab file's)."""
+    block = record.budget
+    if block is None or block["lab"]["sha256"] != lab.sha256:
+        return None
+    return block["budgets"]
+
+
+def budget_block(record, budgets, lab) -> dict:
+    """The ``budget`` block a record keeps (:mod:`accelcal.io.calibration_record`)."""
+    dicts = [b if isinstance(b, dict) else b.as_dict() for b in budgets]
+    return {"lab": {"sha256": lab.sha256, "path": lab.path.name, "name": lab.laboratory.name},
+            "standards": [{"quantity": s["quantity"], "certificate": s["certificate"],
+                           "due": s["due"]} for s in standards_used(lab, dicts)],
+            "budgets": dicts}
+
+
+def with_budgets(record, lab):
+    """The record with its budgets for ``lab`` kept (unchanged when it holds them already)."""
+    if kept_budgets(record, lab) is not None:
+        return record
+    return replace(record, budget=budget_block(record, record_budgets(record, lab), lab))
+
+
+def standards_used(lab, budgets) -> list[dict]:
+    """The lab's standards that enter the budgets (every declared one when none does).
+
+    Each as ``{quantity, description, certificate, due, value, unit, u}``, in
+    the lab file's order.
+    """
+    named = {row["quantity"] for b in budgets for row in b["rows"] if row.get("source") == "lab"}
+    chosen = [s for q, s in lab.standards.items() if q in named] or list(lab.standards.values())
+    return [{"quantity": s.quantity, "description": s.description,
+             "certificate": s.certificate, "due": s.due.isoformat() if s.due else None,
+             "value": s.value, "unit": s.unit, "u": s.u} for s in chosen]
+
+
+def _engineering(name, value, u_c, big_u, unit, scale_factor):
+    """The result in the field's units: ``[{estimate, u, U, unit}]`` (empty: none applies)."""
+    from accelcal.engineering import engineering
+
+    if u_c > 0:
+        ratio = big_u / u_c
+        return [{"estimate": e.estimate, "u": e.std, "U": e.std * ratio, "unit": e.unit}
+                for e in engineering(name, value, u_c, unit, scale_factor=scale_factor)]
+    return [{"estimate": e.estimate, "u": 0.0, "U": 0.0, "unit": e.unit}
+            for e in engineering(name, value, 0.0, unit, scale_factor=scale_factor)]
+
+
+def _scale_factor(record):
+    """The record's scale factor in output unit per g (K_I or K1, else its model's)."""
+    for name in ("K_I", "K1"):
+        if name in record.names:
+            return float(record.estimates[record.names.index(name)])
+    return float(record.model.K1) if record.model is not None else None
+
+
+def _method(record) -> dict:
+    from accelcal.catalog import METHODS
+
+    family = record.method.partition("/")[0]
+    for m in METHODS:
+        if m.family == family:
+            return {"id": record.method, "title": m.title,
+                    "standard": STANDARDS.get(m.paper, m.paper)}
+    return {"id": record.method, "title": record.method, "standard": ""}
+
+
+def _conformity(spec, rule, result, serial, method):
+    """The statement of conformity of one result (None: no limit applies)."""
+    from accelcal.conformity import decide
+    from accelcal.units import convert
+
+    name = result["plain"]
+    limits = spec.limits_for(name, serial=serial, method=method)
+    if not limits:
+        return None
+    lim = limits[0]
+    candidates = [(e["estimate"], e["u"], e["unit"]) for e in result["engineering"]]
+    candidates.append((result["estimate"], result["u_c"], result["unit"]))
+    for value, u, unit in candidates:
+        try:
+            value_l, u_l = float(convert(value, unit, lim.unit)), float(convert(u, unit,
+                                                                                lim.unit))
+        except ValueError:
+            continue
+        dof = None if result["nu_eff"] == "inf" else result["nu_eff"]
+        d = decide(value_l, abs(u_l), dof, lim.lower, lim.upper, rule=rule, guard=lim.guard)
+        return {"quantity": name, "estimate": value_l, "u": abs(u_l), "U": d.k * abs(u_l),
+                "unit": lim.unit, "lower": lim.lower, "upper": lim.upper, "rule": rule,
+                "guard": d.guard, "acceptance": list(d.acceptance), "outcome": d.outcome,
+                "statement": STATEMENTS[d.outcome], "conforming": d.conforming,
+                "false_accept_risk": d.false_accept_risk}
+    raise AccelcalError(f"specification: the limit on {name} is in {lim.unit}, which the "
+                        f"result of {serial} ({result['unit']}) cannot be expressed in",
+                        parameter="spec")
+
+
+STATEMENTS = {"accept": "conforms", "reject": "does not conform",
+              "inconclusive": "inconclusive (in the guard band)"}
+"""The statement of conformity of each decision outcome."""
+
+
+def _date(text: str) -> str:
+    return _dt.datetime.fromisoformat(text).date().isoformat()
+
+
+def build(records, lab, *, issued: str, number: str | None = None, item: Item = Item(),
+          spec=None, rule: str | None = None, allow_expired: bool = False,
+          software: str = "") -> dict:
+    """The certificate document (``schema/certificate.schema.json``).
+
+    Parameters
+    ----------
+    records : sequence of CalibrationRecord
+        Real-coefficient records (one page of results per serial number).
+    lab : accelcal.budget.lab.Lab
+    issued : str
+        Date of issue, ISO 8601.
+    number : str, optional
+        The certificate's number (default :func:`certificate_number`).
+    item : Item
+    spec : accelcal.conformity.Spec, optional
+        With it, a statement of conformity per limited result by ``rule``
+        (default the spec's).
+    allow_expired : bool
+        Issue even when a standard was past its due date on a calibration
+        date (the certificate says so); otherwise refuse.
+    software : str
+        ``"accelcal <version>"``.
+
+    Raises
+    ------
+    AccelcalError
+        No records, a complex record, a bad date or an expired standard.
+    """
+    if not records:
+        raise AccelcalError("a certificate needs at least one calibration record")
+    for r in records:
+        if r.is_complex:
+            raise AccelcalError(f"record of {r.serial} ({r.method}) holds complex coefficients; "
+                                "certificates of frequency responses are not supported yet")
+    try:
+        issued = _dt.date.fromisoformat(issued).isoformat()
+    except (TypeError, ValueError):
+        raise AccelcalError(f"issue date {issued!r} is not an ISO 8601 date (2026-11-26)",
+                            parameter="issued") from None
+    used_on = max(_dt.datetime.fromisoformat(r.date).date() for r in records)
+    expired = lab.expired(used_on)
+    if expired and not allow_expired:
+        names = ", ".join(f"{s.quantity} (certificate {s.certificate or '?'}, due {s.due})"
+                          for s in expired)
+        raise AccelcalError(f"{lab.path.name}: standard(s) past their due date on "
+                            f"{used_on.isoformat()}: {names}; recalibrate them, or give "
+                            "--allow-expired to issue a certificate that says so",
+                            parameter="lab")
+    rule = (rule or spec.decision_rule) if spec is not None else None
+    all_budgets, serials = [], {}
+    for rec in sorted(records, key=lambda r: (r.serial, r.method, r.date)):
+        budgets = kept_budgets(rec, lab)
+        if budgets is None:
+            budgets = [b.as_dict() for b in record_budgets(rec, lab)]
+        by_name = {b["coefficient"]: b for b in budgets}
+        k1 = _scale_factor(rec)
+        results = []
+        for name in rec.names:
+            b = by_name.get(name)
+            if b is None:
+                continue
+            plain = rec.plain.get(name, name)
+            res = {"coefficient": name, "plain": plain, "method": rec.method,
+                   "estimate": b["estimate"], "unit": b["unit"], "u_c": b["u_c"],
+                   "nu_eff": b["nu_eff"],
+                   "k": b["k"], "U": b["U"],
+                   "engineering": _engineering(plain, b["estimate"], b["u_c"], b["U"],
+                                               b["unit"], k1)}
+            res["conformity"] = (None if spec is None
+                                 else _conformity(spec, rule, res, rec.serial, rec.method))
+            results.append(res)
+        all_budgets += [{**b, "serial": rec.serial, "method": rec.method} for b in budgets]
+        page = serials.setdefault(rec.serial, {
+            "serial": rec.serial, "make": item.make, "model": item.model,
+            "received": item.received or None, "calibrated": [], "methods": [],
+            "operators": [], "local_gravity": None, "simulated": False, "results": [],
+            "records": []})
+        page["calibrated"].append(_date(rec.date))
+        method = _method(rec)
+        if method not in page["methods"]:
+            page["methods"].append(method)
+        if rec.operator and rec.operator not in page["operators"]:
+            page["operators"].append(rec.operator)
+        page["simulated"] = page["simulated"] or rec.simulated
+        page["results"] += results
+        page["records"].append({"method": rec.method, "date": rec.date,
+                                "sha256": record_digest(rec)})
+    for page in serials.values():
+        page["calibrated"] = sorted(set(page["calibrated"]))
+    gravity = lab.standards.get("local_gravity")
+    conditions = {"environment": {str(k): v if isinstance(v, int | float | str) else str(v)
+                                  for k, v in lab.environment.items()},
+                  "local_gravity": None if gravity is None else {
+                      "value": gravity.value_in("m/s^2"), "u": gravity.u_in("m/s^2"),
+                      "unit": "m/s^2", "certificate": gravity.certificate}}
+    signatory = lab.signatories[0] if lab.signatories else None
+    standards = standards_used(lab, all_budgets)
+    for s in standards:
+        s["expired"] = any(e.quantity == s["quantity"] for e in expired)
+    return {
+        "format_version": FORMAT_VERSION, "kind": KIND, "title": TITLE,
+        "number": number or certificate_number(records, lab), "issued": issued,
+        "software": software,
+        "laboratory": {"name": lab.laboratory.name, "address": lab.laboratory.address,
+                       "accreditation": lab.laboratory.accreditation},
+        "lab_file": {"name": lab.path.name, "sha256": lab.sha256},
+        "customer": {str(k): str(v) for k, v in (lab.customer or {}).items()},
+        "signatory": None if signatory is None else {"name": signatory.name,
+                                                     "role": signatory.role},
+        "conditions": conditions,
+        "coverage_probability": 0.9545,
+        "standards": standards,
+        "expired_standards": [e.quantity for e in expired],
+        "decision_rule": None if spec is None else {
+            "rule": rule, "specification": spec.title, "document": spec.document},
+        "items": list(serials.values()),
+        "budgets": all_budgets,
+    }
