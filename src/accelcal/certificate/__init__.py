@@ -40,8 +40,8 @@ def to_json(document: dict) -> str:
 
 def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, xml=None,
           spec_path=None, rule: str | None = None, number: str | None = None,
-          item: Item = Item(), allow_expired: bool = False,
-          keep_budgets: bool = False) -> Issued:
+          item: Item = Item(), allow_expired: bool = False, keep_budgets: bool = False,
+          country: str = "") -> Issued:
     """Issue a certificate: read, check, build, then write every file asked for.
 
     Parameters
@@ -66,6 +66,8 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         Make, model and date of receipt.
     allow_expired : bool
         Issue with standards past their due date (the certificate says so).
+    country : str
+        The laboratory's country (ISO 3166-1 alpha-2), for the DCC.
     keep_budgets : bool
         Write the budgets, the lab file's hash and the standards used into
         each record file (atomically), so that the records (and a store that
@@ -96,7 +98,7 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         spec = load_spec(spec_path)
     document = build(records, lab, issued=issued, number=number, item=item, spec=spec,
                      rule=rule, allow_expired=allow_expired,
-                     software=f"accelcal {__version__}")
+                     software=f"accelcal {__version__}", country=country)
     html = render_html(document)
     written = []
     if pdf is not None:

@@ -30,6 +30,7 @@ import datetime as _dt
 import hashlib
 import json
 import math
+import re
 from dataclasses import dataclass, replace
 
 from accelcal.errors import AccelcalError
@@ -216,13 +217,17 @@ STATEMENTS = {"accept": "conforms", "reject": "does not conform",
 """The statement of conformity of each decision outcome."""
 
 
+_NUMBER = re.compile(r"[A-Za-z0-9][A-Za-z0-9._/-]{0,63}")
+"""A certificate number given by the laboratory."""
+
+
 def _date(text: str) -> str:
     return _dt.datetime.fromisoformat(text).date().isoformat()
 
 
 def build(records, lab, *, issued: str, number: str | None = None, item: Item = Item(),
           spec=None, rule: str | None = None, allow_expired: bool = False,
-          software: str = "") -> dict:
+          software: str = "", country: str = "") -> dict:
     """The certificate document (``schema/certificate.schema.json``).
 
     Parameters
@@ -243,6 +248,8 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item = 
         date (the certificate says so); otherwise refuse.
     software : str
         ``"accelcal <version>"``.
+    country : str
+        The laboratory's country, ISO 3166-1 alpha-2 (empty: not stated).
 
     Raises
     ------
@@ -251,6 +258,12 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item = 
     """
     if not records:
         raise AccelcalError("a certificate needs at least one calibration record")
+    if country and not (len(country) == 2 and country.isascii() and country.isupper()):
+        raise AccelcalError(f"country {country!r} is not an ISO 3166-1 alpha-2 code (DE, GB, "
+                            "US, ...)", parameter="country")
+    if number is not None and not _NUMBER.fullmatch(number):
+        raise AccelcalError(f"certificate number {number!r}: use 1 to 64 letters, digits and "
+                            "the signs - _ . /", parameter="number")
     for r in records:
         if r.is_complex:
             raise AccelcalError(f"record of {r.serial} ({r.method}) holds complex coefficients; "
@@ -260,6 +273,12 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item = 
     except (TypeError, ValueError):
         raise AccelcalError(f"issue date {issued!r} is not an ISO 8601 date (2026-11-26)",
                             parameter="issued") from None
+    if item.received:
+        try:
+            item = replace(item, received=_dt.date.fromisoformat(item.received).isoformat())
+        except ValueError:
+            raise AccelcalError(f"date of receipt {item.received!r} is not an ISO 8601 date "
+                                "(2026-11-20)", parameter="received") from None
     used_on = max(_dt.datetime.fromisoformat(r.date).date() for r in records)
     expired = lab.expired(used_on)
     if expired and not allow_expired:
@@ -296,7 +315,7 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item = 
         page = serials.setdefault(rec.serial, {
             "serial": rec.serial, "make": item.make, "model": item.model,
             "received": item.received or None, "calibrated": [], "methods": [],
-            "operators": [], "local_gravity": None, "simulated": False, "results": [],
+            "operators": [], "simulated": False, "results": [],
             "records": []})
         page["calibrated"].append(_date(rec.date))
         method = _method(rec)
@@ -325,7 +344,7 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item = 
         "number": number or certificate_number(records, lab), "issued": issued,
         "software": software,
         "laboratory": {"name": lab.laboratory.name, "address": lab.laboratory.address,
-                       "accreditation": lab.laboratory.accreditation},
+                       "accreditation": lab.laboratory.accreditation, "country": country},
         "lab_file": {"name": lab.path.name, "sha256": lab.sha256},
         "customer": {str(k): str(v) for k, v in (lab.customer or {}).items()},
         "signatory": None if signatory is None else {"name": signatory.name,

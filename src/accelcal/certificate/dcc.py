@@ -12,6 +12,9 @@ gravity) and ``results``, each a ``quantity`` holding an ``si:real``
 (value, unit, expanded uncertainty with k and the coverage probability) in
 D-SI notation [DSI]_.
 
+The country code is the laboratory's (``--country``), ``ZZ`` (ISO 3166's
+code for an unknown country) when it is not stated.
+
 D-SI has SI units only: a result in µg is written in ``\\micro\\metre
 \\second\\tothe{-2}`` (times g_n = 9.806 65 m/s²), in ppm as ``\\ppm``, in
 µrad as ``\\micro\\radian``, in µg/g² as ``\\micro\\second\\tothe{2}\\metre
@@ -138,7 +141,7 @@ def to_dcc(c: dict) -> str:
     _text(software, "name", name)
     _el(software, "release", release or "unknown")
     core = _el(admin, "coreData")
-    _el(core, "countryCodeISO3166_1", "DE")
+    _el(core, "countryCodeISO3166_1", c["laboratory"]["country"] or "ZZ")
     _el(core, "usedLangCodeISO639_1", "en")
     _el(core, "mandatoryLangCodeISO639_1", "en")
     _el(core, "uniqueIdentifier", c["number"])
