@@ -3,7 +3,6 @@
 import math
 
 import pytest
-from helpers.certificates import LAB, SPEC, expired_lab, write_inputs
 from scipy.stats import norm
 
 from accelcal.budget.lab import load_lab
@@ -17,6 +16,7 @@ from accelcal.certificate.content import (
 from accelcal.conformity import parse_spec
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
+from helpers.certificates import LAB, SPEC, expired_lab, write_inputs
 
 SF1 = 1.2993698
 """SN-1's scale factor K_I, V/g (helpers.records.make_record)."""
@@ -40,7 +40,8 @@ def _result(doc, serial, name):
 def test_number_is_derived_from_the_records_and_the_lab_file(tmp_path):
     records, lab = _records(tmp_path), load_lab(LAB)
     number = certificate_number(records, lab)
-    assert number.startswith("AC-") and len(number) == 15
+    assert number.startswith("AC-")
+    assert len(number) == 15
     assert certificate_number(records[::-1], lab) == number
     assert certificate_number(records[:1], lab) != number
     other = tmp_path / "lab.toml"
@@ -89,7 +90,9 @@ def test_expired_standard_refuses_unless_allowed(tmp_path):
     with pytest.raises(AccelcalError) as info:
         build(records, lab, issued="2026-11-26")
     message = str(info.value)
-    assert "daq_gain" in message and "DMM-2025-208" in message and "--allow-expired" in message
+    assert "daq_gain" in message
+    assert "DMM-2025-208" in message
+    assert "--allow-expired" in message
     doc = build(records, lab, issued="2026-11-26", allow_expired=True)
     assert doc["expired_standards"] == ["daq_gain", "daq_offset", "daq_linearity"]
     assert [s["expired"] for s in doc["standards"] if s["quantity"] == "daq_gain"] == [True]
@@ -119,7 +122,8 @@ def test_simple_and_guarded_statements_with_the_specific_risk(tmp_path):
     assert (kf["outcome"], kf["statement"]) == ("accept", "conforms")
     ko = _result(simple, "SN-1", "K_O")["conformity"]
     estimate, u = -1.2e-5 / SF1 * 1e6, 3e-6 / SF1 * 1e6
-    assert ko["outcome"] == "reject" and ko["statement"] == "does not conform"
+    assert ko["outcome"] == "reject"
+    assert ko["statement"] == "does not conform"
     # JCGM 106 9.3: the PDF's mass outside [-9, 9] urad (normal: the record gives no dof)
     outside = norm.cdf((-9.0 - estimate) / u) + norm.sf((9.0 - estimate) / u)
     assert ko["false_accept_risk"] == pytest.approx(outside, rel=1e-9)

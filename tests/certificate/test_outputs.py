@@ -4,11 +4,11 @@ import json
 import re
 
 import pytest
-from helpers.certificates import LAB, write_inputs
 
 from accelcal.certificate import Item, issue, schema, to_json
 from accelcal.certificate.dcc import DCC_NS, SI_NS, to_dcc
 from accelcal.certificate.render import pages, render_html
+from helpers.certificates import LAB, write_inputs
 
 
 def _issue(tmp_path, **kwargs):
@@ -50,9 +50,14 @@ def test_html_has_a_results_page_per_serial_then_the_annex(tmp_path):
     assert html.count('<section class="page"') == 4
     for i in range(1, 5):
         assert f"Page {i} of 4" in html
-    assert "-638.77" in html and "µg" in html and "µrad" in html
-    assert doc["number"] in html and "AG-2025-017" in html and "2030-06-30" in html
-    assert "Dr. A. Metrologist" in html and "Example Navigation Systems Ltd" in html
+    assert "-638.77" in html
+    assert "µg" in html
+    assert "µrad" in html
+    assert doc["number"] in html
+    assert "AG-2025-017" in html
+    assert "2030-06-30" in html
+    assert "Dr. A. Metrologist" in html
+    assert "Example Navigation Systems Ltd" in html
     assert "counter(pages)" in html
 
 
@@ -61,7 +66,8 @@ def test_html_escapes_every_text(tmp_path):
     doc["customer"]["name"] = "<script>alert(1)</script>"
     doc["items"][0]["make"] = "A & B <i>"
     html = render_html(doc)
-    assert "<script>alert" not in html and "&lt;script&gt;" in html
+    assert "<script>alert" not in html
+    assert "&lt;script&gt;" in html
     assert "A &amp; B &lt;i&gt;" in html
 
 
@@ -114,8 +120,9 @@ def test_dcc_export_has_the_structure_of_the_dcc_schema(tmp_path):
 
 
 def test_dcc_conformity_statements(tmp_path):
-    from helpers.certificates import SPEC
     from lxml import etree
+
+    from helpers.certificates import SPEC
 
     (tmp_path / "spec.toml").write_text(SPEC, encoding="utf-8")
     doc = _issue(tmp_path, spec_path=tmp_path / "spec.toml").document
@@ -128,7 +135,9 @@ def test_dcc_conformity_statements(tmp_path):
 def test_json_text_is_stable_and_finite(tmp_path):
     doc = _issue(tmp_path).document
     text = to_json(doc)
-    assert text.endswith("}\n") and "NaN" not in text and "Infinity" not in text
+    assert text.endswith("}\n")
+    assert "NaN" not in text
+    assert "Infinity" not in text
     assert json.loads(text) == doc
 
 
@@ -145,10 +154,14 @@ def test_pdf_pages_text_and_counters(tmp_path):
     for i, text in enumerate(texts, 1):
         assert f"Page {i} of {n}" in text
         assert doc["number"] in text
-    assert "SN-1" in texts[0] and "SN-2" in texts[1]
-    assert "-638.77" in texts[0] and "µg" in texts[0]
-    assert "AG-2025-017" in texts[0] and "Dr. A. Metrologist" in texts[0]
-    assert "Annex" in texts[2] and "Type A" in texts[2]
+    assert "SN-1" in texts[0]
+    assert "SN-2" in texts[1]
+    assert "-638.77" in texts[0]
+    assert "µg" in texts[0]
+    assert "AG-2025-017" in texts[0]
+    assert "Dr. A. Metrologist" in texts[0]
+    assert "Annex" in texts[2]
+    assert "Type A" in texts[2]
     assert not re.search(r"Page \d+ of \d+.*Page", texts[0], re.S)  # the HTML footers hide
 
 
@@ -172,4 +185,6 @@ def test_chromium_prints_the_certificate(tmp_path, chromium):
                     f"--print-to-pdf={out}", "--no-pdf-header-footer")
     assert proc.returncode == 0, proc.stderr[-2000:]
     text = "".join(p.extract_text() for p in pypdf.PdfReader(out).pages)
-    assert "SN-1" in text and "SN-2" in text and "Annex" in text
+    assert "SN-1" in text
+    assert "SN-2" in text
+    assert "Annex" in text

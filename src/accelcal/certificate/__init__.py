@@ -40,7 +40,7 @@ def to_json(document: dict) -> str:
 
 def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, xml=None,
           spec_path=None, rule: str | None = None, number: str | None = None,
-          item: Item = Item(), allow_expired: bool = False, keep_budgets: bool = False,
+          item: Item | None = None, allow_expired: bool = False, keep_budgets: bool = False,
           country: str = "") -> Issued:
     """Issue a certificate: read, check, build, then write every file asked for.
 
@@ -62,8 +62,8 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
     number : str, optional
         The certificate's number (default derived from the records and the
         lab file).
-    item : Item
-        Make, model and date of receipt.
+    item : Item, optional
+        Make, model and date of receipt (default: not stated).
     allow_expired : bool
         Issue with standards past their due date (the certificate says so).
     country : str
@@ -96,7 +96,7 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         from accelcal.conformity import load_spec
 
         spec = load_spec(spec_path)
-    document = build(records, lab, issued=issued, number=number, item=item, spec=spec,
+    document = build(records, lab, issued=issued, number=number, item=item or Item(), spec=spec,
                      rule=rule, allow_expired=allow_expired,
                      software=f"accelcal {__version__}", country=country)
     html = render_html(document)

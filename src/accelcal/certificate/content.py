@@ -151,7 +151,7 @@ def standards_used(lab, budgets) -> list[dict]:
              "value": s.value, "unit": s.unit, "u": s.u} for s in chosen]
 
 
-def _engineering(name, value, u_c, big_u, unit, scale_factor):
+def _engineering(name, value, u_c, big_u, unit, *, scale_factor):
     """The result in the field's units: ``[{estimate, u, U, unit}]`` (empty: none applies)."""
     from accelcal.engineering import engineering
 
@@ -225,7 +225,7 @@ def _date(text: str) -> str:
     return _dt.datetime.fromisoformat(text).date().isoformat()
 
 
-def build(records, lab, *, issued: str, number: str | None = None, item: Item = Item(),
+def build(records, lab, *, issued: str, number: str | None = None, item: Item | None = None,
           spec=None, rule: str | None = None, allow_expired: bool = False,
           software: str = "", country: str = "") -> dict:
     """The certificate document (``schema/certificate.schema.json``).
@@ -239,7 +239,8 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item = 
         Date of issue, ISO 8601.
     number : str, optional
         The certificate's number (default :func:`certificate_number`).
-    item : Item
+    item : Item, optional
+        Make, model and date of receipt (default: not stated).
     spec : accelcal.conformity.Spec, optional
         With it, a statement of conformity per limited result by ``rule``
         (default the spec's).
@@ -273,6 +274,7 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item = 
     except (TypeError, ValueError):
         raise AccelcalError(f"issue date {issued!r} is not an ISO 8601 date (2026-11-26)",
                             parameter="issued") from None
+    item = item or Item()
     if item.received:
         try:
             item = replace(item, received=_dt.date.fromisoformat(item.received).isoformat())
@@ -307,7 +309,7 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item = 
                    "nu_eff": b["nu_eff"],
                    "k": b["k"], "U": b["U"],
                    "engineering": _engineering(plain, b["estimate"], b["u_c"], b["U"],
-                                               b["unit"], k1)}
+                                               b["unit"], scale_factor=k1)}
             res["conformity"] = (None if spec is None
                                  else _conformity(spec, rule, res, rec.serial, rec.method))
             results.append(res)

@@ -1,4 +1,4 @@
-"""The certificate as a Digital Calibration Certificate (DCC, PTB's XML schema, version 3).
+r"""The certificate as a Digital Calibration Certificate (DCC, PTB's XML schema, version 3).
 
 :func:`to_dcc` writes the certificate document (:mod:`accelcal.certificate.content`)
 in the structure of PTB's DCC schema, version 3.2 [DCC]_: ``administrativeData``
@@ -85,7 +85,7 @@ def _text(parent, tag: str, text: str):
     return block
 
 
-def _real(parent, value: float, unit: str, expanded: float | None = None, k: float = 2.0,
+def _real(parent, value: float, unit: str, expanded: float | None = None, *, k: float = 2.0,
           probability: float = 0.9545, label: str | None = None):
     """An ``si:real``: value and D-SI unit, with its expanded uncertainty when given."""
     real = _el(parent, "real", ns=SI_NS)
@@ -125,7 +125,7 @@ def _result(results, r: dict, probability: float) -> None:
     dsi, factor = DSI_UNITS[unit]
     quantity = _el(data, "quantity", refType="accelcal_" + r["plain"])
     _text(quantity, "name", f"{r['plain']} in {unit}")
-    _real(quantity, value * factor, dsi, big_u * factor, r["k"], probability,
+    _real(quantity, value * factor, dsi, big_u * factor, k=r["k"], probability=probability,
           label=r["coefficient"])
 
 
@@ -225,7 +225,8 @@ def to_dcc(c: dict) -> str:
             cond = _el(conditions, "influenceCondition")
             _text(cond, "name", "Local acceleration of gravity")
             q = _el(_el(cond, "data"), "quantity")
-            _real(q, g["value"], r"\metre\second\tothe{-2}", 2.0 * g["u"], 2.0, probability)
+            _real(q, g["value"], r"\metre\second\tothe{-2}", 2.0 * g["u"], k=2.0,
+                  probability=probability)
         results = _el(mr, "results")
         for r in i["results"]:
             _result(results, r, probability)

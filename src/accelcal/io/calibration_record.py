@@ -496,7 +496,7 @@ def _check_budget_block(block, fail) -> None:
         raise fail("budget.standards must be a list of objects with a quantity")
     budgets = block["budgets"]
     if not (isinstance(budgets, list) and all(
-            isinstance(b, dict) and _BUDGET_ENTRY_KEYS <= set(b)
+            isinstance(b, dict) and set(b) >= _BUDGET_ENTRY_KEYS
             and isinstance(b["rows"], list) for b in budgets)):
         raise fail(f"budget.budgets must be a list of objects with the keys "
                    f"{sorted(_BUDGET_ENTRY_KEYS)}")
