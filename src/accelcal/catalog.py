@@ -81,6 +81,11 @@ class Method:
         The stage's test in a few words (the demo's help and subtitle).
     demo_callable : str
         Name of the stage builder, ``stage(sensors, lab) -> Stage``.
+    budget_inputs : tuple of str
+        The lab's input quantities its measurement model has
+        (:data:`accelcal.budget.lab.QUANTITIES`), evaluated by its package's
+        ``budget`` module; empty: no lab inputs modelled, a budget holds the
+        Type A part and the priors only.
     """
 
     name: str
@@ -101,6 +106,7 @@ class Method:
     demo_sensors: str = ""
     demo_test: str = ""
     demo_callable: str = "stage"
+    budget_inputs: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if len(self.kinds) != len(self.formats):
@@ -124,6 +130,11 @@ class Method:
 def _m(package: str) -> str:
     return f"accelcal.methods.{package}"
 
+
+_POSITIONED = ("local_gravity", "head_angle", "autocollimator", "head_axis_tilt", "daq_gain",
+               "daq_offset", "daq_linearity", "load_resistor", "load_resistor_tc",
+               "sensor_temperature")
+"""The inputs of a test on static positions in the gravity field (tumble, indexing head)."""
 
 METHODS: tuple[Method, ...] = (
     Method(
@@ -159,7 +170,7 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "uncertainty"),
         report="accelcal.methods.dividing_head.report_text", docs="docs/dividing-head.md",
         paper="Dong2014", demo="accelcal.methods.dividing_head.demo", demo_order=1,
-        demo_sensors="four", demo_test="indexing head"),
+        demo_sensors="four", demo_test="indexing head", budget_inputs=_POSITIONED),
     Method(
         name="tumble", family="tumble", title="multipoint tumble", package=_m("tumble"),
         kinds=("tumble",), formats=("accelcal.io.formats.tumble",), rig="accelcal.rigs.tumble",
@@ -167,7 +178,8 @@ METHODS: tuple[Method, ...] = (
         cli_help=("Multipoint tumble (IEEE 1293 style): what a position set identifies, "
                   "simulated records, and the Fourier / least-squares reduction."),
         verbs=("simulate", "reduce", "plan"),
-        report="accelcal.methods.tumble.report_text", docs="docs/tumble.md", paper="IEEE1293"),
+        report="accelcal.methods.tumble.report_text", docs="docs/tumble.md", paper="IEEE1293",
+        budget_inputs=_POSITIONED),
     Method(
         name="triad", family="triad", title="accelerometer triad", package=_m("triad"),
         kinds=("triad",), formats=("accelcal.io.formats.triad",), rig="accelcal.rigs.triad",

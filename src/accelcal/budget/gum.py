@@ -36,8 +36,9 @@ DIVISORS = {"normal": 1.0, "rectangular": math.sqrt(3.0), "triangular": math.sqr
             "u-shaped": math.sqrt(2.0)}
 """Bounds +-a of each distribution over its standard uncertainty (GUM 4.3.7, 4.3.9)."""
 
-DISTRIBUTIONS = (*DIVISORS, "student-t")
-"""How an input's uncertainty is distributed; ``student-t``: a Type A input with its dof."""
+DISTRIBUTIONS = (*DIVISORS, "student-t", "two-point")
+"""How an input's uncertainty is distributed; ``student-t``: a Type A input with its dof;
+``two-point``: ``+-u`` with equal probability (a term of unknown sign and known size)."""
 
 
 def from_expanded(expanded: float, k: float) -> float:
@@ -165,6 +166,9 @@ class Budget:
         Whether input correlations enter ``u_c``.
     sensor : int
     serial : str
+    notes : tuple of str
+    check : accelcal.budget.mc.Check or None
+        The Monte Carlo validation, when asked for.
     """
 
     coefficient: str
@@ -179,19 +183,24 @@ class Budget:
     sensor: int = 0
     serial: str = ""
     notes: tuple[str, ...] = field(default=())
+    check: object = None
 
     def as_dict(self) -> dict:
         """The budget's JSON object.
 
         Keys ``coefficient, estimate, unit, u_c, nu_eff, k, U, correlated, rows``
-        (``nu_eff`` is ``"inf"`` when infinite), and ``sensor, serial, notes``.
+        (``nu_eff`` is ``"inf"`` when infinite), and ``sensor, serial, notes``;
+        ``check`` when a Monte Carlo validation was made.
         """
-        return {"coefficient": self.coefficient, "estimate": self.estimate, "unit": self.unit,
+        out = {"coefficient": self.coefficient, "estimate": self.estimate, "unit": self.unit,
                 "u_c": self.u_c,
                 "nu_eff": self.nu_eff if math.isfinite(self.nu_eff) else "inf",
                 "k": self.k, "U": self.U, "correlated": self.correlated,
                 "sensor": self.sensor, "serial": self.serial, "notes": list(self.notes),
                 "rows": [r.as_dict() for r in self.rows]}
+        if self.check is not None:
+            out["check"] = self.check.as_dict()
+        return out
 
 
 def combine(coefficient: str, estimate: float, unit: str, terms, *, correlation=None,
