@@ -10,6 +10,7 @@ from accelcal.certificate.content import (
     Item,
     build,
     certificate_number,
+    engine_budgets,
     record_digest,
     with_budgets,
 )
@@ -94,7 +95,8 @@ def test_expired_standard_refuses_unless_allowed(tmp_path):
     assert "DMM-2025-208" in message
     assert "--allow-expired" in message
     doc = build(records, lab, issued="2026-11-26", allow_expired=True)
-    assert doc["expired_standards"] == ["daq_gain", "daq_offset", "daq_linearity"]
+    assert doc["expired_standards"] == ["local_gravity", "daq_gain", "daq_offset",
+                                        "daq_linearity"]
     assert [s["expired"] for s in doc["standards"] if s["quantity"] == "daq_gain"] == [True]
 
 
@@ -150,14 +152,16 @@ def test_a_limit_in_a_unit_the_result_cannot_take_is_refused(tmp_path):
 
 def test_records_keep_their_budgets_and_are_certified_from_them(tmp_path):
     records, lab = _records(tmp_path), load_lab(LAB)
-    kept = [with_budgets(r, lab) for r in records]
+    paths = write_inputs(tmp_path)
+    fresh = engine_budgets(paths, records, lab)
+    kept = [with_budgets(r, lab, b) for r, b in zip(records, fresh, strict=True)]
     assert kept[0].budget["lab"] == {"sha256": lab.sha256, "path": "lab.toml",
                                      "name": lab.laboratory.name}
     assert [b["coefficient"] for b in kept[0].budget["budgets"]] == ["K_F", "K_I", "K_O"]
     assert kept[0].budget["standards"][0]["certificate"].startswith("AG-2025-017")
     again = CalibrationRecord.from_json(kept[0].to_json())
     assert again.budget == kept[0].budget
-    assert with_budgets(again, lab) is again
+    assert with_budgets(again, lab, []) is again
     assert record_digest(again) == record_digest(records[0])
     # a kept budget is what the certificate states, whatever the reduction gives today
     edited = dict(again.budget)
@@ -166,7 +170,7 @@ def test_records_keep_their_budgets_and_are_certified_from_them(tmp_path):
     from dataclasses import replace
 
     doc = build([replace(again, budget=edited), records[1]], lab, issued="2026-11-26")
-    assert _result(doc, "SN-1", "K_F")["U"] == 1.0e-5
+    assert _result(doc, "SN-1", "K_F")["engineering"][0]["U"] == 1.0e-5
     assert doc["number"] == build(records, lab, issued="2026-11-26")["number"]
 
 
@@ -193,3 +197,28 @@ def test_infinite_dof_is_written_as_inf(tmp_path):
     assert _result(doc, "SN-1", "K_F")["nu_eff"] == "inf"
     assert all(not isinstance(b["nu_eff"], float) or math.isfinite(b["nu_eff"])
                for b in doc["budgets"])
+
+
+def test_engine_budgets_state_the_lab_standards_that_enter(tmp_path):
+    paths = write_inputs(tmp_path)
+    records, lab = [CalibrationRecord.load(p) for p in paths], load_lab(LAB)
+    fresh = engine_budgets(paths, records, lab)
+    assert [b["coefficient"] for b in fresh[0]] == ["K_F", "K_I", "K_O"]
+    doc = build(records, lab, issued="2026-11-26", budgets=fresh)
+    # the input data are not at hand: of the lab's inputs only local gravity enters
+    assert [s["quantity"] for s in doc["standards"]] == ["local_gravity"]
+    kf = _result(doc, "SN-1", "K_F")
+    assert kf["unit"] == "V"
+    assert kf["estimate"] == pytest.approx(-8.3e-4)
+    assert kf["engineering"][0]["unit"] == "ug"
+    assert kf["engineering"][0]["estimate"] == pytest.approx(-8.3e-4 / SF1 * 1e6, rel=1e-9)
+    # U in the record's unit: the budget's U over the ratio of its Type A row to the record's u
+    assert kf["U"] == pytest.approx(kf["engineering"][0]["U"] * SF1 * 1e-6, rel=1e-9)
+    ki = _result(doc, "SN-1", "K_I")
+    assert ki["unit"] == "V/g"
+    assert ki["engineering"] == []
+    assert ki["relative"]["U"] == pytest.approx(ki["U"] / SF1 * 1e6, rel=1e-9)
+    ko = _result(doc, "SN-1", "K_O")
+    assert [e["unit"] for e in ko["engineering"]] == ["urad", "arcsec"]
+    assert ko["engineering"][1]["estimate"] == pytest.approx(
+        ko["engineering"][0]["estimate"] * 0.206264806, rel=1e-8)

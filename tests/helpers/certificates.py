@@ -41,8 +41,9 @@ def write_inputs(directory: Path, *, date: str = "2026-11-20T10:00:00+00:00") ->
 
 
 def expired_lab(directory: Path) -> Path:
-    """The example lab file with the DMM's certificate due in 2020."""
-    text = LAB.read_text(encoding="utf-8").replace("due = 2029-05-31", "due = 2020-05-31")
+    """The example lab file with the gravity survey and the DMM's certificate due in 2020."""
+    text = (LAB.read_text(encoding="utf-8").replace("due = 2029-05-31", "due = 2020-05-31")
+            .replace("due = 2030-06-30", "due = 2020-06-30"))
     path = directory / "expired-lab.toml"
     path.write_text(text, encoding="utf-8")
     return path

@@ -12,7 +12,14 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from accelcal.certificate.content import Item, build, with_budgets
+from accelcal.certificate.content import (
+    Item,
+    build,
+    engine_budgets,
+    kept_budgets,
+    record_budgets,
+    with_budgets,
+)
 
 __all__ = ["Issued", "Item", "build", "issue", "schema", "to_json"]
 
@@ -41,7 +48,7 @@ def to_json(document: dict) -> str:
 def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, xml=None,
           spec_path=None, rule: str | None = None, number: str | None = None,
           item: Item | None = None, allow_expired: bool = False, keep_budgets: bool = False,
-          country: str = "") -> Issued:
+          country: str = "", search=()) -> Issued:
     """Issue a certificate: read, check, build, then write every file asked for.
 
     Parameters
@@ -68,6 +75,9 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         Issue with standards past their due date (the certificate says so).
     country : str
         The laboratory's country (ISO 3166-1 alpha-2), for the DCC.
+    search : sequence of path-like
+        More directories holding the records' input files (the budgets'
+        inputs that enter through the data need them).
     keep_budgets : bool
         Write the budgets, the lab file's hash and the standards used into
         each record file (atomically), so that the records (and a store that
@@ -96,9 +106,15 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         from accelcal.conformity import load_spec
 
         spec = load_spec(spec_path)
+    need = [i for i, r in enumerate(records) if kept_budgets(r, lab) is None]
+    fresh = [None] * len(records)
+    made = engine_budgets([record_paths[i] for i in need], [records[i] for i in need], lab,
+                          search) if need else []
+    for i, budgets in zip(need, made, strict=True):
+        fresh[i] = budgets
     document = build(records, lab, issued=issued, number=number, item=item or Item(), spec=spec,
                      rule=rule, allow_expired=allow_expired,
-                     software=f"accelcal {__version__}", country=country)
+                     software=f"accelcal {__version__}", country=country, budgets=fresh)
     html = render_html(document)
     written = []
     if pdf is not None:
@@ -113,8 +129,9 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         write_text_atomic(xml, to_dcc(document))
         written.append(Path(xml))
     if keep_budgets:
-        for path, record in zip(record_paths, records, strict=True):
-            kept = with_budgets(record, lab)
+        stated = record_budgets(records, lab, fresh)
+        for path, record, budgets in zip(record_paths, records, stated, strict=True):
+            kept = with_budgets(record, lab, budgets)
             if kept is not record:
                 kept.save(path)
                 written.append(Path(path))

@@ -15,7 +15,9 @@ degrees of freedom [GUM]_ (:mod:`accelcal.budget.gum`). A record that kept
 its budgets (``budget`` block, :mod:`accelcal.io.calibration_record`) for a
 lab file of the same SHA-256 is certified from them, so a later accelcal
 reissues the same numbers; otherwise the budgets are made from the record
-and the lab file (:func:`record_budgets`).
+and the lab file by :func:`accelcal.budget.budgets` (:func:`engine_budgets`), or from
+the record's own uncertainties for a method without a measurement model
+(:func:`typea_budgets`).
 
 References
 ----------
@@ -88,16 +90,12 @@ def certificate_number(records, lab) -> str:
     return "AC-" + digest.hexdigest()[:12].upper()
 
 
-def record_budgets(record, lab) -> list:
-    """The budget of each coefficient of a record (real coefficients only).
+def typea_budgets(record) -> list[dict]:
+    """Budgets of a record's coefficients from its own uncertainties alone (Type A).
 
-    The Type A part of each coefficient is the record's own standard
-    uncertainty, with the record's degrees of freedom (Student's t; normal
-    when they are unknown).
-
-    Returns
-    -------
-    list of accelcal.budget.gum.Budget
+    What a certificate states for a record whose method has no measurement
+    model in :mod:`accelcal.budget` (the record's own standard uncertainty,
+    with its degrees of freedom: Student's t, normal when unknown).
     """
     from accelcal.budget.gum import Input, combine
 
@@ -107,10 +105,35 @@ def record_budgets(record, lab) -> list:
         unit = record.units.get(name, "")
         if not math.isfinite(std):
             continue
-        typea = Input("Type A (reduction)", float(value), float(std), unit,
+        typea = Input("Type A", float(value), float(std), unit,
                       "student-t" if math.isfinite(dof) else "normal", dof,
                       source="type A", reference=record.method)
-        out.append(combine(name, float(value), unit, [(typea, 1.0)], serial=record.serial))
+        out.append(combine(name, float(value), unit, [(typea, 1.0)],
+                           serial=record.serial).as_dict())
+    return out
+
+
+def engine_budgets(paths, records, lab, search=()) -> list[list[dict] | None]:
+    """The budgets :func:`accelcal.budget.budgets` makes for each record (None: none).
+
+    The records are reduced again from their input files, found by name and
+    SHA-256 as ``accelcal report`` finds them (``search``: more
+    directories); when the files are not found the budgets keep the
+    records' own numbers and leave out the inputs that enter through the
+    data (their notes say so). A record of a method without a measurement
+    model gets None.
+    """
+    from accelcal.budget import budgets
+    from accelcal.budget.report import gather
+
+    out: list[list[dict] | None] = [None] * len(records)
+    for reduction, inputs, sensors, _ in gather(paths, search):
+        for b in budgets(reduction, lab, records=inputs):
+            if sensors is not None and b.sensor not in sensors:
+                continue
+            for i, rec in enumerate(records):
+                if rec.serial == b.serial and rec.method == reduction.method:
+                    out[i] = [*(out[i] or []), b.as_dict()]
     return out
 
 
@@ -122,20 +145,31 @@ def kept_budgets(record, lab) -> list[dict] | None:
     return block["budgets"]
 
 
-def budget_block(record, budgets, lab) -> dict:
+def budget_block(budgets: list[dict], lab) -> dict:
     """The ``budget`` block a record keeps (:mod:`accelcal.io.calibration_record`)."""
-    dicts = [b if isinstance(b, dict) else b.as_dict() for b in budgets]
     return {"lab": {"sha256": lab.sha256, "path": lab.path.name, "name": lab.laboratory.name},
             "standards": [{"quantity": s["quantity"], "certificate": s["certificate"],
-                           "due": s["due"]} for s in standards_used(lab, dicts)],
-            "budgets": dicts}
+                           "due": s["due"]} for s in standards_used(lab, budgets)],
+            "budgets": budgets}
 
 
-def with_budgets(record, lab):
-    """The record with its budgets for ``lab`` kept (unchanged when it holds them already)."""
+def with_budgets(record, lab, budgets: list[dict]):
+    """The record keeping ``budgets`` for ``lab`` (itself when it keeps them already)."""
     if kept_budgets(record, lab) is not None:
         return record
-    return replace(record, budget=budget_block(record, record_budgets(record, lab), lab))
+    return replace(record, budget=budget_block(budgets, lab))
+
+
+def record_budgets(records, lab, fresh=None) -> list[list[dict]]:
+    """The budgets a certificate states for each record.
+
+    Those the record kept for this lab file first (so a certificate is
+    reissued from them identically), else ``fresh`` (from
+    :func:`engine_budgets`), else :func:`typea_budgets`.
+    """
+    fresh = fresh or [None] * len(records)
+    return [kept_budgets(r, lab) or f or typea_budgets(r)
+            for r, f in zip(records, fresh, strict=True)]
 
 
 def standards_used(lab, budgets) -> list[dict]:
@@ -155,12 +189,54 @@ def _engineering(name, value, u_c, big_u, unit, *, scale_factor):
     """The result in the field's units: ``[{estimate, u, U, unit}]`` (empty: none applies)."""
     from accelcal.engineering import engineering
 
-    if u_c > 0:
-        ratio = big_u / u_c
-        return [{"estimate": e.estimate, "u": e.std, "U": e.std * ratio, "unit": e.unit}
-                for e in engineering(name, value, u_c, unit, scale_factor=scale_factor)]
-    return [{"estimate": e.estimate, "u": 0.0, "U": 0.0, "unit": e.unit}
-            for e in engineering(name, value, 0.0, unit, scale_factor=scale_factor)]
+    ratio = big_u / u_c if u_c > 0 else 0.0
+    return [{"estimate": e.estimate, "u": e.std, "U": e.std * ratio, "unit": e.unit}
+            for e in engineering(name, value, u_c, unit, scale_factor=scale_factor)]
+
+
+_ARCSEC_PER_URAD = 1e-6 / (math.pi / 648000.0)
+
+
+def _result(rec, name: str, b: dict, scale_factor) -> dict:
+    """One result: the record's value with the budget's uncertainty, in the field's units.
+
+    A budget in the record's unit (:func:`typea_budgets`) is converted to the
+    field's units as the report converts coefficients
+    (:func:`accelcal.engineering.engineering`); a budget the engine made in an
+    engineering unit is that unit's result, and its uncertainty is brought
+    back to the record's unit by the ratio of its Type A row to the record's
+    standard uncertainty. A scale factor's budget in ppm of its own value
+    (no nominal) is its relative uncertainty.
+    """
+    from accelcal.engineering import QUANTITIES
+
+    i = rec.names.index(name)
+    value, std, unit = float(rec.estimates[i]), float(rec.std[i]), rec.units.get(name, "")
+    plain = rec.plain.get(name, name)
+    base = {"coefficient": name, "plain": plain, "method": rec.method,
+            "nu_eff": b["nu_eff"], "k": b["k"], "relative": None}
+    if b["unit"] == unit:
+        return {**base, "estimate": value, "unit": unit, "u_c": b["u_c"], "U": b["U"],
+                "engineering": _engineering(plain, value, b["u_c"], b["U"], unit,
+                                            scale_factor=scale_factor)}
+    typea = next((r["u"] for r in b["rows"] if r.get("source") == "type A"), 0.0)
+    factor = typea / std if typea > 0 and std > 0 else math.nan
+    relative = QUANTITIES.get(plain) == "scale" and b["unit"] == "ppm" and b["estimate"] == 0.0
+    if not math.isfinite(factor):  # no way back to the record's unit: the budget's result
+        return {**base, "estimate": b["estimate"], "unit": b["unit"], "u_c": b["u_c"],
+                "U": b["U"], "engineering": []}
+    out = {**base, "estimate": value, "unit": unit, "u_c": b["u_c"] / factor,
+           "U": b["U"] / factor, "engineering": []}
+    if relative:
+        out["relative"] = {"u": b["u_c"], "U": b["U"], "unit": "ppm"}
+        return out
+    out["engineering"].append({"estimate": b["estimate"], "u": b["u_c"], "U": b["U"],
+                               "unit": b["unit"]})
+    if b["unit"] == "urad":
+        out["engineering"].append({"estimate": b["estimate"] * _ARCSEC_PER_URAD,
+                                   "u": b["u_c"] * _ARCSEC_PER_URAD,
+                                   "U": b["U"] * _ARCSEC_PER_URAD, "unit": "arcsec"})
+    return out
 
 
 def _scale_factor(record):
@@ -227,7 +303,7 @@ def _date(text: str) -> str:
 
 def build(records, lab, *, issued: str, number: str | None = None, item: Item | None = None,
           spec=None, rule: str | None = None, allow_expired: bool = False,
-          software: str = "", country: str = "") -> dict:
+          software: str = "", country: str = "", budgets=None) -> dict:
     """The certificate document (``schema/certificate.schema.json``).
 
     Parameters
@@ -251,6 +327,9 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
         ``"accelcal <version>"``.
     country : str
         The laboratory's country, ISO 3166-1 alpha-2 (empty: not stated).
+    budgets : list, optional
+        Fresh budgets of each record (:func:`engine_budgets`), used where a
+        record kept none for this lab file (:func:`record_budgets`).
 
     Raises
     ------
@@ -292,28 +371,19 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
                             parameter="lab")
     rule = (rule or spec.decision_rule) if spec is not None else None
     all_budgets, serials = [], {}
-    for rec in sorted(records, key=lambda r: (r.serial, r.method, r.date)):
-        budgets = kept_budgets(rec, lab)
-        if budgets is None:
-            budgets = [b.as_dict() for b in record_budgets(rec, lab)]
-        by_name = {b["coefficient"]: b for b in budgets}
+    stated = record_budgets(records, lab, budgets)
+    for rec, budgets_of in sorted(zip(records, stated, strict=True),
+                                  key=lambda p: (p[0].serial, p[0].method, p[0].date)):
+        by_name = {b["coefficient"]: b for b in budgets_of}
         k1 = _scale_factor(rec)
         results = []
         for name in rec.names:
-            b = by_name.get(name)
-            if b is None:
-                continue
-            plain = rec.plain.get(name, name)
-            res = {"coefficient": name, "plain": plain, "method": rec.method,
-                   "estimate": b["estimate"], "unit": b["unit"], "u_c": b["u_c"],
-                   "nu_eff": b["nu_eff"],
-                   "k": b["k"], "U": b["U"],
-                   "engineering": _engineering(plain, b["estimate"], b["u_c"], b["U"],
-                                               b["unit"], scale_factor=k1)}
-            res["conformity"] = (None if spec is None
-                                 else _conformity(spec, rule, res, rec.serial, rec.method))
-            results.append(res)
-        all_budgets += [{**b, "serial": rec.serial, "method": rec.method} for b in budgets]
+            if name in by_name:
+                res = _result(rec, name, by_name[name], k1)
+                res["conformity"] = (None if spec is None
+                                     else _conformity(spec, rule, res, rec.serial, rec.method))
+                results.append(res)
+        all_budgets += [{**b, "serial": rec.serial, "method": rec.method} for b in budgets_of]
         page = serials.setdefault(rec.serial, {
             "serial": rec.serial, "make": item.make, "model": item.model,
             "received": item.received or None, "calibrated": [], "methods": [],

@@ -44,10 +44,12 @@ def _result_view(r: dict) -> dict:
                 "value": format_value(e["estimate"], e["u"] or None), "U": format_std(e["U"]),
                 "unit": format_unit(e["unit"]), "k": _k(r["k"]),
                 "also": "; ".join(x for x in (also, raw) if x)}
+    rel = r["relative"]
     return {"name": r["plain"] if r["plain"] == r["coefficient"]
             else f"{r['plain']} ({r['coefficient']})", "route": route,
             "value": format_value(r["estimate"], r["u_c"] or None), "U": format_std(r["U"]),
-            "unit": format_unit(r["unit"]) or "1", "k": _k(r["k"]), "also": ""}
+            "unit": format_unit(r["unit"]) or "1", "k": _k(r["k"]),
+            "also": "" if rel is None else f"U = {format_std(rel['U'])} ppm of the value"}
 
 
 def _limit(x, infinite: str) -> str:

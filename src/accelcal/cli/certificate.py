@@ -72,6 +72,6 @@ def certificate(
                f"{', '.join(i['serial'] for i in doc['items'])}")
     if doc["expired_standards"]:
         typer.echo(f"warning: issued with expired standard(s): "
-                   f"{', '.join(doc['expired_standards'])}")
+                   f"{', '.join(doc['expired_standards'])}", err=True)
     for path in result.files:
         typer.echo(f"wrote {path}")
