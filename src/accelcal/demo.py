@@ -46,7 +46,7 @@ References
    of inertial accelerometers.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from accelcal.certificate.content import Item
@@ -164,13 +164,16 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
     head, start = next((o, sum(len(p.records) for p in result.outcomes[:i]))
                        for i, o in enumerate(result.outcomes)
                        if o.reduction.family == "dividing-head")
-    first = budgets(head.reduction, lab, records=result.data[result.outcomes.index(head)])[0]
+    made = budgets(head.reduction, lab, records=result.data[result.outcomes.index(head)])
     paths = result.records[start:start + len(head.records)]
+    by_record = [[{**b.as_dict(), "serial": r.serial} for b in made if b.sensor == k]
+                 for k, r in enumerate(head.records)]
     with_pdf = pdf and importlib.util.find_spec("weasyprint") is not None
     issued = issue(paths, lab_path, out=out / "certificate.html",
                    pdf=out / "certificate.pdf" if with_pdf else None,
                    json_out=out / "certificate.json", issued=dt.date.today().isoformat(),
                    item=Item(make="accelcal demo", model="simulated pendulous accelerometer"),
-                   search=[out / "data"])
+                   budgets=by_record)
+    first = replace(made[0], serial=head.records[made[0].sensor].serial)
     return Certified(lab_path, render_budgets([first], "table"), issued.document["number"],
                      issued.files)

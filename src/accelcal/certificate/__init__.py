@@ -48,7 +48,7 @@ def to_json(document: dict) -> str:
 def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, xml=None,
           spec_path=None, rule: str | None = None, number: str | None = None,
           item: Item | None = None, allow_expired: bool = False, keep_budgets: bool = False,
-          country: str = "", search=()) -> Issued:
+          country: str = "", search=(), budgets=None) -> Issued:
     """Issue a certificate: read, check, build, then write every file asked for.
 
     Parameters
@@ -78,6 +78,10 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
     search : sequence of path-like
         More directories holding the records' input files (the budgets'
         inputs that enter through the data need them).
+    budgets : list, optional
+        The budgets of each record (a list of :meth:`Budget.as_dict` per
+        record, or None), when the caller has them: the records are then not
+        reduced again for them.
     keep_budgets : bool
         Write the budgets, the lab file's hash and the standards used into
         each record file (atomically), so that the records (and a store that
@@ -106,12 +110,12 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         from accelcal.conformity import load_spec
 
         spec = load_spec(spec_path)
-    need = [i for i, r in enumerate(records) if kept_budgets(r, lab) is None]
-    fresh = [None] * len(records)
+    fresh = list(budgets) if budgets is not None else [None] * len(records)
+    need = [i for i, r in enumerate(records) if kept_budgets(r, lab) is None and not fresh[i]]
     made = engine_budgets([record_paths[i] for i in need], [records[i] for i in need], lab,
                           search) if need else []
-    for i, budgets in zip(need, made, strict=True):
-        fresh[i] = budgets
+    for i, made_i in zip(need, made, strict=True):
+        fresh[i] = made_i
     document = build(records, lab, issued=issued, number=number, item=item or Item(), spec=spec,
                      rule=rule, allow_expired=allow_expired,
                      software=f"accelcal {__version__}", country=country, budgets=fresh)
@@ -130,8 +134,8 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         written.append(Path(xml))
     if keep_budgets:
         stated = record_budgets(records, lab, fresh)
-        for path, record, budgets in zip(record_paths, records, stated, strict=True):
-            kept = with_budgets(record, lab, budgets)
+        for path, record, its_budgets in zip(record_paths, records, stated, strict=True):
+            kept = with_budgets(record, lab, its_budgets)
             if kept is not record:
                 kept.save(path)
                 written.append(Path(path))
