@@ -61,6 +61,8 @@ MEMORY_LIMIT = 6 * 2**30
 BASE: dict[str, list[str]] = {
     "demo": ["--out", "{out}/demo", "--seed", "1"],
     "report": ["{record}", "--out", "{out}/report.html"],
+    "certificate": ["{record}", "--lab", "{lab}", "--out", "{out}/c.html", "--issued",
+                    "2026-11-26"],
     "model show": [],
     "model new": ["--out", "{out}/model.json"],
     "model eval": ["--ai", "1"],
@@ -476,7 +478,8 @@ def _fill(tmp: Path) -> dict:
         with pytest.raises(SystemExit) as info:
             main(args)
         assert info.value.code == 0, args
-    return {"record": str(record), "tumble": str(tumble), "store": str(store),
+    return {"record": str(record), "lab": str(EXAMPLES.parent / "lab.toml"),
+            "tumble": str(tumble), "store": str(store),
             "centrifuge": str(centrifuge), "steps": str(steps),
             "response": str(response)}
 

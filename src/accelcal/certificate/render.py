@@ -66,7 +66,8 @@ def _conformity_view(s: dict) -> dict:
             "zone": (f"{'−∞' if lo is None else format_value(lo, s['u'] or None)} … "
                      f"{'+∞' if hi is None else format_value(hi, s['u'] or None)}"),
             "guard": f"{format_std(s['guard']) if s['guard'] else '0'} {unit}",
-            "risk": f"{s['false_accept_risk']:.2g}",
+            "risk": (f"false reject {s['conforming']:.2g}" if s["outcome"] == "reject"
+                     else f"false accept {s['false_accept_risk']:.2g}"),
             "statement": s["statement"],
             "css": {"accept": "conforms", "reject": "fails"}.get(s["outcome"], "inconclusive")}
 

@@ -43,6 +43,10 @@ def certificate(
     allow_expired: bool = typer.Option(
         False, "--allow-expired", help="Issue even if a standard was past its due date on a "
         "calibration date; the certificate then says so on every page of results."),
+    data: list[Path] = typer.Option(
+        [], "--data", help="A directory holding the records' input files (found by name and "
+        "SHA-256, also two levels deep), for the budgets' inputs that enter through the data. "
+        "Repeatable."),
     keep_budgets: bool = typer.Option(
         False, "--keep-budgets", help="Write the budgets, the lab file's SHA-256 and the "
         "standards used into each record file, so the records (and the store) keep them and "
@@ -66,12 +70,41 @@ def certificate(
                    rule=decision_rule, number=number,
                    issued=issued or dt.datetime.now(dt.UTC).date().isoformat(),
                    item=Item(make, model, received), allow_expired=allow_expired,
-                   keep_budgets=keep_budgets, country=country)
+                   keep_budgets=keep_budgets, country=country, search=data)
     doc = result.document
     typer.echo(f"certificate {doc['number']} issued {doc['issued']}: "
                f"{', '.join(i['serial'] for i in doc['items'])}")
     if doc["expired_standards"]:
         typer.echo(f"warning: issued with expired standard(s): "
                    f"{', '.join(doc['expired_standards'])}", err=True)
+    for item in doc["items"]:
+        for r in item["results"]:
+            if r["conformity"] is not None:
+                typer.echo(f"{item['serial']} {statement(r['conformity'])}")
     for path in result.files:
         typer.echo(f"wrote {path}")
+
+
+def statement(s: dict) -> str:
+    """One line of a statement of conformity: result, limits, zone, decision, risk."""
+    from accelcal.formatting import format_std, format_unit, format_value
+
+    def limit(x, none):
+        return none if x is None else f"{x:g}"
+
+    lo, hi = s["acceptance"]
+    return (f"{s['quantity']} = {format_value(s['estimate'], s['u'] or None)} ± "
+            f"{format_std(s['U'])} {format_unit(s['unit'])}; "
+            f"tolerance [{limit(s['lower'], '-inf')}, "
+            f"{limit(s['upper'], 'inf')}], acceptance zone "
+            f"[{'-inf' if lo is None else format_value(lo, s['u'] or None)}, "
+            f"{'inf' if hi is None else format_value(hi, s['u'] or None)}] "
+            f"(guard band {format_std(s['guard']) if s['guard'] else '0'}); {s['rule']}: "
+            f"{s['statement']}; {risk_text(s)}")
+
+
+def risk_text(s: dict) -> str:
+    """The decision's specific risk: of a false accept, or of a false reject for a reject."""
+    if s["outcome"] == "reject":
+        return f"specific risk of a false reject {s['conforming']:.2g}"
+    return f"specific risk of a false accept {s['false_accept_risk']:.2g}"
