@@ -190,7 +190,7 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "uncertainty", "plan"),
         report="accelcal.methods.triad.report_text", docs="docs/triad.md", paper="Tedaldi2014",
         demo="accelcal.methods.triad.demo", demo_order=7, demo_sensors="triad",
-        demo_test="triad on static positions"),
+        demo_test="triad on static positions", budget_inputs=("local_gravity",)),
     Method(
         name="noise", family="noise", title="noise and stability", package=_m("noise"),
         kinds=("noise",), formats=("accelcal.io.formats.noise",), rig="accelcal.rigs.noise",
@@ -211,7 +211,7 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce"),
         report="accelcal.methods.thermal.report_text", docs="docs/thermal.md", paper="IEEE1293",
         demo="accelcal.methods.thermal.demo", demo_order=5, demo_sensors="one",
-        demo_test="thermal chamber"),
+        demo_test="thermal chamber", budget_inputs=_POSITIONED),
     Method(
         name="centrifuge", family="centrifuge", title="centrifuge", package=_m("centrifuge"),
         kinds=("centrifuge",), formats=("accelcal.io.formats.centrifuge",),
@@ -222,7 +222,10 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "plan"),
         report="accelcal.methods.centrifuge.report_text", docs="docs/centrifuge.md",
         paper="IEEE836", demo="accelcal.methods.centrifuge.demo", demo_order=6,
-        demo_sensors="one", demo_test="centrifuge"),
+        demo_sensors="one", demo_test="centrifuge",
+        budget_inputs=("local_gravity", "centrifuge_radius", "centrifuge_rate", "daq_gain",
+                       "daq_offset", "daq_linearity", "load_resistor", "load_resistor_tc",
+                       "sensor_temperature")),
     Method(
         name="acceptance", family="acceptance", title="acceptance tests",
         package=_m("acceptance"), kinds=("steps",), formats=("accelcal.io.formats.acceptance",),

@@ -61,6 +61,7 @@ MEMORY_LIMIT = 6 * 2**30
 BASE: dict[str, list[str]] = {
     "demo": ["--out", "{out}/demo", "--seed", "1"],
     "report": ["{record}", "--out", "{out}/report.html"],
+    "budget": ["{tumble}"],
     "certificate": ["{record}", "--lab", "{lab}", "--out", "{out}/c.html", "--issued",
                     "2026-11-26"],
     "model show": [],
@@ -180,7 +181,7 @@ KINDS: dict[str, str] = {
 COMMAND_KINDS: dict[tuple[str, str], str] = {
     ("records history", "method"): "str", ("records stats", "method"): "str",
     ("transverse simulate", "out"): "output-dir", ("demo", "out"): "output-dir",
-    ("report", "data"): "input-dir",
+    ("report", "data"): "input-dir", ("budget", "data"): "input-dir",
 }
 """(command, parameter) -> kind, where the parameter name means something else there."""
 

@@ -6,18 +6,24 @@ combined and expanded uncertainty, Welch-Satterthwaite); the lab file
 package's ``budget`` module, the inputs named by
 :attr:`accelcal.catalog.Method.budget_inputs`) feed it through
 :mod:`accelcal.budget.engine`; :mod:`accelcal.budget.mc` checks a budget by
-Monte Carlo (JCGM 101). :func:`budgets` is the one call.
+Monte Carlo (JCGM 101). :func:`budgets` is the one call; ``accelcal
+budget`` (:mod:`accelcal.cli.budget`) reads the files and prints them.
+
+The package sits beside the methods (each method's ``budget`` module uses
+:mod:`accelcal.budget.engine`; :func:`budgets` finds that module through the
+method's descriptor).
 """
 
 
-def budgets(reduction, lab, *, records=None, model=None, check=None) -> list:
+def budgets(reduction, lab=None, *, records=None, model=None, check=None) -> list:
     """The itemised GUM budget of every reported coefficient of a reduction.
 
     Parameters
     ----------
     reduction : accelcal.results.Reduction
-    lab : accelcal.budget.lab.Lab
-        The lab file, read by :func:`accelcal.budget.lab.load_lab`.
+    lab : accelcal.budget.lab.Lab or None
+        The lab file, read by :func:`accelcal.budget.lab.load_lab`; None:
+        the Type A part and the priors only.
     records : object, optional
         The data the reduction was made from, as its method reads it (a
         tumble record or its file; a dividing-head record or its file; ...).
@@ -50,7 +56,13 @@ def budgets(reduction, lab, *, records=None, model=None, check=None) -> list:
     if inputs:
         module = importlib.import_module(f"{found[0].package}.budget")
         data_model = module.data_model(reduction, records)
-    out = itemise(reduction, lab, data_model=data_model, inputs=inputs, model=model)
+    notes = ()
+    if lab is None:
+        from accelcal.budget.lab import empty_lab
+
+        lab, notes = empty_lab(), ("no lab file given: the Type A part and the priors only",)
+    out = itemise(reduction, lab, data_model=data_model, inputs=inputs, model=model,
+                  notes=notes)
     if check:
         from accelcal.budget.mc import check as mc_check
 

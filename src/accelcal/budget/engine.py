@@ -72,6 +72,11 @@ class DataModel:
     vectors : dict
         Per-position inputs -> the keyword of ``reduce`` they perturb (rad,
         one per position); absent ones perturb ``angles``.
+    parameters : dict
+        Inputs that enter through the reduction's parameters, perturbed
+        and re-run rather than analytic: ``quantity -> {dimension:
+        (keyword, unit)}``, the keyword of ``reduce`` taking a shift in
+        ``unit`` for a lab value of that dimension.
     """
 
     reduce: object
@@ -79,6 +84,7 @@ class DataModel:
     output_unit: str = "V"
     rotation_axis: str = "OA"
     vectors: dict = field(default_factory=dict)
+    parameters: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -227,8 +233,20 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
     vectors = {}
     for q in declared:
         std = lab.standards[q]
-        if q == "local_gravity":
+        if data_model is not None and q in data_model.parameters:
+            keyword = data_model.parameters[q].get(std.dimension)
+            if keyword is None:
+                notes.append(f"{q}: a value in {std.unit} does not enter this model; not in "
+                             "the budget")
+                continue
+            out[q] = _kragten(data_model, rows, keyword[0], std.u or 1.0,
+                              std._factor(keyword[1]))
+        elif q == "local_gravity":
             out[q] = _gravity(rows, std)
+            unknown = sorted({r.label for r in rows if r.kind is None})
+            if unknown:
+                notes.append("local_gravity: taken as not entering " + ", ".join(unknown)
+                             + " (no engineering quantity, no input data to re-run)")
         elif q == "sensor_temperature":
             slopes = [_temperature_slope(r, model or reduction.models[r.sensor],
                                          std.value_in("degC")) for r in rows]
@@ -306,7 +324,7 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
     """
     notes = list(notes)
     missing = [q for q in inputs if q not in lab.standards]
-    if missing:
+    if missing and lab.sha256:  # a lab file (not the empty lab of no file)
         notes.append(f"inputs of the method's model not declared in the lab file (not in the "
                      f"budget): {', '.join(missing)}")
     if not inputs:

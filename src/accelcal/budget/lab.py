@@ -38,7 +38,7 @@ measurement model can put them into an itemised budget (GUM [GUM]_)::
     r = 0.2
 
 Every error is one :class:`~accelcal.errors.AccelcalError` naming the
-file and the entry. Only the standard library is imported.
+file and the entry.
 
 References
 ----------
@@ -55,6 +55,9 @@ from pathlib import Path
 
 from accelcal.budget.gum import DIVISORS, dof_from_reliability, from_bounds, from_expanded
 from accelcal.errors import AccelcalError
+
+MAX_BYTES = 1 << 20
+"""Largest lab file read, bytes (a lab file is a few kilobytes)."""
 
 _ARCSEC = math.pi / 648000.0
 UNITS = {
@@ -228,6 +231,11 @@ class Lab:
                                 parameter="lab")
 
 
+def empty_lab() -> Lab:
+    """A lab declaring nothing (a budget of the Type A part and the priors only)."""
+    return Lab(Laboratory(""), (), {}, None, {}, {}, "", Path())
+
+
 def _dimension(unit: str) -> str:
     for dim, units in UNITS.items():
         if unit in units:
@@ -386,8 +394,12 @@ def load_lab(path) -> Lab:
 
     path = Path(path)
     name = path.name
+    from accelcal.io.limits import read_bounded
+
     try:
-        data = path.read_bytes()
+        data = read_bounded(path, MAX_BYTES, "lab file")
+    except AccelcalError as exc:
+        raise AccelcalError(exc.message, parameter="lab") from None
     except OSError as exc:
         raise AccelcalError(f"cannot read lab file {path}: {exc.strerror or exc}",
                             parameter="lab") from None

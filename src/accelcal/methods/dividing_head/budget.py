@@ -55,7 +55,7 @@ def data_model(reduction, record):
     options = options_from_record(record, route)
     readings = options.get("autocollimator")
 
-    def rerun(gain=0.0, offset=0.0, linearity=0.0, angles=None, autocollimator=None):
+    def rerun(*, gain=0.0, offset=0.0, linearity=0.0, angles=None, autocollimator=None):
         outputs = bowed(data.outputs * (1.0 + gain) + offset, linearity)
         positions = data.positions if angles is None else data.positions + angles
         opts = dict(options)

@@ -52,7 +52,7 @@ def data_model(reduction, record):
     repeats = record.repeats > 1
     base = record.outputs if repeats else record.outputs[:, 0]
 
-    def rerun(gain=0.0, offset=0.0, linearity=0.0, angles=None):
+    def rerun(*, gain=0.0, offset=0.0, linearity=0.0, angles=None):
         outputs = bowed(np.asarray(base) * (1.0 + gain) + offset, linearity)
         theta = record.angles_rad if angles is None else record.angles_rad + angles
         return reduce_tumble(theta, outputs, rotation_axis=record.rotation_axis,
