@@ -153,8 +153,8 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
 
     from accelcal.budget import budgets
     from accelcal.budget.lab import load_lab
-    from accelcal.budget.report import render_budgets
     from accelcal.certificate import issue
+    from accelcal.cli.budget import render_budgets
 
     out = Path(result.out)
     lab_path = out / "lab.toml"
