@@ -171,7 +171,8 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
     with_pdf = pdf and importlib.util.find_spec("weasyprint") is not None
     issued = issue(paths, lab_path, out=out / "certificate.html",
                    pdf=out / "certificate.pdf" if with_pdf else None,
-                   json_out=out / "certificate.json", issued=dt.date.today().isoformat(),
+                   json_out=out / "certificate.json",
+                   issued=dt.datetime.now(dt.UTC).date().isoformat(),
                    item=Item(make="accelcal demo", model="simulated pendulous accelerometer"),
                    budgets=by_record)
     first = replace(made[0], serial=head.records[made[0].sensor].serial)

@@ -109,7 +109,9 @@ def test_a_standard_due_after_the_calibration_date_is_not_expired(tmp_path):
 
 @pytest.mark.parametrize("kwargs", [{"issued": "26/11/2026"}, {"number": "A B"},
                                     {"country": "Germany"},
-                                    {"item": Item(received="yesterday")}])
+                                    {"item": Item(received="yesterday")},
+                                    {"issued": "2026-11-20"},
+                                    {"item": Item(received="2026-11-21")}])
 def test_bad_options_are_refused(tmp_path, kwargs):
     kwargs = {"issued": "2026-11-26", **kwargs}
     with pytest.raises(AccelcalError):

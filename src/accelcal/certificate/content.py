@@ -297,6 +297,12 @@ _NUMBER = re.compile(r"[A-Za-z0-9][A-Za-z0-9._/-]{0,63}")
 """A certificate number given by the laboratory."""
 
 
+def _utc_date(text: str) -> _dt.date:
+    """The UTC date of an ISO 8601 date and time (its own date when it has no offset)."""
+    moment = _dt.datetime.fromisoformat(text)
+    return (moment.astimezone(_dt.UTC) if moment.tzinfo is not None else moment).date()
+
+
 def _date(text: str) -> str:
     return _dt.datetime.fromisoformat(text).date().isoformat()
 
@@ -360,7 +366,14 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
         except ValueError:
             raise AccelcalError(f"date of receipt {item.received!r} is not an ISO 8601 date "
                                 "(2026-11-20)", parameter="received") from None
-    used_on = max(_dt.datetime.fromisoformat(r.date).date() for r in records)
+    dates = sorted(_utc_date(r.date) for r in records)
+    used_on = dates[-1]
+    if issued < used_on.isoformat():
+        raise AccelcalError(f"issue date {issued} is before the calibration of "
+                            f"{used_on.isoformat()}", parameter="issued")
+    if item.received and item.received > dates[0].isoformat():
+        raise AccelcalError(f"date of receipt {item.received} is after the calibration of "
+                            f"{dates[0].isoformat()}", parameter="received")
     expired = lab.expired(used_on)
     if expired and not allow_expired:
         names = ", ".join(f"{s.quantity} (certificate {s.certificate or '?'}, due {s.due})"
