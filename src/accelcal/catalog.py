@@ -158,7 +158,8 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "uncertainty"),
         report="accelcal.methods.transverse.report_text", docs="docs/transverse.md",
         paper="GuanTang", demo="accelcal.methods.transverse.demo", demo_order=2,
-        demo_sensors="one", demo_test="shaker transverse sweep"),
+        demo_sensors="one", demo_test="shaker transverse sweep",
+        budget_inputs=("reference_sensitivity",)),
     Method(
         name="dividing-head", family="dividing-head", title="indexing head",
         package=_m("dividing_head"), kinds=("dividing-head",),
@@ -200,7 +201,7 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce"),
         report="accelcal.methods.noise.report_text", docs="docs/noise.md", paper="IEEE952",
         demo="accelcal.methods.noise.demo", demo_order=4, demo_sensors="one",
-        demo_test="still recording"),
+        demo_test="still recording", budget_inputs=("daq_gain",)),
     Method(
         name="thermal", family="thermal", title="temperature", package=_m("thermal"),
         kinds=("thermal",), formats=("accelcal.io.formats.thermal",), rig="accelcal.rigs.thermal",
@@ -246,7 +247,9 @@ METHODS: tuple[Method, ...] = (
                   "magnitude and phase, fit the transfer function."),
         verbs=("simulate", "reduce"),
         report="accelcal.methods.response.report_text", docs="docs/response.md",
-        paper="ISO16063-21"),
+        paper="ISO16063-21",
+        budget_inputs=("reference_sensitivity", "reference_phase", "frequency", "daq_gain",
+                       "daq_linearity")),
 )
 """Every test method, in the order ``accelcal --help`` lists their groups."""
 

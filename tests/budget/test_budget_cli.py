@@ -97,6 +97,7 @@ def test_check_mc_reports_both_intervals(tumble_file, capsys):
     (["--check", "mc", "--trials", "10"], "at least 1000"),
     (["--coefficient", "K9"], "no reported coefficient"),
     (["--format", "xml"], "--format"),
+    (["--data", "no-such-directory"], "--data"),
 ])
 def test_bad_options_one_line(tumble_file, capsys, args, needle):
     code, _, err = run_cli(["budget", tumble_file, *args], capsys)

@@ -140,7 +140,7 @@ def test_a_method_without_a_model_keeps_type_a_and_priors(write_lab):
     import dataclasses
 
     red = tumble.reduce(linear_tumble(8), terms=["K0", "K1"], sigma=1e-6)
-    other = dataclasses.replace(red, family="noise")
+    other = dataclasses.replace(red, family="vre")
     lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=10.0))))
     b = _by(budgets(other, lab), "K1")
     assert "no lab inputs modelled for this method" in b.notes
@@ -165,3 +165,64 @@ def test_simulated_tumble_budget_is_complete(tumble_file, write_lab):
     # the example's DAQ offset, 2 uV on a sensor of about 1.3 V/g: 2e-6 / 1.3 g
     assert _row(k0, "daq_offset").contribution == pytest.approx(2e-6 / red.value("K1") * 1e6,
                                                                 rel=1e-3)
+
+
+def test_gravity_exponents_against_reductions_at_another_gravity():
+    from accelcal.budget.engine import ORDER_EXPONENT
+    from accelcal.io.formats.tumble import TumbleRecord
+
+    theta = 2 * np.pi * np.arange(12) / 12
+    k1, k0, k2 = 1.3, 5e-4, 2e-5
+
+    def reduced(s):  # a tumble where 1 g of the positions is s g_n
+        a = s * np.cos(theta)
+        rec = TumbleRecord(theta, k1 * (k0 + a + k2 * a**2), "OA", "V")
+        red = tumble.reduce(rec, terms=["K0", "K1", "K2"], sigma=1e-7, priors="none")
+        return {n: red.value(n) for n in ("K0", "K1", "K2")}
+
+    eps = 1e-4
+    up, down = reduced(1 + eps), reduced(1 - eps)
+    # the reduction's coefficient moves as s^q with the true 1 g: the coefficient per g_n is
+    # the reduction's times g^-q, the budget's exponent p = -q (K1 in V/g, K0 = b0/b1 in g,
+    # K2 = b2/b1 in g/g^2)
+    q = {n: (math.log(up[n]) - math.log(down[n])) / (math.log(1 + eps) - math.log(1 - eps))
+         for n in up}
+    assert -q["K1"] == pytest.approx(ORDER_EXPONENT["scale"], abs=1e-6)
+    assert -q["K0"] == pytest.approx(ORDER_EXPONENT["bias"], abs=1e-6)
+    assert -q["K2"] == pytest.approx(ORDER_EXPONENT["second"], abs=1e-6)
+
+
+def test_a_non_zero_error_value_is_named_as_an_unapplied_correction(linear, write_lab):
+    record, red, _ = linear
+    lab = load_lab(write_lab(lab_text(standard("daq_gain", 5.0, "ppm", u=2.0))))
+    b = _by(budgets(red, lab, records=record), "K1")
+    assert any(n.startswith("daq_gain: the declared value 5 ppm is a correction") for n in b.notes)
+    assert _row(b, "daq_gain").contribution == pytest.approx(2.0, rel=1e-5)
+
+
+def test_the_vector_row_keeps_its_per_position_sensitivities(linear):
+    record, red, lab = linear
+    row = _row(_by(budgets(red, lab, records=record), "K1"), "head_angle")
+    assert len(row.components) == record.angles_rad.size
+    assert row.sensitivity == pytest.approx(math.sqrt(sum(c * c for c in row.components)))
+    # sin(2 theta_i) / N per radian on K1 (uniform positions), in ppm per arcsec
+    theta = record.angles_rad
+    expected = 1e6 * np.sin(2 * theta) / theta.size * math.pi / 648000
+    assert np.allclose(np.abs(row.components), np.abs(expected), rtol=1e-3, atol=1e-9)
+
+
+def test_a_failing_re_run_leaves_the_input_out_with_a_note(linear, write_lab):
+    from accelcal.budget.engine import DataModel, itemise
+    from accelcal.errors import AccelcalError
+
+    _, red, _ = linear
+    lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=10.0))))
+
+    def refuse(**_):
+        raise AccelcalError("the perturbed data cannot be reduced")
+
+    bs = itemise(red, lab, data_model=DataModel(refuse, 12), inputs=("daq_gain",))
+    b = _by(bs, "K1")
+    assert "daq_gain" not in {r.quantity for r in b.rows}
+    assert any("daq_gain: the reduction run again on the perturbed data did not give K1" in n
+               for n in b.notes)

@@ -62,3 +62,17 @@ def test_correlated_inputs_follow_their_correlation():
     c = check(b, trials=100_000, seed=2, correlation=corr)
     assert c.mc_std == pytest.approx(b.u_c, rel=0.01)  # sqrt(2 + 1.6)
     assert b.u_c == pytest.approx(math.sqrt(3.6))
+
+
+def test_a_vector_input_is_sampled_element_by_element():
+    # twelve independent rectangular position errors of equal weight: their sum is close to
+    # normal, so the GUM (k = 2 on the RSS) is validated although each element is rectangular
+    c = (0.5,) * 12
+    rss = math.sqrt(sum(x * x for x in c))
+    vector = Input("head_angle", 0.0, 1.0, distribution="rectangular", components=c)
+    b = combine("y", 0.0, "ug", [(vector, rss)])
+    assert b.rows[0].components == c
+    assert "components" not in b.rows[0].as_dict()
+    checked = check(b, trials=200_000, seed=11)
+    assert checked.mc_std == pytest.approx(b.u_c, rel=0.01)
+    assert checked.mc_high == pytest.approx(2.0 * b.u_c, rel=0.02)  # not 0.9545 sqrt 3 u_c

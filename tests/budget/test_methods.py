@@ -86,8 +86,64 @@ def test_every_declared_input_is_in_the_vocabulary_and_modelled():
 
     modelled = [m for m in catalog.METHODS if m.budget_inputs]
     assert {m.name for m in modelled} >= {"tumble", "dividing-head", "centrifuge", "triad",
-                                          "thermal"}
+                                          "thermal", "response", "noise", "transverse"}
     for m in modelled:
         assert set(m.budget_inputs) <= set(QUANTITIES), m.name
         assert len(set(m.budget_inputs)) == len(m.budget_inputs), m.name
         assert callable(importlib.import_module(f"{m.package}.budget").data_model), m.name
+
+
+def test_response_reference_in_closed_form_and_a_common_gain_cancels(tmp_path, write_lab):
+    from accelcal.io.formats.response import write
+    from accelcal.methods import response
+
+    path = tmp_path / "response.csv"
+    write(path, response.simulate(seed=3, frequencies=(20.0, 160.0)))
+    lab = load_lab(write_lab(lab_text(
+        standard("reference_sensitivity", 10.0, "mV/g", U=0.5, k=2, uncertainty_unit="%"),
+        standard("reference_phase", 0.0, "deg", u=0.2),
+        standard("daq_gain", 0.0, "ppm", u=8.0))))
+    bs = budgets(response.reduce(path), lab, records=path)
+    mag = _by(bs, "S(160 Hz) magnitude")
+    phase = _by(bs, "S(160 Hz) phase")
+    assert mag.unit == "%"
+    assert _row(mag, "reference_sensitivity").contribution == pytest.approx(0.25)  # 0.5 %, k=2
+    assert _row(phase, "reference_phase").contribution == pytest.approx(0.2)
+    assert _row(mag, "reference_phase").contribution == 0.0
+    assert abs(_row(mag, "daq_gain").sensitivity) < 1e-9  # the same DAQ on both channels
+
+
+def test_noise_coefficients_scale_with_the_gain(write_lab):
+    from accelcal.methods import noise
+
+    lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=10.0))))
+    bs = budgets(noise.reduce(EXAMPLES / "still.csv"), lab)
+    n = _by(bs, "N")
+    assert _row(n, "daq_gain").contribution == pytest.approx(n.estimate * 10e-6, rel=1e-12)
+
+
+def test_transverse_orders_of_the_amplitude(write_lab):
+    from accelcal.methods import transverse
+
+    lab = load_lab(write_lab(lab_text(standard("reference_sensitivity", 10.0, "mV/g", u=0.05))))
+    bs = budgets(transverse.reduce(EXAMPLES / "shaker"), lab)
+    ko, koo = _by(bs, "Ko"), _by(bs, "Koo")
+    # 0.05 mV/g of 10 mV/g is 0.5 %: Ko (order 1) moves 0.5 %, Koo (order 2) 1 %
+    assert _row(ko, "reference_sensitivity").contribution == pytest.approx(
+        abs(ko.estimate) * 0.005, rel=1e-9)
+    assert _row(koo, "reference_sensitivity").contribution == pytest.approx(
+        abs(koo.estimate) * 0.01, rel=1e-9)
+
+
+def test_dividing_head_from_its_data_in_memory(write_lab):
+    from accelcal.io.formats.dividing_head import read_head_record
+    from accelcal.methods import dividing_head
+
+    data = dividing_head.HeadData.from_record(read_head_record(EXAMPLES / "indexing_head.csv"))
+    red = dividing_head.reduce(data, "single")
+    lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=8.0))))
+    bs = budgets(red, lab, records=data)
+    k_i = [b for b in bs if b.coefficient == "K_I"]
+    assert len(k_i) == 4  # every sensor
+    for b in k_i:
+        assert _row(b, "daq_gain").sensitivity == pytest.approx(1.0, rel=1e-3)

@@ -52,6 +52,12 @@ ORDER_EXPONENT = {"bias": 1, "scale": -1, "ratio": 0, "misalignment": 0, "transv
 
 NO_MODEL = "no lab inputs modelled for this method"
 
+CORRECTIONS = ("head_angle", "head_axis_tilt", "autocollimator", "daq_gain", "daq_offset",
+               "daq_linearity", "load_resistor", "centrifuge_rate", "frequency",
+               "reference_phase")
+"""Inputs whose value is an error (zero when none is known): a non-zero value is a
+correction, which the budget names but does not apply."""
+
 
 @dataclass
 class DataModel:
@@ -72,6 +78,11 @@ class DataModel:
     vectors : dict
         Per-position inputs -> the keyword of ``reduce`` they perturb (rad,
         one per position); absent ones perturb ``angles``.
+    analytic : dict
+        Inputs whose sensitivity the method states in closed form:
+        ``quantity -> f(row, standard)``, the coefficient of one budget row
+        (:class:`_Row`: its ``part``, ``unit``, ``estimate``, ``base``) per
+        unit of the standard.
     parameters : dict
         Inputs that enter through the reduction's parameters, perturbed
         and re-run rather than analytic: ``quantity -> {dimension:
@@ -85,6 +96,7 @@ class DataModel:
     rotation_axis: str = "OA"
     vectors: dict = field(default_factory=dict)
     parameters: dict = field(default_factory=dict)
+    analytic: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -101,7 +113,14 @@ class _Row:
     native_std: float
     native_unit: str
     base: float
-    relative: bool = False
+    relative: float = 0.0
+    part: str = ""
+    place: int = -1
+
+    @property
+    def title(self) -> str:
+        """The budget's name: the coefficient's, with the part of a complex one."""
+        return f"{self.label} {self.part}" if self.part else self.label
 
 
 def _eng_kind(reduction, label: str, plain: str) -> str | None:
@@ -114,49 +133,99 @@ def _eng_kind(reduction, label: str, plain: str) -> str | None:
 def _rows(reduction) -> list[_Row]:
     out = []
     names = list(reduction.sensor_names)
-    for r in reduction.rows(engineering=True):
-        if r.get("status") != "fitted" or "real" in r:
-            continue
-        est, std = r["estimate"], r["std"]
-        if not (isinstance(est, float | int) and math.isfinite(est) and math.isfinite(std)):
-            continue
-        sensor = names.index(r["sensor"])
-        plain = r.get("plain", r["coefficient"])
-        kind = _eng_kind(reduction, r["coefficient"], plain)
-        if "eng_unit" in r and math.isfinite(r["eng_std"]) and math.isfinite(r["eng_estimate"]):
-            out.append(_Row(sensor, plain, r["coefficient"], kind, r["eng_unit"],
-                            r["eng_estimate"], r["eng_std"], std, r["unit"], est))
-        elif kind == "scale" and est:
-            out.append(_Row(sensor, plain, r["coefficient"], kind, "ppm", 0.0,
-                            std / abs(est) * 1e6, std, r["unit"], est, relative=True))
-        else:
-            out.append(_Row(sensor, plain, r["coefficient"], kind, r["unit"], est, std, std,
-                            r["unit"], est))
+    for place, r in enumerate(reduction.rows(engineering=True)):
+        start = len(out)
+        _row_of(reduction, r, names, out)
+        for row in out[start:]:
+            row.place = place
+    return out
+
+
+def _row_of(reduction, r, names, out) -> None:
+    """Append the budget rows of one reduction row to ``out``."""
+    if r.get("status") != "fitted":
+        return
+    if "real" in r:  # a complex coefficient: its magnitude (in %) and phase (deg)
+        out += _complex_rows(r, names.index(r["sensor"]))
+        return
+    est, std = r["estimate"], r["std"]
+    if not (isinstance(est, float | int) and math.isfinite(est) and math.isfinite(std)):
+        return
+    sensor = names.index(r["sensor"])
+    plain = r.get("plain", r["coefficient"])
+    kind = _eng_kind(reduction, r["coefficient"], plain)
+    if "eng_unit" in r and math.isfinite(r["eng_std"]) and math.isfinite(r["eng_estimate"]):
+        out.append(_Row(sensor, plain, r["coefficient"], kind, r["eng_unit"],
+                        r["eng_estimate"], r["eng_std"], std, r["unit"], est))
+    elif kind == "scale" and est:
+        out.append(_Row(sensor, plain, r["coefficient"], kind, "ppm", 0.0,
+                        std / abs(est) * 1e6, std, r["unit"], est, relative=1e6))
+    else:
+        out.append(_Row(sensor, plain, r["coefficient"], kind, r["unit"], est, std, std,
+                        r["unit"], est))
+
+
+def _complex_rows(r, sensor: int) -> list[_Row]:
+    mag, mag_std = r["magnitude"], r["magnitude_std"]
+    phase, phase_std = r["phase_deg"], r["phase_std_deg"]
+    out = []
+    if mag and math.isfinite(mag) and math.isfinite(mag_std):
+        out.append(_Row(sensor, r["coefficient"], r["coefficient"], None, "%", 0.0,
+                        mag_std / abs(mag) * 100.0, mag_std, r["unit"], mag, relative=100.0,
+                        part="magnitude"))
+    if math.isfinite(phase) and math.isfinite(phase_std):
+        out.append(_Row(sensor, r["coefficient"], r["coefficient"], None, "deg", phase,
+                        phase_std, phase_std, "deg", phase, part="phase"))
     return out
 
 
 def _values(reduction, rows: list[_Row]) -> list[float]:
-    """The engineering value of each of ``rows`` in a (re-run) reduction."""
-    table = {(r["sensor"], r["coefficient"]): r for r in reduction.rows(engineering=True)}
+    """The engineering value of each of ``rows`` in a (re-run) reduction.
+
+    Rows are matched by sensor and name, else by their place among the
+    sensor's rows (a name that carries a perturbed input, e.g. a step's
+    frequency).
+    """
+    listed = reduction.rows(engineering=True)
+    table = {(r["sensor"], r["coefficient"]): r for r in listed}
     names = reduction.sensor_names
     out = []
     for row in rows:
         r = table.get((names[row.sensor], row.label))
+        if r is None and row.place < len(listed) and listed[row.place]["sensor"] == names[
+                row.sensor]:
+            r = listed[row.place]
         if r is None:
             out.append(math.nan)
+        elif row.part == "magnitude":
+            out.append((r["magnitude"] / row.base - 1.0) * row.relative)
+        elif row.part == "phase":
+            out.append(r["phase_deg"])
         elif row.unit == r.get("eng_unit"):
             out.append(r["eng_estimate"])
         elif row.relative:
-            out.append((r["estimate"] / row.base - 1.0) * 1e6)
+            out.append((r["estimate"] / row.base - 1.0) * row.relative)
         else:
             out.append(r["estimate"])
     return out
 
 
+def _run(model: DataModel, rows, **shift) -> list[float]:
+    """The rows' values in the reduction of the perturbed data (NaN where it fails)."""
+    import numpy as np
+
+    from accelcal.errors import AccelcalError
+
+    try:
+        return _values(model.reduce(**shift), rows)
+    except (AccelcalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return [math.nan] * len(rows)
+
+
 def _kragten(model: DataModel, rows, key: str, step: float, per_unit: float) -> list[float]:
     """Central differences of every row for a perturbation ``key`` of ``step`` (lab unit)."""
-    plus = _values(model.reduce(**{key: step * per_unit}), rows)
-    minus = _values(model.reduce(**{key: -step * per_unit}), rows)
+    plus = _run(model, rows, **{key: step * per_unit})
+    minus = _run(model, rows, **{key: -step * per_unit})
     return [(p - m) / (2.0 * step) for p, m in zip(plus, minus, strict=True)]
 
 
@@ -171,8 +240,8 @@ def per_position(model: DataModel, rows, step_rad: float, key: str = "angles"):
     for i in range(model.n_positions):
         shift = np.zeros(model.n_positions)
         shift[i] = step_rad
-        plus = np.array(_values(model.reduce(**{key: shift}), rows))
-        minus = np.array(_values(model.reduce(**{key: -shift}), rows))
+        plus = np.array(_run(model, rows, **{key: shift}))
+        minus = np.array(_run(model, rows, **{key: -shift}))
         out[:, i] = (plus - minus) / (2.0 * step_rad)
     return out
 
@@ -197,9 +266,9 @@ def _prior_of(reduction, name: str):
     return next((p for p in reduction.priors if p.name in (name, plain)), None)
 
 
-def _lab_input(std, quantity=None) -> Input:
-    return Input(quantity or std.quantity, std.value, std.u, std.unit, std.distribution, std.dof,
-                 "lab", std.certificate)
+def _lab_input(std, components=()) -> Input:
+    return Input(std.quantity, std.value, std.u, std.unit, std.distribution, std.dof, "lab",
+                 std.certificate, tuple(components))
 
 
 def _gravity(rows, std) -> list[float]:
@@ -217,12 +286,22 @@ def _gravity(rows, std) -> list[float]:
 
 
 def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model=None,
-                  notes: list | None = None) -> dict:
-    """Sensitivity of every row to every declared input: ``quantity -> [c per row]``.
+                  notes: list | None = None) -> tuple[list, dict, dict]:
+    """The budget rows of a reduction and their sensitivity to every declared input.
 
     ``inputs`` are the method's input quantities; those the lab declares
     and the model can evaluate get a column; ``notes`` collects why others
     do not.
+
+    Returns
+    -------
+    rows : list
+        One per reported coefficient (and part of a complex one).
+    columns : dict
+        ``quantity -> [c per row]``, result unit per lab unit.
+    components : dict
+        ``quantity -> [per-position sensitivities per row]`` of the vector
+        inputs (their column is the root-sum-square).
     """
     notes = [] if notes is None else notes
     rows = _rows(reduction)
@@ -230,17 +309,23 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
     declared = [q for q in inputs if q in lab.standards]
     current = data_model is not None and data_model.output_unit == "mA"
     gain = None
-    vectors = {}
+    vectors, components = {}, {}
     for q in declared:
         std = lab.standards[q]
-        if data_model is not None and q in data_model.parameters:
+        if q in CORRECTIONS and std.value != 0 and (std.dimension == "relative" or q not in (
+                "centrifuge_rate", "frequency", "load_resistor")):
+            notes.append(f"{q}: the declared value {std.value:g} {std.unit} is a correction "
+                         "the reduction has not applied; only its uncertainty is in the budget")
+        if data_model is not None and q in data_model.analytic:
+            out[q] = [data_model.analytic[q](r, std) for r in rows]
+        elif data_model is not None and data_model.reduce and q in data_model.parameters:
             keyword = data_model.parameters[q].get(std.dimension)
             if keyword is None:
                 notes.append(f"{q}: a value in {std.unit} does not enter this model; not in "
                              "the budget")
                 continue
             out[q] = _kragten(data_model, rows, keyword[0], std.u or 1.0,
-                              std._factor(keyword[1]))
+                              std.factor(keyword[1]))
         elif q == "local_gravity":
             out[q] = _gravity(rows, std)
             unknown = sorted({r.label for r in rows if r.kind is None})
@@ -256,10 +341,10 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
                              "budget")
                 continue
             out[q] = [s or 0.0 for s in slopes]
-        elif data_model is None:
+        elif data_model is None or data_model.reduce is None:
             notes.append(f"{q}: the input data were not found; not in the budget")
         elif q in ("daq_gain", "daq_linearity"):
-            per = std._factor("1")  # lab unit -> relative
+            per = std.factor("1")  # lab unit -> relative
             key = "gain" if q == "daq_gain" else "linearity"
             out[q] = _kragten(data_model, rows, key, std.u or 1.0, per)
             if q == "daq_gain":
@@ -278,19 +363,20 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
                 gain = _kragten(data_model, rows, "gain", 1e-6, 1.0)
             if q == "load_resistor":  # I = V / R: a relative error of R is a -1 relative gain
                 out[q] = [-c / std.value if std.dimension == "resistance" else
-                          -c * std._factor("1") for c in gain]
+                          -c * std.factor("1") for c in gain]
             else:
                 dt = float(lab.environment.get("temperature_tolerance_degC", 1.0))
-                out[q] = [-c * dt * std._factor("1/degC") for c in gain]
+                out[q] = [-c * dt * std.factor("1/degC") for c in gain]
         elif q in ("head_angle", "autocollimator"):
             key = data_model.vectors.get(q, "angles")
             if key not in vectors:
                 vectors[key] = per_position(data_model, rows, std.u_in("rad") or 1e-6, key)
-            rss = (vectors[key] ** 2).sum(axis=1) ** 0.5  # independent errors, one u
-            out[q] = [float(c) * std._factor("rad") for c in rss]
+            each = vectors[key] * std.factor("rad")
+            out[q] = [float(c) for c in (each**2).sum(axis=1) ** 0.5]  # independent, one u
+            components[q] = [tuple(float(c) for c in line) for line in each]
         elif q == "head_axis_tilt":
             out[q] = _tilt(rows, reduction, model, data_model, std)
-    return rows, out
+    return rows, out, components
 
 
 def _tilt(rows, reduction, model, data_model, std) -> list[float]:
@@ -299,7 +385,7 @@ def _tilt(rows, reduction, model, data_model, std) -> list[float]:
     for row in rows:
         m = model or reduction.models[row.sensor]
         toward = getattr(m, "Ko" if data_model.rotation_axis == "OA" else "Kp", 0.0) if m else 0.0
-        out.append(toward * 1e6 * std._factor("rad") if row.kind == "bias" else 0.0)
+        out.append(toward * 1e6 * std.factor("rad") if row.kind == "bias" else 0.0)
     return out
 
 
@@ -333,14 +419,16 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
     if late:
         notes.append("standard(s) past their due date used: " + ", ".join(
             f"{s.quantity} (certificate {s.certificate or '?'}, due {s.due})" for s in late))
-    rows, sens = sensitivities(reduction, lab, data_model, inputs, model=model, notes=notes)
+    rows, sens, components = sensitivities(reduction, lab, data_model, inputs, model=model,
+                                           notes=notes)
     dof_a = reduction.dof if reduction.dof > 0 else math.inf
     out = []
     for i, row in enumerate(rows):
+        own = list(notes)
         factor = row.std / row.native_std if row.native_std else 1.0
         terms = []
         type_b = 0.0
-        for c in reduction.contributions(row.label, row.sensor):
+        for c in (() if row.part else reduction.contributions(row.label, row.sensor)):
             part = c.contribution * factor
             type_b += part * part
             prior = _prior_of(reduction, c.input)
@@ -353,13 +441,20 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
                                if math.isfinite(dof_a) else "normal", dof_a, "type A",
                                reduction.method), 1.0))
         for q, cs in sens.items():
-            terms.append((_lab_input(lab.standards[q]), cs[i]))
+            if math.isfinite(cs[i]):
+                parts = components[q][i] if q in components else ()
+                terms.append((_lab_input(lab.standards[q], parts), cs[i]))
+            else:
+                own.append(f"{q}: the reduction run again on the perturbed data did not give "
+                           f"{row.title}; not in this budget")
         serial = reduction.sensor_names[row.sensor]
-        own = list(notes)
-        if row.relative:
+        if row.relative and not row.part:
             own.insert(0, f"{row.label} = {row.base:.10g} {row.native_unit}; no nominal scale "
                           "factor given: its budget in ppm of the estimate")
-        out.append(combine(row.label, row.estimate, row.unit, terms,
+        elif row.part == "magnitude":
+            own.insert(0, f"{row.title} = {row.base:.10g} {row.native_unit}; its budget in % "
+                          "of the estimate")
+        out.append(combine(row.title, row.estimate, row.unit, terms,
                            correlation=lab.correlations, sensor=row.sensor, serial=serial,
                            notes=own))
     return out

@@ -95,6 +95,10 @@ class Input:
         Where it comes from (``"lab"``, ``"type A"``, ``"prior"``, ...).
     reference : str
         The standard's certificate, the prior's origin, ...
+    components : tuple of float
+        For a vector input (one independent error of this ``u`` per
+        position): the sensitivity of each element; the term's sensitivity
+        is then their root-sum-square. Empty for a scalar input.
     """
 
     quantity: str
@@ -105,6 +109,7 @@ class Input:
     dof: float = math.inf
     source: str = "lab"
     reference: str = ""
+    components: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.u) and self.u >= 0):
@@ -131,9 +136,14 @@ class Row:
     share: float
     source: str = "lab"
     reference: str = ""
+    components: tuple[float, ...] = ()
 
     def as_dict(self) -> dict:
-        """The row's JSON object (``dof`` is ``"inf"`` for an exactly known input)."""
+        """The row's JSON object (``dof`` is ``"inf"`` for an exactly known input).
+
+        A vector input's per-element sensitivities (``components``) are not
+        in it: its ``sensitivity`` is their root-sum-square.
+        """
         return {"quantity": self.quantity, "estimate": self.estimate, "u": self.u,
                 "unit": self.unit, "distribution": self.distribution,
                 "sensitivity": self.sensitivity, "contribution": self.contribution,
@@ -255,7 +265,7 @@ def combine(coefficient: str, estimate: float, unit: str, terms, *, correlation=
     k = coverage_factor(nu_eff, coverage)
     rows = [Row(inp.quantity, inp.estimate, inp.u, inp.unit, inp.distribution, c, abs(p),
                 inp.dof, (p * p / variance) if variance > 0 else 0.0, inp.source,
-                inp.reference)
+                inp.reference, tuple(inp.components))
             for (inp, c), p in zip(terms, parts, strict=True)]
     rows.sort(key=lambda r: r.contribution, reverse=True)
     return Budget(coefficient, float(estimate), unit, tuple(rows), u_c, nu_eff, k, k * u_c,

@@ -73,14 +73,13 @@ UNITS = {
     "length": {"m": 1.0, "mm": 1e-3, "um": 1e-6},
     "rate": {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0},
     "frequency": {"Hz": 1.0, "kHz": 1e3},
-    "sensitivity": {"V/g": 1.0, "mV/g": 1e-3, "pC/g": 1.0, "mV/(m/s^2)": 9.80665e-3},
+    "sensitivity": {"V/g": 1.0, "mV/g": 1e-3, "mV/(m/s^2)": 9.80665e-3},
+    "charge sensitivity": {"pC/g": 1.0, "pC/(m/s^2)": 9.80665},
 }
 """Units of each dimension with their size in the dimension's first unit.
 
 Temperatures: a value in degC or K is used as given (the models use
-differences from a reference temperature, the same in either unit);
-``pC/g`` has no common base with ``V/g`` and is kept apart by the
-quantity's own unit."""
+differences from a reference temperature, the same in either unit)."""
 
 QUANTITIES = {
     "local_gravity": (("acceleration",), "m/s^2",
@@ -99,7 +98,7 @@ QUANTITIES = {
     "sensor_temperature": (("temperature",), "degC", "the sensor's temperature during the test"),
     "centrifuge_radius": (("length",), "m", "radius of the centrifuge arm to the sensor"),
     "centrifuge_rate": (("rate", "relative"), "rad/s", "rotation rate of the centrifuge"),
-    "reference_sensitivity": (("sensitivity", "relative"), "mV/g",
+    "reference_sensitivity": (("sensitivity", "charge sensitivity", "relative"), "mV/g",
                               "sensitivity of the reference accelerometer (shaker)"),
     "reference_phase": (("angle",), "deg", "phase of the reference accelerometer (shaker)"),
     "frequency": (("frequency", "relative"), "Hz", "frequency of the excitation"),
@@ -148,19 +147,14 @@ class Standard:
 
     def value_in(self, unit: str) -> float:
         """The value in another unit of the same dimension."""
-        return self.value * self._factor(unit)
+        return self.value * self.factor(unit)
 
     def u_in(self, unit: str) -> float:
         """The standard uncertainty in another unit of the same dimension."""
-        return self.u * self._factor(unit)
+        return self.u * self.factor(unit)
 
-    def relative_u(self) -> float:
-        """``u / |value|`` (a relative dimension: ``u`` as a fraction; infinite at value 0)."""
-        if self.dimension == "relative":
-            return self.u_in("1")
-        return self.u / abs(self.value) if self.value else math.inf
-
-    def _factor(self, unit: str) -> float:
+    def factor(self, unit: str) -> float:
+        """Size of one ``self.unit`` in ``unit`` (same dimension), e.g. 1e-6 from ppm to 1."""
         dim = self.dimension
         if unit not in UNITS[dim]:
             raise AccelcalError(f"{self.quantity}: cannot express {self.unit} in {unit}")

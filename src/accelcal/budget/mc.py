@@ -6,7 +6,9 @@ rectangular (``a = sqrt 3 u``), triangular (``a = sqrt 6 u``), U-shaped or
 arcsine (``a = sqrt 2 u``), two-point (``+-u``), and the Type A part as a scaled and shifted t
 with its degrees of freedom (6.4.9: scale ``u``, ``nu`` dof; normal when
 ``nu`` is infinite). Correlated inputs share a Gaussian copula with the
-stated ``r`` (each marginal kept). The samples go through the budget's
+stated ``r`` (each marginal kept); a vector input (one independent error
+per position) is sampled element by element with each element's
+sensitivity. The samples go through the budget's
 **linearised** measurement model ``y = y0 + sum_i c_i (x_i - x_i0)`` with
 the sensitivity coefficients of the budget: the check tests what the GUM
 assumes about the output's distribution (a t with ``nu_eff`` degrees of
@@ -134,6 +136,10 @@ def check(budget, *, trials: int = TRIALS, seed: int = 1, correlation=None) -> C
         normals = {q: z[:, i] for i, q in enumerate(coupled)}
     y = np.full(trials, float(budget.estimate))
     for row in rows:
+        if row.components and row.quantity not in normals:  # independent per element
+            for c in row.components:
+                y += c * sample(row.distribution, row.u, row.dof, trials, rng)
+            continue
         y += row.sensitivity * sample(row.distribution, row.u, row.dof, trials, rng,
                                       normal=normals.get(row.quantity))
     p = COVERAGE

@@ -66,6 +66,12 @@ def budget(
         raise AccelcalError("--trials and --seed go with --check mc")
     if trials < 1000:
         raise AccelcalError(f"--trials {trials}: give at least 1000 trials")
+    for d in data:
+        if not d.is_dir():
+            from accelcal.validation import shown_path
+
+            raise AccelcalError(f"{shown_path(d)}: not a directory; give the directory "
+                                "holding the records' input files", parameter="data")
     the_lab = _lab(lab, allow_expired)
     from accelcal.budget import budgets
 
@@ -222,7 +228,7 @@ def _table(b) -> str:
     title = f"{b.serial} {b.coefficient} = {_cell(b.estimate, 7)} {unit}"
     relative = next((n for n in b.notes if n.startswith(f"{b.coefficient} = ")), None)
     if relative is not None:  # a scale factor without a nominal: its budget in ppm of itself
-        title = f"{b.serial} {relative.split(';', 1)[0]} (budget in ppm of the estimate)"
+        title = f"{b.serial} {relative.split(';', 1)[0]} (budget in {unit} of the estimate)"
     table = Table(title=title, show_lines=False)
     for c in COLUMNS:
         table.add_column(c, justify="left" if c in ("quantity", "unit", "distribution")

@@ -33,7 +33,8 @@ def data_model(reduction, record):
     """A :class:`~accelcal.budget.engine.DataModel` of a dividing-head record (None without one).
 
     ``record`` is the :class:`~accelcal.io.formats.dividing_head.HeadRecord`
-    (or its file) the reduction was made from; the route is the reduction's.
+    (or its file, or the :class:`HeadData`) the reduction was made from; the
+    route is the reduction's.
     """
     if isinstance(record, list | tuple):  # the input files a calibration record names
         record = record[0] if record else None
@@ -48,11 +49,13 @@ def data_model(reduction, record):
     from accelcal.method_ids import route_of
     from accelcal.methods.dividing_head import HeadData, options_from_record, reduce
 
-    if not hasattr(record, "mounts"):
-        record = read_head_record(record)
     route = route_of(reduction.method)
-    data = HeadData.from_record(record)
-    options = options_from_record(record, route)
+    if isinstance(record, HeadData):  # the data alone: no record's autocollimator or harmonic
+        data, options = record, {}
+    else:
+        if not hasattr(record, "mounts"):
+            record = read_head_record(record)
+        data, options = HeadData.from_record(record), options_from_record(record, route)
     readings = options.get("autocollimator")
 
     def rerun(*, gain=0.0, offset=0.0, linearity=0.0, angles=None, autocollimator=None):
