@@ -92,7 +92,8 @@ QUANTITY_DIMENSIONS: dict[str, tuple[str, ...]] = {
 limit's unit may have, per quantity: the model's coefficients (a scale
 factor in an output unit per g, or in ppm of a relative deviation or
 shift) and the acceptance tests' quantities. A limit on ``Q`` also applies
-to the rows ``Q at ...`` (``hysteresis at +0.5 g``)."""
+to the rows ``Q at ...`` and ``Q (...)`` (``hysteresis at +0.5 g``, ``input range
+(+)``, ``bias repeatability (K_F)``)."""
 
 _LIMIT_KEYS = ("quantity", "lower", "upper", "unit", "serial", "method", "guard")
 _SPEC_KEYS = ("title", "document", "decision_rule", "limit")
@@ -112,8 +113,9 @@ class Limit:
     """Guard band w in ``unit`` for the guarded rule (None: w = U)."""
 
     def matches(self, quantity: str) -> bool:
-        """True for the quantity itself and its rows ``<quantity> at ...``."""
-        return quantity == self.quantity or quantity.startswith(self.quantity + " at ")
+        """True for the quantity itself and its rows ``<quantity> at ...``, ``<quantity> (...)``."""
+        return quantity == self.quantity or quantity.startswith(
+            (self.quantity + " at ", self.quantity + " ("))
 
     def applies(self, serial: str | None = None, method: str | None = None) -> bool:
         """True unless the limit names another serial or method (``family/x`` matches ``x``)."""
@@ -178,18 +180,18 @@ class Decision:
 
 def coverage_factor(dof) -> float:
     """The coverage factor k for 95.45 %: 2 for infinite ``dof``, else the t-quantile."""
-    from scipy.stats import t
+    from scipy.special import stdtrit
 
     dof = math.inf if dof is None else float(dof)
     if math.isinf(dof):
         return 2.0
-    return float(t.ppf(0.5 + COVERAGE_PROBABILITY / 2.0, dof))
+    return float(stdtrit(dof, 0.5 + COVERAGE_PROBABILITY / 2.0))
 
 
 def _cdf(x: float, dof: float) -> float:
-    from scipy.stats import norm, t
+    from scipy.special import ndtr, stdtr
 
-    return float(norm.cdf(x) if math.isinf(dof) else t.cdf(x, dof))
+    return float(ndtr(x) if math.isinf(dof) else stdtr(dof, x))
 
 
 def decide(estimate, u, dof=None, lower=None, upper=None, *, rule: str = "simple",
@@ -261,7 +263,8 @@ def evaluate(spec: Spec, rows, *, serial=None, method=None, rule: str | None = N
     Each row (a dict; an optional ``dof`` key overrides ``dof``) whose
     quantity a limit of ``spec`` matches, for ``serial`` and ``method``, is
     converted to the limit's unit and decided by ``rule`` (default the
-    spec's). Rows in a unit that does not fit the limit's are skipped.
+    spec's). Rows in a unit that does not fit the limit's, or without a
+    finite estimate and standard uncertainty, are skipped.
 
     Returns
     -------
@@ -276,7 +279,9 @@ def evaluate(spec: Spec, rows, *, serial=None, method=None, rule: str | None = N
             try:
                 value = float(convert(row["estimate"], row["unit"], lim.unit))
                 std = float(convert(row["std"], row["unit"], lim.unit))
-            except ValueError:
+            except (ValueError, TypeError):
+                continue
+            if not (math.isfinite(value) and math.isfinite(std)):
                 continue
             d = decide(value, std, row.get("dof", dof), lim.lower, lim.upper, rule=rule,
                        guard=lim.guard)
