@@ -156,6 +156,7 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
 
     from accelcal.budget import budgets
     from accelcal.budget.lab import load_lab
+    from accelcal.catalog import demo_methods
     from accelcal.certificate import issue
     from accelcal.cli.budget import render_budgets
 
@@ -167,7 +168,8 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
     head, start = next((o, sum(len(p.records) for p in result.outcomes[:i]))
                        for i, o in enumerate(result.outcomes)
                        if o.reduction.family == "dividing-head")
-    made = budgets(head.reduction, lab, records=result.data[result.outcomes.index(head)])
+    stage = [m.family for m in demo_methods()].index("dividing-head")  # data: one per stage
+    made = budgets(head.reduction, lab, records=result.data[stage])
     paths = result.records[start:start + len(head.records)]
     by_record = [[{**b.as_dict(), "serial": r.serial} for b in made if b.sensor == k]
                  for k, r in enumerate(head.records)]
