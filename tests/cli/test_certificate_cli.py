@@ -63,6 +63,7 @@ def test_bad_input_is_one_line(tmp_path, capsys):
         (["--decision-rule", "strict", "--spec", tmp_path / "spec.toml"], "decision rule"),
         (["--spec", tmp_path / "missing.toml"], "specification"),
         (["--number", "../../x y"], "certificate number"),
+        (["--data", tmp_path / "SN-1.json"], "--data"),
     ]
     (tmp_path / "spec.toml").write_text(SPEC, encoding="utf-8")
     for extra, needle in cases:

@@ -182,6 +182,7 @@ COMMAND_KINDS: dict[tuple[str, str], str] = {
     ("records history", "method"): "str", ("records stats", "method"): "str",
     ("transverse simulate", "out"): "output-dir", ("demo", "out"): "output-dir",
     ("report", "data"): "input-dir", ("budget", "data"): "input-dir",
+    ("certificate", "data"): "input-dir",
 }
 """(command, parameter) -> kind, where the parameter name means something else there."""
 

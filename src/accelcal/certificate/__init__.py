@@ -20,6 +20,7 @@ from accelcal.certificate.content import (
     record_budgets,
     with_budgets,
 )
+from accelcal.errors import AccelcalError
 
 __all__ = ["Issued", "Item", "build", "issue", "schema", "to_json"]
 
@@ -102,7 +103,12 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
     from accelcal.certificate.render import render_html, write_pdf
     from accelcal.io.atomic import write_text_atomic
     from accelcal.io.calibration_record import CalibrationRecord
+    from accelcal.validation import shown_path
 
+    for d in search:
+        if not Path(d).is_dir():
+            raise AccelcalError(f"--data {shown_path(d)}: not a directory; give the directory "
+                                "holding the records' input files", parameter="data")
     lab = load_lab(lab_path)
     records = [CalibrationRecord.load(p) for p in record_paths]
     spec = None
