@@ -185,10 +185,25 @@ def test_a_record_without_a_budget_block_writes_as_before(tmp_path):
     assert "budget" not in record.to_dict()
 
 
-@pytest.mark.parametrize("block", ['{"lab": {}}', '[]',
-                                   '{"lab": {"sha256": "x"}, "standards": [], "budgets": [{}]}'])
+_ENTRY = ('{"coefficient": "K_F", "estimate": 1.0, "unit": "V", "u_c": 1.0, "nu_eff": "inf", '
+          '"k": 2.0, "U": %s, "rows": [%s]}')
+_ROW = ('{"quantity": "Type A", "estimate": 1.0, "u": 1.0, "unit": "V", '
+        '"distribution": "normal", "sensitivity": 1.0, "contribution": 1.0, "dof": %s, '
+        '"share": 1.0}')
+
+
+@pytest.mark.parametrize("block", [
+    '{"lab": {}}', '[]',
+    '{"lab": {"sha256": "x"}, "standards": [], "budgets": [{}]}',
+    '{"lab": {"sha256": "x"}, "standards": [], "budgets": [%s]}' % (_ENTRY % ('"2"', "")),
+    '{"lab": {"sha256": "x"}, "standards": [], "budgets": [%s]}' % (
+        _ENTRY % ("2.0", _ROW % '"many"')),
+])
 def test_a_malformed_budget_block_is_refused(tmp_path, block):
     text = _records(tmp_path)[0].to_json()
+    good = '{"lab": {"sha256": "x"}, "standards": [], "budgets": [%s]}' % (
+        _ENTRY % ("2.0", _ROW % '"inf"'))
+    assert CalibrationRecord.from_json(text.rstrip().rstrip("}") + f', "budget": {good}}}')
     bad = text.rstrip().rstrip("}") + f', "budget": {block}}}'
     with pytest.raises(AccelcalError, match="budget"):
         CalibrationRecord.from_json(bad)

@@ -480,6 +480,8 @@ def _from_dict(data, source: str) -> CalibrationRecord:
 
 _BUDGET_KEYS = {"lab", "standards", "budgets"}
 _BUDGET_ENTRY_KEYS = {"coefficient", "estimate", "unit", "u_c", "nu_eff", "k", "U", "rows"}
+_BUDGET_ROW_KEYS = {"quantity", "estimate", "u", "unit", "distribution", "sensitivity",
+                    "contribution", "dof", "share"}
 
 
 def _check_budget_block(block, fail) -> None:
@@ -495,11 +497,27 @@ def _check_budget_block(block, fail) -> None:
             isinstance(s, dict) and isinstance(s.get("quantity"), str) for s in standards)):
         raise fail("budget.standards must be a list of objects with a quantity")
     budgets = block["budgets"]
-    if not (isinstance(budgets, list) and all(
-            isinstance(b, dict) and set(b) >= _BUDGET_ENTRY_KEYS
-            and isinstance(b["rows"], list) for b in budgets)):
+    if not (isinstance(budgets, list) and all(_budget_entry_ok(b) for b in budgets)):
         raise fail(f"budget.budgets must be a list of objects with the keys "
-                   f"{sorted(_BUDGET_ENTRY_KEYS)}")
+                   f"{sorted(_BUDGET_ENTRY_KEYS)}: finite numbers (nu_eff may be \"inf\"), "
+                   f"rows with the keys {sorted(_BUDGET_ROW_KEYS)}")
+
+
+def _budget_entry_ok(b) -> bool:
+    """True for a budget object of the shape :meth:`Budget.as_dict` writes."""
+    def number(x, inf=False):
+        return is_finite_number(x) or (inf and x == "inf")
+
+    return (isinstance(b, dict) and set(b) >= _BUDGET_ENTRY_KEYS
+            and isinstance(b["coefficient"], str) and isinstance(b["unit"], str)
+            and all(number(b[k]) for k in ("estimate", "u_c", "k", "U"))
+            and number(b["nu_eff"], inf=True) and isinstance(b["rows"], list)
+            and all(isinstance(r, dict) and set(r) >= _BUDGET_ROW_KEYS
+                    and isinstance(r["quantity"], str) and isinstance(r["unit"], str)
+                    and all(number(r[k]) for k in ("estimate", "u", "sensitivity",
+                                                   "contribution", "share"))
+                    and (r["dof"] is None or number(r["dof"], inf=True))
+                    for r in b["rows"]))
 
 
 COVARIANCE_RTOL = 1e-6
