@@ -104,3 +104,15 @@ def test_store_keeps_the_budget_with_the_record(tmp_path, capsys):
         rid = store.add(CalibrationRecord.load(paths[0]))
         again = store.record(rid)
     assert again.budget == CalibrationRecord.load(paths[0]).budget
+
+
+def test_pdf_without_weasyprint_is_one_line_and_writes_nothing(tmp_path, capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "weasyprint", None)  # import weasyprint -> ImportError
+    paths = write_inputs(tmp_path)
+    code, _, err = run_cli(["certificate", *paths, "--lab", LAB, "--out", tmp_path / "c.html",
+                            "--pdf", tmp_path / "c.pdf", "--issued", "2026-11-26"], capsys)
+    assert_one_line_error(code, err, "WeasyPrint", "pdf")
+    assert not (tmp_path / "c.pdf").exists()
+    assert not (tmp_path / "c.html").exists()
