@@ -151,13 +151,13 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
     Certified
     """
     import datetime as dt
-    import importlib.util
     from importlib.resources import files
 
     from accelcal.budget import budgets
     from accelcal.budget.lab import load_lab
     from accelcal.catalog import demo_methods
     from accelcal.certificate import issue
+    from accelcal.certificate.render import pdf_available
     from accelcal.cli.budget import render_budgets
 
     out = Path(result.out)
@@ -173,7 +173,7 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
     paths = result.records[start:start + len(head.records)]
     by_record = [[{**b.as_dict(), "serial": r.serial} for b in made if b.sensor == k]
                  for k, r in enumerate(head.records)]
-    with_pdf = pdf and importlib.util.find_spec("weasyprint") is not None
+    with_pdf = pdf and pdf_available()
     issued = issue(paths, lab_path, out=out / "certificate.html",
                    pdf=out / "certificate.pdf" if with_pdf else None,
                    json_out=out / "certificate.json",

@@ -130,13 +130,31 @@ def render_html(c: dict) -> str:
         c=c, pages=pages(c), conditions=_conditions(c))
 
 
-def write_pdf(html: str, path) -> None:
-    """Print the HTML to a PDF file with WeasyPrint (the ``pdf`` extra)."""
+def _weasyprint():
+    """WeasyPrint, or an :class:`AccelcalError` saying what is missing."""
     try:
         import weasyprint
     except ImportError:
         raise AccelcalError("PDF output needs WeasyPrint: pip install 'accelcal[pdf]'",
                             parameter="pdf") from None
+    except OSError as exc:  # installed, but the system's Pango cannot be loaded
+        raise AccelcalError(f"WeasyPrint cannot load its system libraries (Pango): {exc}",
+                            parameter="pdf") from None
+    return weasyprint
+
+
+def pdf_available() -> bool:
+    """True when :func:`write_pdf` can print (WeasyPrint and its libraries load)."""
+    try:
+        _weasyprint()
+    except AccelcalError:
+        return False
+    return True
+
+
+def write_pdf(html: str, path) -> None:
+    """Print the HTML to a PDF file with WeasyPrint (the ``pdf`` extra)."""
+    weasyprint = _weasyprint()
     from accelcal.io.atomic import atomic_path
 
     with atomic_path(path) as tmp:
