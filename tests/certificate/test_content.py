@@ -239,3 +239,15 @@ def test_engine_budgets_state_the_lab_standards_that_enter(tmp_path):
     assert [e["unit"] for e in ko["engineering"]] == ["urad", "arcsec"]
     assert ko["engineering"][1]["estimate"] == pytest.approx(
         ko["engineering"][0]["estimate"] * 0.206264806, rel=1e-8)
+
+
+def test_a_limit_guard_band_overrides_u(tmp_path):
+    import tomllib
+
+    spec = parse_spec(tomllib.loads(SPEC.replace('unit = "urad"', 'unit = "urad"\nguard = 1.0')))
+    doc = build(_records(tmp_path), load_lab(LAB), issued="2026-11-26", spec=spec,
+                rule="guarded")
+    ko = _result(doc, "SN-2", "K_O")["conformity"]
+    assert ko["guard"] == 1.0
+    assert ko["acceptance"] == [-8.0, 8.0]
+    assert ko["outcome"] == "inconclusive"  # -8.47 urad: in the guard band [-9, -8]

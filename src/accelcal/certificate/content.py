@@ -277,8 +277,10 @@ def _conformity(spec, rule, result, serial, method):
         except ValueError:
             continue
         dof = None if result["nu_eff"] == "inf" else result["nu_eff"]
-        d = decide(value_l, abs(u_l), dof, lim.lower, lim.upper, rule=rule, guard=lim.guard)
-        return {"quantity": name, "estimate": value_l, "u": abs(u_l), "U": d.k * abs(u_l),
+        big_u = result["k"] * abs(u_l)  # the certificate's U: the guard band w = U by default
+        d = decide(value_l, abs(u_l), dof, lim.lower, lim.upper, rule=rule,
+                   guard=big_u if lim.guard is None else lim.guard)
+        return {"quantity": name, "estimate": value_l, "u": abs(u_l), "U": big_u,
                 "unit": lim.unit, "lower": lim.lower, "upper": lim.upper, "rule": rule,
                 "guard": d.guard, "acceptance": list(d.acceptance), "outcome": d.outcome,
                 "statement": STATEMENTS[d.outcome], "conforming": d.conforming,
