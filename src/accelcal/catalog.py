@@ -147,7 +147,9 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "uncertainty"),
         report="accelcal.methods.vre.report_text", docs="docs/vre.md", paper="Guan2021",
         demo="accelcal.methods.vre.demo", demo_order=3, demo_sensors="one",
-        demo_test="vibrafuge grid"),
+        demo_test="vibrafuge grid",
+        budget_inputs=("reference_sensitivity", "centrifuge_rate", "centrifuge_radius",
+                       "daq_gain")),
     Method(
         name="transverse", family="transverse", title="transverse sensitivity",
         package=_m("transverse"), kinds=("shaker",), formats=("accelcal.io.formats.shaker",),

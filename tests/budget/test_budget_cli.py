@@ -121,3 +121,18 @@ def test_calibration_record_of_the_indexing_head(capsys):
     gain = next(r for r in k_i["rows"] if r["quantity"] == "daq_gain")
     assert gain["sensitivity"] == pytest.approx(1.0, rel=1e-3)
     assert {r["quantity"] for r in k_i["rows"]} >= {"Type A", "head_angle", "local_gravity"}
+
+
+def test_model_file_gives_the_temperature_sensitivity(tumble_file, write_lab, tmp_path, capsys):
+    from accelcal.model import ErrorModel
+    from accelcal.terms import TemperatureTerms
+
+    model = tmp_path / "model.json"
+    ErrorModel(K1=1.3, temperature=TemperatureTerms(25.0, {"K0_T1": 5e-6})).save(model)
+    lab = write_lab(lab_text(standard("sensor_temperature", 23.0, "degC", u=0.2)))
+    code, out, err = run_cli(["budget", tumble_file, "--lab", lab, "--model", model,
+                              "--coefficient", "K0+Kpp", "--format", "json"], capsys)
+    assert code == 0, err
+    row = next(r for r in json.loads(out)[0]["rows"] if r["quantity"] == "sensor_temperature")
+    assert row["sensitivity"] == pytest.approx(5.0)  # ug/degC
+    assert row["contribution"] == pytest.approx(1.0)

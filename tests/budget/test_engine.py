@@ -140,7 +140,7 @@ def test_a_method_without_a_model_keeps_type_a_and_priors(write_lab):
     import dataclasses
 
     red = tumble.reduce(linear_tumble(8), terms=["K0", "K1"], sigma=1e-6)
-    other = dataclasses.replace(red, family="vre")
+    other = dataclasses.replace(red, family="acceptance")
     lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=10.0))))
     b = _by(budgets(other, lab), "K1")
     assert "no lab inputs modelled for this method" in b.notes
@@ -226,3 +226,11 @@ def test_a_failing_re_run_leaves_the_input_out_with_a_note(linear, write_lab):
     assert "daq_gain" not in {r.quantity for r in b.rows}
     assert any("daq_gain: the reduction run again on the perturbed data did not give K1" in n
                for n in b.notes)
+
+
+def test_unreadable_data_leave_the_data_inputs_out(linear, tmp_path):
+    _, red, lab = linear
+    bad = tmp_path / "gone.csv"
+    b = _by(budgets(red, lab, records=bad), "K1")
+    assert {r.quantity for r in b.rows} == {"Type A", "local_gravity"}
+    assert any(n.startswith("the input data could not be read again") for n in b.notes)

@@ -111,3 +111,13 @@ def test_expired_standard_refused_unless_allowed(write_lab, tumble_file, capsys)
     assert code == 0
     assert "warning: expired standard(s) used: daq_gain (due 2020-01-31)" in err
     assert "past their due date" in out
+
+
+def test_an_expired_standard_the_method_does_not_use_is_not_refused(write_lab, tumble_file,
+                                                                      capsys):
+    path = write_lab(lab_text(standard("centrifuge_radius", 0.5, "m", due="2020-01-31", u=1e-5),
+                              standard("daq_gain", 0, "ppm", u=3)))
+    code, out, err = run_cli(["budget", tumble_file, "--lab", path, "--format", "json"], capsys)
+    assert code == 0, err
+    assert "expired" not in err
+    assert "past their due date" not in out

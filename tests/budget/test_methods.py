@@ -86,7 +86,7 @@ def test_every_declared_input_is_in_the_vocabulary_and_modelled():
 
     modelled = [m for m in catalog.METHODS if m.budget_inputs]
     assert {m.name for m in modelled} >= {"tumble", "dividing-head", "centrifuge", "triad",
-                                          "thermal", "response", "noise", "transverse"}
+                                          "thermal", "response", "noise", "transverse", "vre"}
     for m in modelled:
         assert set(m.budget_inputs) <= set(QUANTITIES), m.name
         assert len(set(m.budget_inputs)) == len(m.budget_inputs), m.name
@@ -147,3 +147,30 @@ def test_dividing_head_from_its_data_in_memory(write_lab):
     assert len(k_i) == 4  # every sensor
     for b in k_i:
         assert _row(b, "daq_gain").sensitivity == pytest.approx(1.0, rel=1e-3)
+
+
+def test_vre_amplitude_through_the_identification(write_lab):
+    from accelcal.methods import vre
+
+    path = EXAMPLES / "vibrafuge.csv"
+    lab = load_lab(write_lab(lab_text(standard("reference_sensitivity", 10.0, "mV/g", u=0.05))))
+    b = _by(budgets(vre.reduce(path), lab, records=path), "K2")
+    # dU1 = K2 A^2 / 2 + ...: K2 ~ A^-2, so 0.5 % on A is 1 % on K2
+    assert _row(b, "reference_sensitivity").contribution == pytest.approx(
+        0.01 * abs(b.estimate), rel=0.01)
+
+
+def test_docs_list_each_methods_inputs():
+    import re
+
+    from accelcal import catalog
+    from helpers.paths import ROOT
+
+    text = (ROOT / "docs" / "budget.md").read_text(encoding="utf-8")
+    table = dict(re.findall(r"^\| ([a-z, -]+) \| ([a-z_, ]+) \|", text, re.M))
+    same = tuple(table["tumble"].split(", "))  # "the same": the row above, the tumble's
+    for m in catalog.METHODS:
+        listed = next((v for k, v in table.items() if m.name in k.split(", ")), None)
+        assert listed is not None, m.name
+        expected = {"the same": same, "none yet": ()}.get(listed, tuple(listed.split(", ")))
+        assert m.budget_inputs == expected, m.name

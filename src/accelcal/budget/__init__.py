@@ -41,26 +41,32 @@ def budgets(reduction, lab=None, *, records=None, model=None, check=None) -> lis
     -------
     list of accelcal.budget.gum.Budget
         One per sensor and reported coefficient (rows of
-        :meth:`Reduction.rows` that are fitted and real), in the
-        coefficient's engineering unit, in the reduction's row order.
+        :meth:`Reduction.rows` that are fitted; a complex one's magnitude,
+        in %, and phase, in deg), in the coefficient's engineering unit, in
+        the reduction's row order. Data that cannot be read again leave the
+        inputs entering through them out, with a note.
     """
     import dataclasses
     import importlib
 
     from accelcal import catalog
     from accelcal.budget.engine import itemise
+    from accelcal.errors import AccelcalError
 
     found = [m for m in catalog.METHODS if m.family == reduction.family]
     inputs = found[0].budget_inputs if found else ()
-    data_model = None
+    data_model, notes = None, []
     if inputs:
         module = importlib.import_module(f"{found[0].package}.budget")
-        data_model = module.data_model(reduction, records)
-    notes = ()
+        try:
+            data_model = module.data_model(reduction, records)
+        except (AccelcalError, OSError, ValueError) as exc:  # the data, read again, refused
+            notes.append(f"the input data could not be read again ({exc})")
     if lab is None:
         from accelcal.budget.lab import empty_lab
 
-        lab, notes = empty_lab(), ("no lab file given: the Type A part and the priors only",)
+        lab = empty_lab()
+        notes.append("no lab file given: the Type A part and the priors only")
     out = itemise(reduction, lab, data_model=data_model, inputs=inputs, model=model,
                   notes=notes)
     if check:

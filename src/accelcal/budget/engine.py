@@ -65,12 +65,14 @@ class DataModel:
 
     Attributes
     ----------
-    reduce : callable
-        ``reduce(gain=0.0, offset=0.0, linearity=0.0, angles=None) -> Reduction``:
+    reduce : callable or None
+        ``reduce(*, gain=0.0, offset=0.0, linearity=0.0, angles=None) -> Reduction``:
         the method's reduction of its data with the outputs multiplied by
         ``1 + gain``, shifted by ``offset`` (output unit), bowed by
         ``linearity`` (relative at full scale: ``v + linearity |v| v / max|v|``)
-        and the positions shifted by ``angles`` (rad, one per position).
+        and the positions shifted by ``angles`` (rad, one per position); a
+        method takes the keywords its data have (and those of
+        ``parameters``). None: the data are not at hand (closed forms only).
     n_positions : int
     output_unit : str
     rotation_axis : str
@@ -80,14 +82,14 @@ class DataModel:
         one per position); absent ones perturb ``angles``.
     analytic : dict
         Inputs whose sensitivity the method states in closed form:
-        ``quantity -> f(row, standard)``, the coefficient of one budget row
-        (:class:`_Row`: its ``part``, ``unit``, ``estimate``, ``base``) per
-        unit of the standard.
+        ``quantity -> f(reported, standard)``, the coefficient of one
+        :class:`Reported` per unit of the standard.
     parameters : dict
         Inputs that enter through the reduction's parameters, perturbed
         and re-run rather than analytic: ``quantity -> {dimension:
         (keyword, unit)}``, the keyword of ``reduce`` taking a shift in
-        ``unit`` for a lab value of that dimension.
+        ``unit`` for a lab value of that dimension (``"/value"``: a relative
+        shift, the lab's uncertainty over its value).
     """
 
     reduce: object
@@ -100,8 +102,30 @@ class DataModel:
 
 
 @dataclass
-class _Row:
-    """Where one reported coefficient sits and how its engineering value is read."""
+class Reported:
+    """One reported coefficient (or part of a complex one) that gets a budget.
+
+    Attributes
+    ----------
+    sensor : int
+    name, label : str
+        Its plain and reported names.
+    kind : str or None
+        Its quantity (:data:`accelcal.engineering.QUANTITIES`: ``bias``,
+        ``scale``, ...).
+    unit, estimate, std :
+        The budget's unit, estimate and standard uncertainty.
+    native_std, native_unit :
+        The reduction's own.
+    base : float
+        The reduction's estimate (of the magnitude, for a complex one).
+    relative : float
+        ``1e6`` (ppm) or ``100`` (%) when the budget is relative to ``base``.
+    part : str
+        ``"magnitude"`` or ``"phase"`` of a complex coefficient, else ``""``.
+    place : int
+        Its index in :meth:`Reduction.rows`.
+    """
 
     sensor: int
     name: str
@@ -130,7 +154,7 @@ def _eng_kind(reduction, label: str, plain: str) -> str | None:
     return kind.split("/", 1)[0] if kind else None
 
 
-def _rows(reduction) -> list[_Row]:
+def _rows(reduction) -> list[Reported]:
     out = []
     names = list(reduction.sensor_names)
     for place, r in enumerate(reduction.rows(engineering=True)):
@@ -155,31 +179,31 @@ def _row_of(reduction, r, names, out) -> None:
     plain = r.get("plain", r["coefficient"])
     kind = _eng_kind(reduction, r["coefficient"], plain)
     if "eng_unit" in r and math.isfinite(r["eng_std"]) and math.isfinite(r["eng_estimate"]):
-        out.append(_Row(sensor, plain, r["coefficient"], kind, r["eng_unit"],
+        out.append(Reported(sensor, plain, r["coefficient"], kind, r["eng_unit"],
                         r["eng_estimate"], r["eng_std"], std, r["unit"], est))
     elif kind == "scale" and est:
-        out.append(_Row(sensor, plain, r["coefficient"], kind, "ppm", 0.0,
+        out.append(Reported(sensor, plain, r["coefficient"], kind, "ppm", 0.0,
                         std / abs(est) * 1e6, std, r["unit"], est, relative=1e6))
     else:
-        out.append(_Row(sensor, plain, r["coefficient"], kind, r["unit"], est, std, std,
+        out.append(Reported(sensor, plain, r["coefficient"], kind, r["unit"], est, std, std,
                         r["unit"], est))
 
 
-def _complex_rows(r, sensor: int) -> list[_Row]:
+def _complex_rows(r, sensor: int) -> list[Reported]:
     mag, mag_std = r["magnitude"], r["magnitude_std"]
     phase, phase_std = r["phase_deg"], r["phase_std_deg"]
     out = []
     if mag and math.isfinite(mag) and math.isfinite(mag_std):
-        out.append(_Row(sensor, r["coefficient"], r["coefficient"], None, "%", 0.0,
+        out.append(Reported(sensor, r["coefficient"], r["coefficient"], None, "%", 0.0,
                         mag_std / abs(mag) * 100.0, mag_std, r["unit"], mag, relative=100.0,
                         part="magnitude"))
     if math.isfinite(phase) and math.isfinite(phase_std):
-        out.append(_Row(sensor, r["coefficient"], r["coefficient"], None, "deg", phase,
+        out.append(Reported(sensor, r["coefficient"], r["coefficient"], None, "deg", phase,
                         phase_std, phase_std, "deg", phase, part="phase"))
     return out
 
 
-def _values(reduction, rows: list[_Row]) -> list[float]:
+def _values(reduction, rows: list[Reported]) -> list[float]:
     """The engineering value of each of ``rows`` in a (re-run) reduction.
 
     Rows are matched by sensor and name, else by their place among the
@@ -246,7 +270,7 @@ def per_position(model: DataModel, rows, step_rad: float, key: str = "angles"):
     return out
 
 
-def _temperature_slope(row: _Row, model, temperature: float) -> float | None:
+def _temperature_slope(row: Reported, model, temperature: float) -> float | None:
     """``dy/dT`` of a coefficient from the sensor's temperature terms (None: none apply)."""
     terms = getattr(model, "temperature", None)
     if terms is None or row.kind not in ("bias", "scale", "ratio", "misalignment", "second"):
@@ -324,8 +348,9 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
                 notes.append(f"{q}: a value in {std.unit} does not enter this model; not in "
                              "the budget")
                 continue
-            out[q] = _kragten(data_model, rows, keyword[0], std.u or 1.0,
-                              std.factor(keyword[1]))
+            per = (1.0 / std.value if keyword[1] == "/value" and std.value else
+                   std.factor(keyword[1]))  # "/value": a relative error of the value
+            out[q] = _kragten(data_model, rows, keyword[0], std.u or 1.0, per)
         elif q == "local_gravity":
             out[q] = _gravity(rows, std)
             unknown = sorted({r.label for r in rows if r.kind is None})
@@ -337,8 +362,8 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
                                          std.value_in("degC")) for r in rows]
             if all(s is None for s in slopes):
                 notes.append("sensor_temperature: the sensor's temperature coefficients are "
-                             "not known (give a model with temperature terms); not in the "
-                             "budget")
+                             "not known (give a model with temperature terms: --model); not "
+                             "in the budget")
                 continue
             out[q] = [s or 0.0 for s in slopes]
         elif data_model is None or data_model.reduce is None:

@@ -214,9 +214,12 @@ class Lab:
         on = on or _dt.date.today()
         return [s for s in self.standards.values() if s.due is not None and s.due < on]
 
-    def check_due(self, on: _dt.date | None = None) -> None:
-        """Raise :class:`AccelcalError` naming the expired standards, if any."""
-        late = self.expired(on)
+    def check_due(self, on: _dt.date | None = None, quantities=None) -> None:
+        """Raise :class:`AccelcalError` naming the expired standards, if any.
+
+        ``quantities``: only those (a method's inputs); default every one.
+        """
+        late = [s for s in self.expired(on) if quantities is None or s.quantity in quantities]
         if late:
             names = ", ".join(f"{s.quantity} (certificate {s.certificate or '?'}, due {s.due})"
                               for s in late)

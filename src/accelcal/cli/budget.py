@@ -33,7 +33,8 @@ def budget(
         "(docs/budget.md; examples/lab.toml). Without it: the Type A part and the priors only."),
     allow_expired: bool = typer.Option(
         False, "--allow-expired", help="Use standards past their due date (they are named in a "
-        "warning and in the budgets' notes); without it they are refused."),
+        "warning and in the budgets' notes); without it a method's input past its due date "
+        "is refused."),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
     check: str | None = typer.Option(
         None, "--check", help="mc: validate each budget by Monte Carlo propagation of its "
@@ -47,6 +48,10 @@ def budget(
     data: list[Path] = typer.Option(
         [], "--data", help="A directory holding the records' input files (also searched two "
         "levels deep). Repeatable."),
+    model_file: Path | None = typer.Option(
+        None, "--model", help="The sensor's error model file with temperature terms (e.g. "
+        "accelcal thermal reduce --model-out), for the sensor temperature's sensitivity; "
+        "default: the reduction's own models."),
 ) -> None:
     """Itemised uncertainty budgets (GUM): each reported coefficient's inputs, largest first.
 
@@ -72,14 +77,24 @@ def budget(
 
             raise AccelcalError(f"{shown_path(d)}: not a directory; give the directory "
                                 "holding the records' input files", parameter="data")
-    the_lab = _lab(lab, allow_expired)
+    model = None
+    if model_file is not None:
+        from accelcal.cli.common import load_model
+
+        model = load_model(model_file)
+    the_lab = None
+    if lab is not None:
+        from accelcal.budget.lab import load_lab
+
+        the_lab = load_lab(lab)
     from accelcal.budget import budgets
 
-    out = []
+    out, warned = [], set()
     for reduction, inputs, sensors, method in gather(records, data):
         if the_lab is not None:
+            _check_due(the_lab, method, allow_expired, warned)
             _warn_missing(method, the_lab)
-        found = budgets(reduction, the_lab, records=inputs,
+        found = budgets(reduction, the_lab, records=inputs, model=model,
                         check={"trials": trials, "seed": seed} if check else None)
         out += [b for b in found if (sensors is None or b.sensor in sensors)
                 and (coefficient is None or coefficient in (b.coefficient,))]
@@ -89,20 +104,17 @@ def budget(
     sys.stdout.write(render_budgets(out, fmt))
 
 
-def _lab(path: Path | None, allow_expired: bool):
-    if path is None:
-        return None
-    from accelcal.budget.lab import load_lab
-
-    lab = load_lab(path)
-    if allow_expired:
-        late = lab.expired()
-        if late:
-            typer.echo("warning: expired standard(s) used: " + ", ".join(
-                f"{s.quantity} (due {s.due})" for s in late), err=True)
-    else:
-        lab.check_due()
-    return lab
+def _check_due(lab, method, allow_expired: bool, warned: set) -> None:
+    """Refuse the method's inputs past their due date, or warn once when they are allowed."""
+    inputs = method.budget_inputs if method is not None else ()
+    if not allow_expired:
+        lab.check_due(quantities=inputs)
+        return
+    late = [s for s in lab.expired() if s.quantity in inputs and s.quantity not in warned]
+    if late:
+        warned.update(s.quantity for s in late)
+        typer.echo("warning: expired standard(s) used: " + ", ".join(
+            f"{s.quantity} (due {s.due})" for s in late), err=True)
 
 
 def _warn_missing(method, lab) -> None:
