@@ -251,3 +251,13 @@ def test_a_limit_guard_band_overrides_u(tmp_path):
     assert ko["guard"] == 1.0
     assert ko["acceptance"] == [-8.0, 8.0]
     assert ko["outcome"] == "inconclusive"  # -8.47 urad: in the guard band [-9, -8]
+
+
+def test_an_expired_standard_the_method_does_not_take_does_not_refuse(tmp_path):
+    text = LAB.read_text(encoding="utf-8").replace("due = 2029-04-30", "due = 2020-04-30")
+    lab_path = tmp_path / "lab.toml"
+    lab_path.write_text(text, encoding="utf-8")
+    lab = load_lab(lab_path)
+    assert [s.quantity for s in lab.expired()] == ["reference_sensitivity", "reference_phase"]
+    doc = build(_records(tmp_path), lab, issued="2026-11-26")  # a shaker's, not the head's
+    assert doc["expired_standards"] == []

@@ -247,6 +247,14 @@ def _scale_factor(record):
     return float(record.model.K1) if record.model is not None else None
 
 
+def _inputs_of(records) -> set[str]:
+    """The lab inputs the records' methods' measurement models take (their descriptors')."""
+    from accelcal.catalog import METHODS
+
+    families = {r.method.partition("/")[0] for r in records}
+    return {q for m in METHODS if m.family in families for q in m.budget_inputs}
+
+
 def _method(record) -> dict:
     from accelcal.catalog import METHODS
 
@@ -329,8 +337,10 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
         With it, a statement of conformity per limited result by ``rule``
         (default the spec's).
     allow_expired : bool
-        Issue even when a standard was past its due date on a calibration
-        date (the certificate says so); otherwise refuse.
+        Issue even when a standard that the records' methods take as an
+        input (:attr:`accelcal.catalog.Method.budget_inputs`) was past its
+        due date on a calibration date (the certificate says so); otherwise
+        refuse. The lab's other standards do not stop a certificate.
     software : str
         ``"accelcal <version>"``.
     country : str
@@ -376,7 +386,8 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
     if item.received and item.received > dates[0].isoformat():
         raise AccelcalError(f"date of receipt {item.received} is after the calibration of "
                             f"{dates[0].isoformat()}", parameter="received")
-    expired = lab.expired(used_on)
+    inputs = _inputs_of(records)
+    expired = [s for s in lab.expired(used_on) if s.quantity in inputs]
     if expired and not allow_expired:
         names = ", ".join(f"{s.quantity} (certificate {s.certificate or '?'}, due {s.due})"
                           for s in expired)
