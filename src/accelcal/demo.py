@@ -29,6 +29,11 @@ The stages, each in its method's package:
    the threshold on the indexing head, the input range on a centrifuge
    (saturation, clipping, the bias after the overload) and eight turn-ons.
 
+After the campaign, :func:`certify` writes the demo's lab file (a copy of
+examples/lab.toml kept in the package), the uncertainty budget of one
+result, and a calibration certificate of the indexing-head sensors (HTML,
+JSON, and PDF where WeasyPrint is installed).
+
 Every run is stamped with the current time (microseconds), which goes into
 the files' ``date`` and so into the records: running the demo twice adds
 new, distinct records to the store, and the report then shows the history.
@@ -44,6 +49,11 @@ References
    of inertial accelerometers.
 """
 
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from accelcal.certificate.content import Item
+from accelcal.io.atomic import write_text_atomic
 from accelcal.pipeline import CampaignResult
 
 SERIALS = ("ACC-0001", "ACC-0002", "ACC-0003", "ACC-0004")
@@ -114,3 +124,62 @@ def run(out="accelcal-demo", *, db=None, seed: int | None = None, progress: bool
                   f"operator {OPERATOR}, date {{date}}, seed {{seed}}."),
         history_serial=SERIALS[0],
     )
+
+
+@dataclass(frozen=True)
+class Certified:
+    """What :func:`certify` wrote: the lab file, one budget as text, the certificate's files."""
+
+    lab: Path
+    budget: str
+    number: str
+    files: tuple[Path, ...]
+
+
+def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
+    """The demo's lab file, the budget of the first bias, and the indexing head's certificate.
+
+    Parameters
+    ----------
+    result : CampaignResult
+        A run of :func:`run`.
+    pdf : bool
+        Also print the certificate to PDF when WeasyPrint is installed.
+
+    Returns
+    -------
+    Certified
+    """
+    import datetime as dt
+    from importlib.resources import files
+
+    from accelcal.budget import budgets
+    from accelcal.budget.lab import load_lab
+    from accelcal.catalog import demo_methods
+    from accelcal.certificate import issue
+    from accelcal.certificate.render import pdf_available
+    from accelcal.cli.budget import render_budgets
+
+    out = Path(result.out)
+    lab_path = out / "lab.toml"
+    write_text_atomic(lab_path, files("accelcal.certificate").joinpath(
+        "example_lab.toml").read_text(encoding="utf-8"))
+    lab = load_lab(lab_path)
+    head, start = next((o, sum(len(p.records) for p in result.outcomes[:i]))
+                       for i, o in enumerate(result.outcomes)
+                       if o.reduction.family == "dividing-head")
+    stage = [m.family for m in demo_methods()].index("dividing-head")  # data: one per stage
+    made = budgets(head.reduction, lab, records=result.data[stage])
+    paths = result.records[start:start + len(head.records)]
+    by_record = [[{**b.as_dict(), "serial": r.serial} for b in made if b.sensor == k]
+                 for k, r in enumerate(head.records)]
+    with_pdf = pdf and pdf_available()
+    issued = issue(paths, lab_path, out=out / "certificate.html",
+                   pdf=out / "certificate.pdf" if with_pdf else None,
+                   json_out=out / "certificate.json",
+                   issued=dt.datetime.now(dt.UTC).date().isoformat(),
+                   item=Item(make="accelcal demo", model="simulated pendulous accelerometer"),
+                   budgets=by_record)
+    first = replace(made[0], serial=head.records[made[0].sensor].serial)
+    return Certified(lab_path, render_budgets([first], "table"), issued.document["number"],
+                     issued.files)

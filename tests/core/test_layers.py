@@ -43,8 +43,8 @@ FLOORS = (
     ("signal", ("accelcal.signal", "accelcal.plotting")),
     ("rigs and methods", ("accelcal.rigs", "accelcal.methods", "accelcal.calibration",
                           "accelcal.budget")),
-    ("top", ("accelcal.store", "accelcal.report", "accelcal.pipeline", "accelcal.demo",
-             "accelcal.cli")),
+    ("top", ("accelcal.store", "accelcal.report", "accelcal.certificate", "accelcal.pipeline",
+             "accelcal.demo", "accelcal.cli")),
 )
 """Floors bottom up, each a tuple of modules and packages (a package holds its submodules)."""
 

@@ -62,6 +62,8 @@ BASE: dict[str, list[str]] = {
     "demo": ["--out", "{out}/demo", "--seed", "1"],
     "report": ["{record}", "--out", "{out}/report.html"],
     "budget": ["{tumble}"],
+    "certificate": ["{lone_record}", "--lab", "{lab}", "--out", "{out}/c.html", "--issued",
+                    "2026-11-26"],
     "model show": [],
     "model new": ["--out", "{out}/model.json"],
     "model eval": ["--ai", "1"],
@@ -184,7 +186,7 @@ COMMAND_KINDS: dict[tuple[str, str], str] = {
     ("records history", "method"): "str", ("records stats", "method"): "str",
     ("transverse simulate", "out"): "output-dir", ("demo", "out"): "output-dir",
     ("report", "data"): "input-dir", ("budget", "data"): "input-dir",
-    ("records supersede", "by"): "input",
+    ("records supersede", "by"): "input", ("certificate", "data"): "input-dir",
 }
 """(command, parameter) -> kind, where the parameter name means something else there."""
 
@@ -484,7 +486,13 @@ def _fill(tmp: Path) -> dict:
         assert info.value.code == 0, args
     fixed = tmp / "fixed.json"
     fixed.write_text(record.read_text().replace('"operator": "', '"operator": "corrected ', 1))
-    return {"record": str(record), "fixed": str(fixed), "tumble": str(tumble), "store": str(store),
+    # the record away from its input files: its budget keeps the record's own numbers (the
+    # budget engine's re-runs of the reduction, seconds each, are not what is fuzzed here)
+    lone = tmp / "lone_record.json"
+    lone.write_bytes(record.read_bytes())
+    return {"record": str(record), "fixed": str(fixed), "lone_record": str(lone),
+            "lab": str(EXAMPLES.parent / "lab.toml"),
+            "tumble": str(tumble), "store": str(store),
             "centrifuge": str(centrifuge), "steps": str(steps),
             "response": str(response)}
 

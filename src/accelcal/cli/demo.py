@@ -24,15 +24,21 @@ def demo(
 
     The full help, which names the tests the campaign runs, is :func:`_help`'s.
     """
-    from accelcal.demo import run
+    from accelcal.demo import certify, run
 
     result = run(out, db=db, seed=seed, progress=True)
+    cert = certify(result)
+    typer.echo(cert.budget.rstrip("\n"))
+    typer.echo("")
     typer.echo(f"report:  {result.report}")
     typer.echo(f"figures: {out / 'figures'} ({len(result.figures)} SVG files)")
     typer.echo(f"records: {out / 'records'} ({len(result.records)} calibration records)")
     typer.echo(f"data:    {out / 'data'} (the record file of each test)")
     typer.echo(f"store:   {result.store} (record ids "
                f"{', '.join(map(str, result.record_ids))})")
+    typer.echo(f"lab:     {cert.lab} (the standards the budgets use)")
+    typer.echo(f"certificate {cert.number}: "
+               f"{', '.join(str(p) for p in cert.files)}")
     typer.echo(f"seed:    {result.seed} (repeat with --seed {result.seed})")
     typer.echo(f"done in {result.seconds:.1f} s")
 
@@ -42,8 +48,10 @@ def _help() -> str:
     tests = listed((f"{m.demo_test} ({m.paper})" for m in demo_methods()), "and")
     return ("Simulate a calibration campaign of the default accelerometer, reduce it, store and "
             f"report.\n\nThe tests, in order: {tests}. It writes the input files, the "
-            "calibration records, the store and a self-contained HTML report. Each run is "
-            "dated, so running it again adds new records and the report shows the history.")
+            "calibration records, the store and a self-contained HTML report, then a lab file, "
+            "the uncertainty budget of one result and a calibration certificate of the "
+            "indexing-head sensors (HTML, JSON, and PDF where WeasyPrint is installed). Each run "
+            "is dated, so running it again adds new records and the report shows the history.")
 
 
 demo.__doc__ = _help()

@@ -34,6 +34,25 @@ they are simulated (a rig simulator or the demo wrote them). ``dof`` and
 ``simulated`` are optional on reading (records written before them load,
 as dof unknown and not simulated).
 
+A record may keep the uncertainty budgets a certificate was issued with
+(``accelcal certificate --keep-budgets``), in an optional ``budget`` block
+written only when present (so a record without one is byte for byte as
+before)::
+
+    "budget": {
+      "lab": {"sha256": "<hex of the lab file's bytes>", "path": "lab.toml",
+              "name": "Inertial Sensors Laboratory"},
+      "standards": [{"quantity": "local_gravity", "certificate": "AG-2025-017",
+                     "due": "2030-06-30"}, ...],
+      "budgets": [{"coefficient": "K_F", "estimate": ..., "unit": "V", "u_c": ...,
+                   "nu_eff": ..., "k": ..., "U": ..., "correlated": false,
+                   "rows": [...]}, ...]
+    }
+
+``budgets`` holds :meth:`accelcal.budget.gum.Budget.as_dict` of each
+coefficient; with the lab file of the same SHA-256 a certificate is reissued
+from it identically (:mod:`accelcal.certificate`).
+
 Complex coefficients (a frequency response's sensitivities) are written as
 ``format_version`` 2 with ``"complex": true``; a record of real
 coefficients is still written as version 1, byte for byte as before, and
@@ -81,7 +100,7 @@ _KEYS = {
     "format_version", "kind", "serial", "method", "date", "software", "operator",
     "coverage_factor", "coefficients", "covariance", "model", "inputs", "notes",
 }
-_OPTIONAL_KEYS = {"dof", "simulated", "complex"}
+_OPTIONAL_KEYS = {"dof", "simulated", "complex", "budget"}
 _COEFFICIENT_KEYS = {"name", "unit", "estimate", "std", "expanded"}
 _POLAR_KEYS = ("magnitude", "phase_deg", "phase_std_deg", "phase_expanded_deg")
 """Keys a complex coefficient adds, derived from its estimate and 2x2 block."""
@@ -148,6 +167,9 @@ class CalibrationRecord:
         (row name -> plain name, e.g. ``"K0+Kpp" -> "K0"``); written as the
         coefficient's ``plain`` key. A record made before combinations were
         named has none, and reads as before.
+    budget : dict or None
+        The budgets kept with the record (module docs: ``lab``, ``standards``,
+        ``budgets``); None for a record without them.
     """
 
     serial: str
@@ -166,6 +188,7 @@ class CalibrationRecord:
     dof: int | None = None
     simulated: bool = False
     plain: dict[str, str] = field(default_factory=dict)
+    budget: dict | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.serial, str) or not self.serial.strip():
@@ -291,6 +314,8 @@ class CalibrationRecord:
         }
         if self.is_complex:
             data["complex"] = True
+        if self.budget is not None:
+            data["budget"] = self.budget
         return data
 
     def _complex_coefficients(self) -> list[dict]:
@@ -437,6 +462,9 @@ def _from_dict(data, source: str) -> CalibrationRecord:
         raise fail("inputs must map file names to hashes")
     for name in data["inputs"]:
         check_label(name, f"{source}: input file name", limit=255)
+    budget = data.get("budget")
+    if budget is not None:
+        _check_budget_block(budget, fail)
     try:
         return CalibrationRecord(
             serial=data["serial"], method=data["method"], names=tuple(names),
@@ -444,10 +472,52 @@ def _from_dict(data, source: str) -> CalibrationRecord:
             software=data["software"], operator=data["operator"],
             coverage_factor=float(data["coverage_factor"]), model=model,
             inputs=dict(data["inputs"]), notes=tuple(data["notes"]), dof=dof,
-            simulated=simulated, plain=plain,
+            simulated=simulated, plain=plain, budget=budget,
         )
     except AccelcalError as exc:
         raise fail(str(exc)) from None
+
+
+_BUDGET_KEYS = {"lab", "standards", "budgets"}
+_BUDGET_ENTRY_KEYS = {"coefficient", "estimate", "unit", "u_c", "nu_eff", "k", "U", "rows"}
+_BUDGET_ROW_KEYS = {"quantity", "estimate", "u", "unit", "distribution", "sensitivity",
+                    "contribution", "dof", "share"}
+
+
+def _check_budget_block(block, fail) -> None:
+    """Check the shape of a record's ``budget`` block (module docs)."""
+    if not isinstance(block, dict) or set(block) != _BUDGET_KEYS:
+        raise fail(f"budget must be an object with exactly the keys {sorted(_BUDGET_KEYS)}")
+    lab = block["lab"]
+    if not (isinstance(lab, dict) and isinstance(lab.get("sha256"), str)
+            and all(isinstance(lab.get(k, ""), str) for k in ("path", "name"))):
+        raise fail("budget.lab must be an object with the lab file's sha256, path and name")
+    standards = block["standards"]
+    if not (isinstance(standards, list) and all(
+            isinstance(s, dict) and isinstance(s.get("quantity"), str) for s in standards)):
+        raise fail("budget.standards must be a list of objects with a quantity")
+    budgets = block["budgets"]
+    if not (isinstance(budgets, list) and all(_budget_entry_ok(b) for b in budgets)):
+        raise fail(f"budget.budgets must be a list of objects with the keys "
+                   f"{sorted(_BUDGET_ENTRY_KEYS)}: finite numbers (nu_eff may be \"inf\"), "
+                   f"rows with the keys {sorted(_BUDGET_ROW_KEYS)}")
+
+
+def _budget_entry_ok(b) -> bool:
+    """True for a budget object of the shape :meth:`Budget.as_dict` writes."""
+    def number(x, inf=False):
+        return is_finite_number(x) or (inf and x == "inf")
+
+    return (isinstance(b, dict) and set(b) >= _BUDGET_ENTRY_KEYS
+            and isinstance(b["coefficient"], str) and isinstance(b["unit"], str)
+            and all(number(b[k]) for k in ("estimate", "u_c", "k", "U"))
+            and number(b["nu_eff"], inf=True) and isinstance(b["rows"], list)
+            and all(isinstance(r, dict) and set(r) >= _BUDGET_ROW_KEYS
+                    and isinstance(r["quantity"], str) and isinstance(r["unit"], str)
+                    and all(number(r[k]) for k in ("estimate", "u", "sensitivity",
+                                                   "contribution", "share"))
+                    and (r["dof"] is None or number(r["dof"], inf=True))
+                    for r in b["rows"]))
 
 
 COVARIANCE_RTOL = 1e-6
