@@ -70,11 +70,14 @@ def simulate(
         help="stepped, random or swept (broadband: --band, --duration, --amplitude the "
              "level in g), laser (ISO 16063-11: --displacement; --frequencies, --periods) or "
              "gravity (ISO 16063-16: --frequencies the rotation rates). Options of another "
-             "excitation keep their defaults."),
-    band: str = typer.Option("5,2000", "--band", help="Broadband: lo,hi, Hz."),
-    duration: float = typer.Option(20.0, "--duration", help="Broadband: record length, s."),
-    displacement: float = typer.Option(2e-6, "--displacement",
-                                       help="Laser: displacement amplitude, m."),
+             "excitation without a default are refused; --amplitude, --gain-ratio, --daq-delay and "
+        "--distortion serve the comparisons and the laser (--amplitude: not the laser)."),
+    band: str | None = typer.Option(None, "--band", help="Broadband: lo,hi, Hz (default "
+                                                         "5,2000)."),
+    duration: float | None = typer.Option(None, "--duration",
+                                          help="Broadband: record length, s (default 20)."),
+    displacement: float | None = typer.Option(
+        None, "--displacement", help="Laser: displacement amplitude, m (default 2e-6)."),
 ) -> None:
     """Write a simulated frequency-response record (the truth in its metadata)."""
     from accelcal.errors import AccelcalError
@@ -87,6 +90,13 @@ def simulate(
     if len(dist) != 2:
         raise AccelcalError("--distortion: give two fractions, d2,d3")
     dut = DutResponse(S0=s0, fn_hz=fn, zeta=zeta, pole_hz=pole, delay_s=delay)
+    own = {"--band": (band, ("random", "swept")), "--duration": (duration, ("random", "swept")),
+           "--displacement": (displacement, ("laser",)),
+           "--frequencies": (frequencies, ("stepped", "laser", "gravity")),
+           "--periods": (periods, ("stepped", "laser", "gravity"))}
+    for option, (value, kinds) in own.items():
+        if value is not None and excitation not in kinds:
+            raise AccelcalError(f"{option} does not apply to --excitation {excitation}")
     given = {k: v for k, v in (("sample_rate", sample_rate), ("periods", periods)) if v is not None}
     if frequencies is not None:
         given["frequencies"] = tuple(parse_grid(frequencies, "--frequencies"))
@@ -94,14 +104,17 @@ def simulate(
         rig = ResponseRig(**given, amplitudes=(amplitude,), gain_ratio=gain_ratio,
                           delay_s=daq_delay, distortion=tuple(dist), noise=noise)
     elif excitation in ("random", "swept"):
-        given.pop("periods", None)
-        given.pop("frequencies", None)
-        rig = routes.BroadbandRig(**given, kind=excitation,
-                                  band_hz=tuple(parse_grid(band, "--band")),
-                                  level_g=amplitude, duration_s=duration, gain_ratio=gain_ratio,
+        if band is not None:
+            given["band_hz"] = tuple(parse_grid(band, "--band"))
+        if duration is not None:
+            given["duration_s"] = duration
+        rig = routes.BroadbandRig(**given, kind=excitation, level_g=amplitude,
+                                  gain_ratio=gain_ratio,
                                   delay_s=daq_delay, noise=noise)
     elif excitation == "laser":
-        rig = routes.LaserRig(**given, displacement_m=displacement, gain_ratio=gain_ratio,
+        if displacement is not None:
+            given["displacement_m"] = displacement
+        rig = routes.LaserRig(**given, gain_ratio=gain_ratio,
                               delay_s=daq_delay, distortion=tuple(dist), noise=noise)
     elif excitation == "gravity":
         rig = routes.GravityRig(**given, noise=noise)

@@ -30,6 +30,9 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 
+MIN_CONDITION = 1e-6
+"""Least ratio of the conic design's smallest singular value to its largest."""
+
 
 @dataclass(frozen=True)
 class Ellipse:
@@ -59,7 +62,10 @@ def fit_ellipse(i_sig, q_sig, *, where: str = "quadrature signals") -> Ellipse:
         raise AccelcalError(f"{where}: no motion (the signals are constant)")
     u, v = (x - cx) / sc, (y - cy) / sc
     design = np.stack([u * u, v * v, u * v, u, v], axis=1)
-    coef, *_ = np.linalg.lstsq(design, np.ones(u.size), rcond=None)
+    coef, _, rank, sv = np.linalg.lstsq(design, np.ones(u.size), rcond=None)
+    if rank < 5 or sv[-1] < MIN_CONDITION * sv[0]:
+        raise AccelcalError(f"{where}: the points do not determine an ellipse (they lie on "
+                            "a line or a short arc: no quadrature, or too little motion)")
     big_a, big_b, big_c, big_d, big_e = coef
     det = 4 * big_a * big_b - big_c**2
     if not (big_a > 0 and big_b > 0 and det > 0):

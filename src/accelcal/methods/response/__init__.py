@@ -206,8 +206,8 @@ def reduce(records, *, method: str | None = None, reference=None, reference_freq
     items = list(records) if isinstance(records, list | tuple) else [records]
     if not items:
         raise AccelcalError("give at least one record", parameter="records")
-    method = method or next(m for m, kinds in _KINDS.items()
-                            if excitation_of(items[0]) in kinds)
+    if method is None:
+        method = next(m for m, kinds in _KINDS.items() if excitation_of(items[0]) in kinds)
     if method not in METHODS:
         raise AccelcalError(f"{method!r} is not one of {', '.join(METHODS)}",
                             parameter="method")

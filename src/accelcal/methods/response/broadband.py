@@ -45,6 +45,9 @@ OVERLAP = 0.75
 constant, so that a sweep's energy is weighed alike wherever it falls in a segment (at
 one half, a system's group delay would bias H1 of a sweep by about delay / segment)."""
 
+MAX_SEGMENT = 1 << 24
+"""Longest Welch segment, samples."""
+
 BLOCK = 1 << 18
 """Samples per block fed to the spectra (a record in memory is fed in these too)."""
 
@@ -159,6 +162,9 @@ def reduce_broadband(source, reference=None, *, segment: int | None = None,
         reference = ReferenceTable.from_dict(meta["reference"])
     gain, delay = _daq(meta)
     nperseg = default_segment(fs, (lo, hi), samples) if segment is None else segment
+    if not (isinstance(nperseg, int) and 16 <= nperseg <= MAX_SEGMENT):
+        raise AccelcalError(f"must be a whole number of samples from 16 to {MAX_SEGMENT}, "
+                            f"got {segment!r}", parameter="segment")
     spectra = CrossSpectra(fs, nperseg, overlap=OVERLAP)
     for x, y in blocks:
         spectra.add(x, y)

@@ -34,6 +34,22 @@ from accelcal.errors import AccelcalError
 ROUTES = ("stepped", "broadband")
 """The routes :func:`plan` plans."""
 
+MAX_SAMPLES = 1e12
+"""Most samples a plan may ask for (beyond it the target is out of reach)."""
+
+MAX_FREQUENCIES = 1000
+"""Most step frequencies planned at once."""
+
+MAX_SEGMENT = 1 << 24
+"""Longest Welch segment planned, samples."""
+
+
+def _samples(n: float) -> float:
+    if not n <= MAX_SAMPLES:
+        raise AccelcalError(f"the target needs {n:.3g} samples, more than {MAX_SAMPLES:g}: "
+                            "a larger uncertainty or a better SNR", parameter="magnitude_u_pct")
+    return n
+
 
 def _check(name, value, lo, hi, unit) -> float:
     if not (isinstance(value, int | float) and lo < value <= hi):
@@ -79,17 +95,18 @@ def plan(*, route: str = "stepped", snr_db: float = 40.0, ref_snr_db: float | No
     if route not in ROUTES:
         raise AccelcalError(f"{route!r} is not one of {', '.join(ROUTES)}", parameter="route")
     snr = 10 ** (_check("snr_db", snr_db, -40.0, 200.0, "dB") / 20)
-    u_mag = _check("magnitude_u_pct", magnitude_u_pct, 0.0, 50.0, "%") / 100
-    u_ph = np.deg2rad(_check("phase_u_deg", phase_u_deg, 0.0, 30.0, "deg"))
+    u_mag = _check("magnitude_u_pct", magnitude_u_pct, 1e-9, 50.0, "%") / 100
+    u_ph = np.deg2rad(_check("phase_u_deg", phase_u_deg, 1e-9, 30.0, "deg"))
     fs = _check("sample_rate", sample_rate, 0.0, 1e8, "Hz")
+    resolution_hz = _check("resolution_hz", resolution_hz, fs / MAX_SEGMENT, fs / 16, "Hz")
     target = min(u_mag, u_ph)
     if route == "broadband":
         from accelcal.methods.response.broadband import OVERLAP
         from accelcal.signal.spectra import equivalent_averages
 
-        nperseg = max(16, round(fs / _check("resolution_hz", resolution_hz, 0.0, fs / 16,
-                                            "Hz")))
+        nperseg = max(16, round(fs / resolution_hz))
         n_d = 1.0 / (2.0 * snr**2 * target**2)
+        _samples(n_d * nperseg / 4)
         step = nperseg - int(np.floor(OVERLAP * nperseg))
         from scipy.signal import get_window
 
@@ -109,10 +126,14 @@ def plan(*, route: str = "stepped", snr_db: float = 40.0, ref_snr_db: float | No
     ref = snr if ref_snr_db is None else 10 ** (_check("ref_snr_db", ref_snr_db, -40.0,
                                                        200.0, "dB") / 20)
     k2 = 1.0 / ref**2 + 1.0 / snr**2
+    if not 1 <= len(frequencies) <= MAX_FREQUENCIES:
+        raise AccelcalError(f"give 1 to {MAX_FREQUENCIES} frequencies",
+                            parameter="frequencies")
     rows = []
     for given in frequencies:
         f = _check("frequencies", given, 0.0, fs / 6, "Hz")
         per_period = fs / f
+        _samples(k2 / target**2)
         periods = max(3, int(np.ceil(k2 / target**2 / per_period)))
         samples = round(periods * per_period)
         reached = float(np.sqrt(k2 / samples))

@@ -131,7 +131,11 @@ def reduce_laser(records, *, reference_frequency: float | None = None):
                                 "(1e-7 to 1e-4 m)", parameter="records")
         ell = fit_ellipse(rec.ref[sl], rec.quadrature[sl], where=where)
         ellipses.append(ell)
-        s = wavelength * phase(rec.ref[sl], rec.quadrature[sl], ell) / (4 * np.pi)
+        phi = phase(rec.ref[sl], rec.quadrature[sl], ell)
+        if np.ptp(phi) < 2 * np.pi:
+            raise AccelcalError(f"{where}: the phase spans {np.ptp(phi):.3g} rad, less than a "
+                                "fringe (2 pi): a larger displacement")
+        s = wavelength * phi / (4 * np.pi)
         gain, delay = _daq(rec.metadata)
         w = 2 * np.pi * f
         # a = -w^2 s at the fundamental (the harmonics are fitted beside, not used)
