@@ -21,9 +21,10 @@ import typer
 from accelcal.cli.common import check_format, check_writable, emit, parse_grid
 
 app = typer.Typer(
-    help="Frequency response of an accelerometer by comparison with a reference on a shaker "
-         "(ISO 16063-21): simulate stepped-sine records, reduce them to magnitude and phase, "
-         "fit the transfer function.",
+    help="Frequency response of an accelerometer: by comparison with a reference on a shaker "
+         "(ISO 16063-21, stepped sine or broadband), by laser interferometry (ISO 16063-11) "
+         "or by gravity on a rotating table (ISO 16063-16): simulate records, reduce them to "
+         "magnitude and phase, fit the transfer function, plan the test.",
     no_args_is_help=True,
 )
 
