@@ -16,7 +16,12 @@ phase (rad) for ``n_d`` averages [BP2010]_::
 
 so each point's ``[Re, Im]`` covariance is ``(e_r |S|)^2 I`` (magnitude and
 phase errors equal and uncorrelated: a circle), with ``2 n_d`` degrees of
-freedom. Bins below a coherence limit are flagged and left out (the rest
+freedom. Neighbouring bins share the window's spectral kernel: the errors
+of H1 at bins ``m`` apart correlate as ``|rho_m|^2``, ``rho_m`` the
+correlation of the windowed DFT of white noise at lag ``m`` (for Hann
+``4/9`` and ``1/36`` at lags 1 and 2), which the covariance states, so that
+a model fitted to the bins is not given more independent points than it has.
+Bins below a coherence limit are flagged and left out (the rest
 go on); none left is an error. H1 is unbiased by noise on the DUT's
 channel; noise on the reference's biases it low by ``G_nn / G_xx``, which
 the coherence does not show.
@@ -185,6 +190,7 @@ def reduce_broadband(source, reference=None, *, segment: int | None = None,
     values = s_ref * sp.h1[keep] / (gain * np.exp(-2j * np.pi * f * delay))
     sd = sp.random_error()[keep] * np.abs(values)
     blocks_cov = [np.eye(2) * s * s for s in sd]
+    bins = np.flatnonzero(keep)
     dof = int(np.floor(2 * sp.n_d))
     points = {"freqs": f, "amps": np.full(f.size, excitation.get("level_g", np.nan), float),
               "values": values, "blocks": blocks_cov, "dofs": [dof] * f.size,
@@ -206,6 +212,34 @@ def reduce_broadband(source, reference=None, *, segment: int | None = None,
         provenance={"segments": int(sp.segments), "samples": int(spectra.samples)})
     from dataclasses import replace
 
-    order = np.argsort(f, kind="stable")
-    return replace(red, observations={**red.observations, "coherence": coherence[keep][order],
-                                      "flagged_hz": flagged})
+    est = replace(red.estimate, covariance=_correlated(sd, bins, spectra.window))
+    return replace(red, sensors=(est,),
+                   observations={**red.observations, "coherence": coherence[keep],
+                                 "flagged_hz": flagged})
+
+
+def bin_correlation(window: np.ndarray, lags: int = 3) -> np.ndarray:
+    """``|rho_m|^2`` for ``m = 0 .. lags``: the correlation of H1's errors at bins ``m`` apart.
+
+    ``rho_m = sum w^2 exp(-2 pi i m n / N) / sum w^2``, the correlation of the
+    windowed DFT of white noise at bins ``m`` apart (both channels' errors
+    pass the same kernel, hence the square).
+    """
+    n = window.size
+    w2 = window**2
+    rho = [np.sum(w2 * np.exp(-2j * np.pi * m * np.arange(n) / n)) / np.sum(w2)
+           for m in range(lags + 1)]
+    return np.abs(np.asarray(rho)) ** 2
+
+
+def _correlated(sd: np.ndarray, bins: np.ndarray, window: np.ndarray) -> np.ndarray:
+    """The points' ``[Re, Im]`` covariance with the neighbouring bins' correlation."""
+    corr = bin_correlation(window)
+    m = sd.size
+    cov = np.zeros((2 * m, 2 * m))
+    lag = np.abs(bins[:, None] - bins[None, :])
+    rho = np.where(lag < corr.size, corr[np.minimum(lag, corr.size - 1)], 0.0)
+    cov_pts = rho * np.outer(sd, sd)
+    cov[0::2, 0::2] = cov_pts
+    cov[1::2, 1::2] = cov_pts
+    return cov

@@ -9,7 +9,9 @@ real pole and a pure delay::
 ``s = i 2 pi f``. :func:`fit_model` fits it to the complex points of a
 stepped-sine reduction by weighted complex least squares: the residuals
 ``model - data`` are stacked as ``[Re, Im]`` pairs, each pair whitened by
-the inverse Cholesky factor of the point's 2 x 2 covariance, and solved by
+the inverse Cholesky factor of the point's 2 x 2 covariance (of the whole
+covariance where the points are correlated, as neighbouring bins of a
+broadband response are), and solved by
 :func:`scipy.optimize.least_squares` (trust region, from the best of a
 grid of ``fn`` and ``zeta``). The covariance of the parameters is
 ``(J'J)^-1`` of the whitened Jacobian at the solution (the points' own
@@ -71,13 +73,40 @@ def evaluate(params, names, f) -> np.ndarray:
                     delay_s=p.get("delay", 0.0))
 
 
-def _whiteners(values, covariance) -> np.ndarray:
-    """Per point, the inverse Cholesky factor of its 2 x 2 covariance (with the floor)."""
-    from accelcal.polar import blocks
+class _Whitener:
+    """Whitening by the Cholesky factor of the points' ``[Re, Im]`` covariance (with the floor).
 
-    floor = (RELATIVE_FLOOR * np.abs(values)) ** 2
-    v = blocks(covariance) + floor[:, None, None] * np.eye(2)
-    return np.linalg.inv(np.linalg.cholesky(v))
+    Per point (2 x 2 blocks) where the points are independent; where they
+    are correlated (neighbouring bins of a broadband response) by the whole
+    covariance, held as a band (its Cholesky factor is as narrow).
+    """
+
+    def __init__(self, values, covariance) -> None:
+        from accelcal.polar import blocks
+
+        floor = (RELATIVE_FLOOR * np.abs(values)) ** 2
+        covariance = np.asarray(covariance, dtype=float) + np.kron(np.diag(floor), np.eye(2))
+        rows, cols = np.nonzero(covariance)
+        self.band = int(np.max(np.abs(rows - cols))) if rows.size else 0
+        if self.band <= 1 and not np.any(covariance[1::2, 2::2]):
+            self.blocks = np.linalg.inv(np.linalg.cholesky(blocks(covariance)))
+            return
+        from scipy.linalg import cholesky_banded
+
+        n, b = covariance.shape[0], self.band
+        lower = np.zeros((b + 1, n))
+        for k in range(b + 1):
+            lower[k, :n - k] = np.diagonal(covariance, -k)
+        self.blocks = None
+        self.factor = cholesky_banded(lower, lower=True)
+
+    def __call__(self, pairs: np.ndarray) -> np.ndarray:
+        """The whitened residuals of ``pairs`` (shape ``(m, 2)``), flattened."""
+        if self.blocks is not None:
+            return np.einsum("kij,kj->ki", self.blocks, pairs).ravel()
+        from scipy.linalg import solve_banded
+
+        return solve_banded((self.band, 0), self.factor, pairs.ravel())
 
 
 def _start(f, data, w, names) -> np.ndarray:
@@ -96,7 +125,7 @@ def _start(f, data, w, names) -> np.ndarray:
 
 def _residuals(x, names, f, data, w) -> np.ndarray:
     d = evaluate(x, names, f) - data
-    return np.einsum("kij,kj->ki", w, np.stack([d.real, d.imag], axis=1)).ravel()
+    return w(np.stack([d.real, d.imag], axis=1))
 
 
 def fit_model(reduction, model: str = "second-order") -> Reduction:
@@ -142,7 +171,7 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
     if 2 * f.size <= len(names):
         raise AccelcalError(f"{f.size} frequencies give {2 * f.size} real data, too few for "
                             f"the {len(names)} parameters of {model}", parameter="model")
-    w = _whiteners(data, est.covariance)
+    w = _Whitener(data, est.covariance)
     x0 = _start(f, data, w, names)
     lower = [-np.inf, 0.0, 0.0] + [0.0] * ("pole" in names) + [-np.inf] * ("delay" in names)
     scale = np.abs(x0) + np.array([0, 0, 0] + [0] * ("pole" in names) +
