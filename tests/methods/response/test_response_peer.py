@@ -32,7 +32,7 @@ def _peer(red, mc_runs=2000):
         for a in range(2):
             for b in range(2):
                 cov[a * n + i, b * n + i] = blocks[2 * i + a, 2 * i + b]
-    np.random.seed(1)  # fit_som draws from numpy's global generator
+    np.random.seed(1)  # noqa: NPY002 (fit_som draws from numpy's global generator)
     pars, u_pars = fit_transfer.fit_som(f, np.r_[h.real, h.imag], UH=cov, weighting="cov",
                                         MCruns=mc_runs)
     return pars, np.sqrt(np.diag(u_pars))  # S0, delta (zeta), f0
