@@ -41,6 +41,10 @@ METHOD = "response/model-fit"
 TERMS = ("pole", "delay")
 """Optional terms of the model beside ``second-order``."""
 
+BANDWIDTH = "f_3dB"
+"""The derived coefficient a fit's estimate carries after its parameters: the -3 dB
+bandwidth, Hz (its records, and so the store's history, hold it)."""
+
 RELATIVE_FLOOR = 1e-12
 """Floor of each point's standard uncertainty, relative to its magnitude: the rounding of
 a noise-free record, so that its points (of zero stated variance) can still be weighted."""
@@ -144,7 +148,9 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
     accelcal.results.Reduction
         Family ``response``, method ``response/model-fit``: ``S0`` (output unit
         per g), ``fn`` (Hz), ``zeta``, and ``pole`` (Hz), ``delay`` (s) where
-        asked, with covariance; ``dof`` is ``2 m - p``; the assumption
+        asked, then ``f_3dB`` (Hz, the -3 dB bandwidth the parameters give,
+        where it is below 100 fn), with their joint covariance (the
+        bandwidth's to first order); ``dof`` is ``2 m - p``; the assumption
         ``chi2`` gives the fit's chi-square and ``birge_ratio`` its square root
         per degree of freedom; observations ``frequency_hz`` and the points.
 
@@ -188,8 +194,9 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
     dof = 2 * f.size - len(names)
     chi2 = float(2.0 * sol.cost)
     unit = next(iter(est.units.values()))
-    units = {"S0": unit, "fn": "Hz", "zeta": "1", "pole": "Hz", "delay": "s"}
-    fitted = Estimate(names, sol.x, covariance, {n: units[n] for n in names}, METHOD, dof=dof,
+    units = {"S0": unit, "fn": "Hz", "zeta": "1", "pole": "Hz", "delay": "s", BANDWIDTH: "Hz"}
+    values, covariance, names = _with_bandwidth(sol.x, covariance, names)
+    fitted = Estimate(names, values, covariance, {n: units[n] for n in names}, METHOD, dof=dof,
                       residuals=sol.fun)
     return Reduction(
         family=reduction.family, method=METHOD, sensors=(fitted,), sensor_names=("dut",),
@@ -206,6 +213,24 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
         notes=(("Weighted complex least squares of the transfer function; covariance from "
                 "the points' own (not rescaled by the chi-square)."),),
     )
+
+
+def _with_bandwidth(x, covariance, names):
+    """The parameters and the -3 dB bandwidth after them, with their joint covariance.
+
+    The bandwidth where the band reaches it, its covariance to first order:
+    records, and so the store's history, then carry it.
+    """
+    f_hi = 100.0 * x[names.index("fn")]
+    value = _bandwidth(x, names, f_hi)
+    if not np.isfinite(value):
+        return x, covariance, names
+    grad = _gradient(lambda p: _bandwidth(p, names, f_hi), x, names)
+    cov = np.zeros((x.size + 1, x.size + 1))
+    cov[:-1, :-1] = covariance
+    cov[:-1, -1] = cov[-1, :-1] = covariance @ grad
+    cov[-1, -1] = max(float(grad @ covariance @ grad), 0.0)
+    return np.append(x, value), cov, (*names, BANDWIDTH)
 
 
 def _gradient(func, x, names) -> np.ndarray:
@@ -273,7 +298,9 @@ def derived(fit: Reduction, phase_at=()) -> list[dict]:
         raise AccelcalError(f"frequencies must be above 0 and up to 1e9 Hz, got {bad[0]!r}",
                             parameter="phase_at")
     est = fit.estimate
-    names, x, cov = est.names, np.asarray(est.values, float), est.covariance
+    keep = [k for k, n in enumerate(est.names) if n != BANDWIDTH]
+    names = tuple(est.names[k] for k in keep)
+    x, cov = np.asarray(est.values, float)[keep], est.covariance[np.ix_(keep, keep)]
     f_hi = 100.0 * x[names.index("fn")]
     quantities = [("f_3dB", "Hz", lambda p: _bandwidth(p, names, f_hi)),
                   ("f_peak", "Hz", lambda p: _peak(p, names, f_hi)[0]),
@@ -296,5 +323,5 @@ def fit_rows(fit: Reduction, phase_at=()) -> list[dict]:
     """What ``accelcal response fit`` prints: the parameters, then :func:`derived`."""
     est = fit.estimate
     rows = [{"coefficient": n, "estimate": float(v), "std": float(s), "unit": est.units[n]}
-            for n, v, s in zip(est.names, est.values, est.std, strict=True)]
+            for n, v, s in zip(est.names, est.values, est.std, strict=True) if n != BANDWIDTH]
     return rows + derived(fit, phase_at)
