@@ -233,7 +233,8 @@ METHODS: tuple[Method, ...] = (
                   "plan the test."),
         verbs=("simulate", "reduce", "plan"),
         report="accelcal.methods.response.report_text", docs="docs/response.md",
-        paper="ISO16063-21"),
+        paper="ISO16063-21", demo="accelcal.methods.response.demo", demo_order=8,
+        demo_sensors="one", demo_test="shaker frequency response"),
 )
 """Every test method, in the order ``accelcal --help`` lists their groups."""
 

@@ -24,7 +24,11 @@ The stages, each in its method's package:
    1 g tumble of the same sensor (K2, K3, K4, cross-coupling, radius error);
 7. triad (:mod:`accelcal.methods.triad.demo`, Tedaldi2014): a three-axis
    housing on 18 static positions, bias, scale factor and non-orthogonality
-   by the known-orientation and the gravity-norm routes.
+   by the known-orientation and the gravity-norm routes;
+8. shaker frequency response (:mod:`accelcal.methods.response.demo`, ISO
+   16063-21): a stepped-sine comparison with a reference, 10 Hz to 1.25
+   kHz, and the second-order fit (|S(80 Hz)| and the bandwidth in the
+   store's history).
 
 Every run is stamped with the current time (microseconds), which goes into
 the files' ``date`` and so into the records: running the demo twice adds

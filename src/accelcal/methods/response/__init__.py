@@ -49,7 +49,7 @@ from accelcal.methods.response.primary import GRAVITY, LASER, reduce_gravity, re
 from accelcal.methods.response.stepped import FAMILY, METHOD, reduce_stepped, response_rows
 
 __all__ = ["ERRATA", "FAMILY", "METHOD", "METHODS", "derived", "figures", "fit_model",
-           "fit_rows", "plan", "read_reference", "reduce", "reduce_broadband",
+           "fit_rows", "from_inputs", "plan", "read_reference", "reduce", "reduce_broadband",
            "reduce_gravity", "reduce_laser", "reduce_stepped", "report_text", "response_rows",
            "simulate"]
 
@@ -94,6 +94,19 @@ def report_text(reduction) -> ReportText:
     title = _TITLES.get(reduction.method, "model fit")
     return ReportText(title=f"frequency response ({title})", summary=summary,
                       sensor_summary=sensor)
+
+
+def from_inputs(files, record):
+    """Candidate reductions of a record's input files (:mod:`accelcal.methods`)."""
+    from accelcal.methods.response.demo import MODEL
+    from accelcal.methods.response.model import METHOD as FIT
+
+    if record.method == FIT:
+        return [(fit_model(reduce(files[0]), MODEL), {})]
+    if record.method in _TITLES:
+        red = reduce(files[0])
+        return [(red, {"fit": fit_model(red, MODEL)})]
+    return []
 
 
 def read_reference(path):
