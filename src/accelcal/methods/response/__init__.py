@@ -98,14 +98,13 @@ def report_text(reduction) -> ReportText:
 
 def from_inputs(files, record):
     """Candidate reductions of a record's input files (:mod:`accelcal.methods`)."""
-    from accelcal.methods.response.demo import MODEL
     from accelcal.methods.response.model import METHOD as FIT
 
     if record.method == FIT:
-        return [(fit_model(reduce(files[0]), MODEL), {})]
+        return [(fit_model(reduce(files[0])), {})]
     if record.method in _TITLES:
         red = reduce(files[0])
-        return [(red, {"fit": fit_model(red, MODEL)})]
+        return [(red, {"fit": fit_model(red)})]
     return []
 
 

@@ -18,9 +18,6 @@ References
 from functools import partial
 from pathlib import Path
 
-MODEL = "second-order"
-"""The transfer function the demo fits."""
-
 
 def stage(serial: str, lab):
     """The campaign stage: ``lab(date, serial)`` gives the file's laboratory metadata."""
@@ -51,6 +48,6 @@ def _reduce(path: Path) -> list:
 
     info = lab_info([path])
     red = reduce(path)
-    fit = fit_model(red, MODEL)
+    fit = fit_model(red)  # second order
     return [Outcome(red, red.to_records(info, input_files=[path]), "response", {"fit": fit}),
             Outcome(fit, fit.to_records(info, input_files=[path]), "response-fit")]
