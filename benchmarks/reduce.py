@@ -21,6 +21,10 @@ Sections:
 - ``records``: a record of 1e6 rows x 4 columns written and read as CSV and
   Parquet by :mod:`accelcal.io.records`, against pyarrow writing and reading
   the same table (and the former ``np.savetxt`` writer).
+- ``response``: a stepped-sine comparison of 20 steps (10 Hz to 1.25 kHz),
+  two channels at 10 kHz, 2 s per step (4e5 samples per channel), reduced
+  in memory (:func:`~accelcal.methods.response.reduce_stepped`) against one
+  read of its samples from its record file (Parquet, the floor; CSV beside).
 - ``figures``: a log-log spectrum of 32768 points drawn to SVG whole and
   decimated to 1/32 (whether the points cost anything).
 - ``demo``: ``accelcal demo`` wall time (in-process in a subprocess) and the
@@ -282,6 +286,35 @@ print(json.dumps({"wall": time.perf_counter() - start, "run": r.seconds,
 """
 
 
+def bench_response(report: common.Report, repeats: int, **_) -> None:
+    from accelcal.io.formats.response import ResponseRecord, read, write
+    from accelcal.methods.response import reduce_stepped
+    from accelcal.rigs.shaker_response import simulate
+
+    freqs = np.round(np.geomspace(10.0, 1250.0, 20), 1)
+    parts = [simulate(frequencies=(f,), periods=round(2 * f), sample_rate=10000.0, seed=k)
+             for k, f in enumerate(freqs)]
+    cols = {c: np.concatenate([getattr(p, c) + (k if c == "step" else 0)
+                               for k, p in enumerate(parts)])
+            for c in ("step", "frequency", "t", "ref", "dut")}
+    rec = ResponseRecord(**cols, sample_rate_hz=10000.0,
+                         metadata={**parts[0].metadata, "amplitudes_g": [1.0] * len(freqs)})
+    with tempfile.TemporaryDirectory() as tmp:
+        write(Path(tmp) / "r.parquet", rec)
+        write(Path(tmp) / "r.csv", rec)
+        reduce_stepped(rec)
+        detail: dict = {}
+        runs = common.interleaved({
+            "read its record (Parquet, floor)": lambda: read(Path(tmp) / "r.parquet"),
+            "read its record (CSV)": lambda: read(Path(tmp) / "r.csv"),
+            "reduce_stepped (in memory)": lambda: reduce_stepped(rec),
+        }, repeats, detail=detail)
+    report.add(common.markdown(common.figures(runs, detail,
+                                              floor="read its record (Parquet, floor)"),
+                               f"Stepped-sine comparison, 20 steps x 2 s, two channels at 10 "
+                               f"kHz ({rec.ref.size} samples each)", "one read"))
+
+
 def bench_demo(report: common.Report, repeats: int, pythonpath=None, **_) -> None:
     out = []
 
@@ -313,7 +346,8 @@ def bench_help(report: common.Report, repeats: int, pythonpath=None, **_) -> Non
 
 
 SECTIONS = {"sinefit": bench_sinefit, "vre": bench_vre, "records": bench_records,
-            "figures": bench_figures, "demo": bench_demo, "help": bench_help}
+            "response": bench_response, "figures": bench_figures, "demo": bench_demo,
+            "help": bench_help}
 
 
 def main() -> None:

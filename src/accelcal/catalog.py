@@ -247,12 +247,15 @@ METHODS: tuple[Method, ...] = (
         name="response", family="response", title="frequency response",
         package=_m("response"), kinds=("response",), formats=("accelcal.io.formats.response",),
         rig="accelcal.rigs.shaker_response", cli="accelcal.cli.response",
-        cli_help=("Frequency response of an accelerometer by comparison with a reference on a "
-                  "shaker (ISO 16063-21): simulate stepped-sine records, reduce them to "
-                  "magnitude and phase, fit the transfer function."),
-        verbs=("simulate", "reduce"),
+        cli_help=("Frequency response of an accelerometer: by comparison with a reference on a "
+                  "shaker (ISO 16063-21, stepped sine or broadband), by laser interferometry "
+                  "(ISO 16063-11) or by gravity on a rotating table (ISO 16063-16): simulate "
+                  "records, reduce them to magnitude and phase, fit the transfer function, "
+                  "plan the test."),
+        verbs=("simulate", "reduce", "plan"),
         report="accelcal.methods.response.report_text", docs="docs/response.md",
-        paper="ISO16063-21",
+        paper="ISO16063-21", demo="accelcal.methods.response.demo", demo_order=9,
+        demo_sensors="one", demo_test="shaker frequency response",
         budget_inputs=("reference_sensitivity", "reference_phase", "frequency", "daq_gain",
                        "daq_linearity")),
 )

@@ -24,10 +24,14 @@ The stages, each in its method's package:
    1 g tumble of the same sensor (K2, K3, K4, cross-coupling, radius error);
 7. triad (:mod:`accelcal.methods.triad.demo`, Tedaldi2014): a three-axis
    housing on 18 static positions, bias, scale factor and non-orthogonality
-   by the known-orientation and the gravity-norm routes.
+   by the known-orientation and the gravity-norm routes;
 8. acceptance tests (:mod:`accelcal.methods.acceptance.demo`, IEEE 1293):
    the threshold on the indexing head, the input range on a centrifuge
-   (saturation, clipping, the bias after the overload) and eight turn-ons.
+   (saturation, clipping, the bias after the overload) and eight turn-ons;
+9. shaker frequency response (:mod:`accelcal.methods.response.demo`, ISO
+   16063-21): a stepped-sine comparison with a reference, 10 Hz to 1.25
+   kHz, and the second-order fit (|S(80 Hz)| and the bandwidth in the
+   store's history).
 
 After the campaign, :func:`certify` writes the demo's lab file (a copy of
 examples/lab.toml kept in the package), the uncertainty budget of one

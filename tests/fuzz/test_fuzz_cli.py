@@ -99,6 +99,7 @@ BASE: dict[str, list[str]] = {
     "response simulate": ["--out", "{out}/r.csv", "--frequencies", "20,80,315"],
     "response reduce": ["{response}"],
     "response fit": ["{response}"],
+    "response plan": [],
     "thermal simulate": ["--out", "{out}/th.csv", "--points", "8", "--dwell", "20", "--warmup",
                          "0", "--setpoints", "-20,10,40,25,-5"],
     "thermal reduce": ["{examples}/thermal.csv"],

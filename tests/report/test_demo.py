@@ -25,8 +25,9 @@ def test_demo_writes_everything_and_runs_twice(tmp_path):
     assert first.report.is_file()
     assert first.report.stat().st_size > 100_000
     # 4 head, shaker, vibrafuge, noise, thermal, centrifuge; the triad by two routes;
-    # the acceptance tests' threshold, input range and turn-ons
-    assert len(first.records) == 14
+    # the acceptance tests' threshold, input range and turn-ons; the frequency response
+    # and its fit
+    assert len(first.records) == 16
     assert all(p.is_file() for p in first.records)
     assert all(p.exists() for p in first.data)
     assert len(list((tmp_path / "demo" / "data" / "shaker").glob("*.csv"))) == 12
@@ -38,7 +39,8 @@ def test_demo_writes_everything_and_runs_twice(tmp_path):
                                            "noise/ieee952-fit", "thermal/wls", "centrifuge/joint",
                                            "triad/known-orientations", "triad/gravity-norm",
                                            "acceptance/threshold", "acceptance/range",
-                                           "acceptance/turn-on"}
+                                           "acceptance/turn-on", "response/comparison",
+                                           "response/model-fit"}
     _new_stages_recover_their_truth(first, records)
     # Reduced coefficients agree with the truth within 5 standard uncertainties.
     # The truth, by an independent route: the same reduction of noise-free
@@ -59,12 +61,16 @@ def test_demo_writes_everything_and_runs_twice(tmp_path):
                                      5 * head[serial].std + 1e-9, err_msg=serial)
     assert head["ACC-0002"].estimates[1] == pytest.approx(DONG2014_TABLE1[1]["K_I"], abs=5e-6)
     with Store(str(db)) as store:
-        assert len(store.calibrations()) == 14
+        assert len(store.calibrations()) == 16
     # Twice: a new date, so new and distinct records, no duplicate error.
     second = run(tmp_path / "demo", db=str(db), seed=3, progress=False)
     with Store(str(db)) as store:
-        assert len(store.calibrations()) == 28
-        assert len(store.calibrations("ACC-0001")) == 18
+        assert len(store.calibrations()) == 32
+        assert len(store.calibrations("ACC-0001")) == 22
+        history = store.history("ACC-0001", "response/model-fit")
+        assert len([r for r in history if r["name"] == "f_3dB"]) == 2  # the bandwidth's
+        history = store.history("ACC-0001", "response/comparison")
+        assert len([r for r in history if r["name"] == "S(80 Hz)"]) == 2
     assert second.record_ids != first.record_ids
     html = second.report.read_text(encoding="utf-8")
     assert "calibration history by dividing-head/joint" in html
@@ -102,10 +108,11 @@ def _within(record, name: str, truth: float) -> None:
 
 def _new_stages_recover_their_truth(result, records):
     """The still recording's N and K, the thermal test's first-order temperature
-    coefficients, the centrifuge's K2 and K3 and the triad's nine parameters agree with
+    coefficients, the centrifuge's K2 and K3, the triad's nine parameters and the frequency
+    response's S0, fn and zeta agree with
     the truth the simulators wrote into the data files (:func:`_within`)."""
     from accelcal.io.formats import acceptance as steps_format
-    from accelcal.io.formats import centrifuge, noise, thermal, triad
+    from accelcal.io.formats import centrifuge, noise, response, thermal, triad
 
     still = next(p for p in result.data if p.name.startswith("still"))
     truth = noise.read(still).metadata["true"]
@@ -122,6 +129,10 @@ def _new_stages_recover_their_truth(result, records):
     (spun,) = [r for r in records if r.method == "centrifuge/joint"]
     for name in ("K2", "K3"):
         _within(spun, name, true_model[name])
+    shaken = response.read(next(p for p in result.data if p.name.startswith("response")))
+    (fitted,) = [r for r in records if r.method == "response/model-fit"]
+    for name, key in (("S0", "S0"), ("fn", "fn_hz"), ("zeta", "zeta")):
+        _within(fitted, name, shaken.metadata["true"][key])
     cal = triad.read(next(p for p in result.data if p.name.startswith("triad")))
     params = cal.metadata["true_calibration"]["parameters"]
     for rec in (r for r in records if r.method.startswith("triad/")):
@@ -154,7 +165,7 @@ def test_demo_report_renders_in_headless_chromium(tmp_path, chromium):
     assert pixels.std() > 20
     # What a reader must find: coefficient tables with uncertainties, figures.
     html = result.report.read_text(encoding="utf-8")
-    assert len(re.findall(r"<table class=\"coef\">", html)) == 14
+    assert len(re.findall(r"<table class=\"coef\">", html)) == 16
     assert "Expanded (k = 2)" in html
     assert "± " in html
     assert "Corrections to the published method" in html
@@ -187,4 +198,4 @@ def test_demo_command_prints_where_everything_is_and_never_touches_the_users_sto
     (store_line,) = [line for line in out.out.splitlines() if line.startswith("store:")]
     assert str(own) in store_line
     with Store(str(own)) as store:
-        assert len(store.calibrations()) == 14
+        assert len(store.calibrations()) == 16

@@ -147,7 +147,9 @@ def test_triad_calibration_file_gets_its_section(campaign, capsys, tmp_path):
     assert values["b_y"] == -245.0
     assert values["a_zy"] == -2e-3
     out = tmp_path / "r.html"
-    triad = next(p for p in campaign.records if p.name.startswith("IMU-0001"))
+    from accelcal.io.calibration_record import CalibrationRecord
+
+    triad = next(p for p in campaign.records if CalibrationRecord.load(p).serial == "IMU-0001")
     code, _, err = run_cli(["report", path, triad, "--out", out], capsys)
     assert code == 0, err
     html = out.read_text(encoding="utf-8")

@@ -1,13 +1,17 @@
-"""``accelcal response``: frequency response by stepped-sine comparison, and its model.
+"""``accelcal response``: frequency response by comparison, laser or gravity, and its model.
 
-``simulate`` writes a stepped-sine record (its reference's certificate, the
-DAQ's channel mismatch and the DUT's true transfer function in its
-metadata); ``reduce`` gives magnitude and phase per step with their
-standard uncertainties and the deviation from the reference frequency;
-``fit`` fits the transfer function and gives its parameters, the -3 dB
-bandwidth, the resonance and the phase at stated frequencies. A step with
-too few periods, a frequency not found in the data or a reference table
-that does not cover the band exit with status 2 and one line.
+``simulate`` writes a record (stepped sine, random or swept excitation, a
+laser interferometer's signals or a rotation in gravity; its reference's
+certificate, the DAQ's channel mismatch and the DUT's true transfer
+function in its metadata); ``reduce`` gives magnitude and phase per step
+or bin with their standard uncertainties and the deviation from the
+reference frequency (``--method stepped|broadband|laser|gravity``, by
+default the record's own); ``fit`` fits the transfer function and gives its
+parameters, the -3 dB bandwidth, the resonance and the phase at stated
+frequencies; ``plan`` gives the periods or averages a stated uncertainty
+needs. A step with too few periods, a frequency not found in the data, a
+reference table that does not cover the band or no bin of enough
+coherence exit with status 2 and one line.
 """
 
 from pathlib import Path
@@ -17,9 +21,10 @@ import typer
 from accelcal.cli.common import check_format, check_writable, emit, parse_grid
 
 app = typer.Typer(
-    help="Frequency response of an accelerometer by comparison with a reference on a shaker "
-         "(ISO 16063-21): simulate stepped-sine records, reduce them to magnitude and phase, "
-         "fit the transfer function.",
+    help="Frequency response of an accelerometer: by comparison with a reference on a shaker "
+         "(ISO 16063-21, stepped sine or broadband), by laser interferometry (ISO 16063-11) "
+         "or by gravity on a rotating table (ISO 16063-16): simulate records, reduce them to "
+         "magnitude and phase, fit the transfer function, plan the test.",
     no_args_is_help=True,
 )
 
@@ -35,12 +40,17 @@ _PLOT = typer.Option(None, "--plot", help="Directory for the Bode figure.")
 def simulate(
     *,
     out: Path = typer.Option(..., "--out", help="Response record to write (CSV or .parquet)."),
-    frequencies: str = typer.Option(
-        "10,20,40,80,160,315,500,630,800,1000,1250", "--frequencies",
-        help="Step frequencies, Hz (list or range start:stop:step)."),
+    frequencies: str | None = typer.Option(
+        None, "--frequencies",
+        help="Step frequencies, Hz (list or range start:stop:step); default "
+             "10,20,40,80,160,315,500,630,800,1000,1250 (laser: 100,200,400,800,1600; "
+             "gravity, the rotation rates: 0.25,0.5,1,2,4)."),
     amplitude: float = typer.Option(1.0, "--amplitude", help="Acceleration amplitude, g."),
-    sample_rate: float = typer.Option(20000.0, "--sample-rate", help="Sample rate, Hz."),
-    periods: int = typer.Option(20, "--periods", help="Whole periods recorded per step."),
+    sample_rate: float | None = typer.Option(
+        None, "--sample-rate", help="Sample rate, Hz (default 20000; random and swept 10000, "
+                                    "laser 1e6, gravity 1000)."),
+    periods: int | None = typer.Option(None, "--periods", help="Whole periods recorded per "
+                                                               "step (default 20; gravity 4)."),
     s0: float = typer.Option(1.3, "--s0", help="DUT static sensitivity, output unit per g."),
     fn: float = typer.Option(600.0, "--fn", help="DUT natural frequency, Hz."),
     zeta: float = typer.Option(0.6, "--zeta", help="DUT damping ratio."),
@@ -56,10 +66,24 @@ def simulate(
                                                       "(0: an exact record)."),
     unit: str = typer.Option("V", "--unit", help="DUT output unit: V, mV or mA."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the random generator."),
+    excitation: str = typer.Option(
+        "stepped", "--excitation",
+        help="stepped, random or swept (broadband: --band, --duration, --amplitude the "
+             "level in g), laser (ISO 16063-11: --displacement; --frequencies, --periods) or "
+             "gravity (ISO 16063-16: --frequencies the rotation rates). Options of another "
+             "excitation without a default are refused; --amplitude, --gain-ratio, --daq-delay and "
+        "--distortion serve the comparisons and the laser (--amplitude: not the laser)."),
+    band: str | None = typer.Option(None, "--band", help="Broadband: lo,hi, Hz (default "
+                                                         "5,2000)."),
+    duration: float | None = typer.Option(None, "--duration",
+                                          help="Broadband: record length, s (default 20)."),
+    displacement: float | None = typer.Option(
+        None, "--displacement", help="Laser: displacement amplitude, m (default 2e-6)."),
 ) -> None:
-    """Write a simulated stepped-sine comparison (the truth in its metadata)."""
+    """Write a simulated frequency-response record (the truth in its metadata)."""
     from accelcal.errors import AccelcalError
     from accelcal.io.formats import response as response_format
+    from accelcal.rigs import response_routes as routes
     from accelcal.rigs.shaker_response import DutResponse, ResponseRig
 
     check_writable(out)
@@ -67,19 +91,46 @@ def simulate(
     if len(dist) != 2:
         raise AccelcalError("--distortion: give two fractions, d2,d3")
     dut = DutResponse(S0=s0, fn_hz=fn, zeta=zeta, pole_hz=pole, delay_s=delay)
-    rig = ResponseRig(frequencies=tuple(parse_grid(frequencies, "--frequencies")),
-                      amplitudes=(amplitude,), sample_rate=sample_rate, periods=periods,
-                      gain_ratio=gain_ratio, delay_s=daq_delay, distortion=tuple(dist),
-                      noise=noise)
+    own = {"--band": (band, ("random", "swept")), "--duration": (duration, ("random", "swept")),
+           "--displacement": (displacement, ("laser",)),
+           "--frequencies": (frequencies, ("stepped", "laser", "gravity")),
+           "--periods": (periods, ("stepped", "laser", "gravity"))}
+    for option, (value, kinds) in own.items():
+        if value is not None and excitation not in kinds:
+            raise AccelcalError(f"{option} does not apply to --excitation {excitation}")
+    given = {k: v for k, v in (("sample_rate", sample_rate), ("periods", periods)) if v is not None}
+    if frequencies is not None:
+        given["frequencies"] = tuple(parse_grid(frequencies, "--frequencies"))
+    if excitation == "stepped":
+        rig = ResponseRig(**given, amplitudes=(amplitude,), gain_ratio=gain_ratio,
+                          delay_s=daq_delay, distortion=tuple(dist), noise=noise)
+    elif excitation in ("random", "swept"):
+        if band is not None:
+            given["band_hz"] = tuple(parse_grid(band, "--band"))
+        if duration is not None:
+            given["duration_s"] = duration
+        rig = routes.BroadbandRig(**given, kind=excitation, level_g=amplitude,
+                                  gain_ratio=gain_ratio,
+                                  delay_s=daq_delay, noise=noise)
+    elif excitation == "laser":
+        if displacement is not None:
+            given["displacement_m"] = displacement
+        rig = routes.LaserRig(**given, gain_ratio=gain_ratio,
+                              delay_s=daq_delay, distortion=tuple(dist), noise=noise)
+    elif excitation == "gravity":
+        rig = routes.GravityRig(**given, noise=noise)
+    else:
+        raise AccelcalError(f"--excitation {excitation!r} is not one of stepped, random, "
+                            "swept, laser, gravity")
     response_format.write(out, rig.simulate(dut, seed=seed, unit=unit))
     typer.echo(f"wrote {out}")
 
 
-def _reduced(files, reference, reference_frequency):
+def _reduced(files, reference, reference_frequency, **options):
     from accelcal.methods.response import reduce as reduce_response
 
     return reduce_response([Path(f) for f in files], reference=reference,
-                           reference_frequency=reference_frequency)
+                           reference_frequency=reference_frequency, **options)
 
 
 def _plot(reduction, plot: Path | None, **context) -> None:
@@ -102,21 +153,52 @@ def reduce(
     reference: Path | None = _REFERENCE,
     reference_frequency: float | None = typer.Option(
         None, "--reference-frequency",
-        help="Frequency of the deviations, Hz: the step nearest it (default 80 Hz)."),
+        help="Frequency of the deviations, Hz: the step nearest it (default 80 Hz; gravity: "
+             "the lowest rate)."),
+    method: str | None = typer.Option(
+        None, "--method",
+        help="stepped (comparison, ISO 16063-21), broadband (random or swept: H1 and "
+             "coherence, the file streamed), laser (ISO 16063-11 method 3) or gravity (ISO "
+             "16063-16); default: the record's excitation."),
+    segment: int | None = typer.Option(
+        None, "--segment", help="Broadband: samples per Welch segment (default: bins no "
+                                "wider than the band's low edge)."),
+    min_coherence: float | None = typer.Option(
+        None, "--min-coherence", help="Broadband: bins of lower coherence are left out "
+                                      "(default 0.9)."),
+    static_scale_factor: str | None = typer.Option(
+        None, "--static-scale-factor",
+        help="Gravity: the static scale factor and its standard uncertainty (value,u, "
+             "output unit per g, e.g. a tumble's K1) to tie the lowest rate to."),
     fmt: str = _FORMAT,
     plot: Path | None = _PLOT,
 ) -> None:
-    """Magnitude and phase of the DUT's sensitivity at each step, with standard uncertainties.
+    """Magnitude and phase of the DUT's sensitivity per step or bin, with uncertainties.
 
     The CSV header is frequency_hz,magnitude,magnitude_u,phase_deg,phase_u,unit,
     deviation_pct,deviation_pct_u,deviation_db (magnitude in the output unit per g).
     """
+    from accelcal.errors import AccelcalError
     from accelcal.methods.response import response_rows
 
     check_format(fmt)
-    red = _reduced(files, reference, reference_frequency)
+    tie = None
+    if static_scale_factor is not None:
+        tie = parse_grid(static_scale_factor, "--static-scale-factor")
+        if len(tie) != 2:
+            raise AccelcalError("--static-scale-factor: give value,u")
+    red = _reduced(files, reference, reference_frequency, method=method, segment=segment,
+                   min_coherence=min_coherence, static_scale_factor=tie)
     _plot(red, plot)
-    emit(response_rows(red), fmt, title=f"frequency response ({len(files)} record(s))")
+    title = f"frequency response, {red.method} ({len(files)} record(s))"
+    if any(a.name == "static_tie" for a in red.assumptions):
+        dev, u, f_low = red.assumed("static_tie")
+        title += (f"; |S({f_low:g} Hz)| / static scale factor - 1 = {1e6 * dev:.3g} ± "
+                  f"{1e6 * u:.2g} ppm")
+    flagged = red.observations.get("flagged_hz")
+    if flagged is not None and len(flagged):
+        title += f"; {len(flagged)} bin(s) below the coherence limit left out"
+    emit(response_rows(red), fmt, title=title)
 
 
 @app.command("fit")
@@ -145,3 +227,37 @@ def fit(
     result = fit_model(_reduced([file], reference, None), model)
     _plot(result, plot)
     emit(fit_rows(result, at), fmt, title=f"{model} fit of {file.name}")
+
+
+@app.command("plan")
+def plan(
+    *,
+    route: str = typer.Option("stepped", "--method", help="stepped or broadband."),
+    snr: float = typer.Option(40.0, "--snr", help="The DUT channel's RMS signal-to-noise "
+                                                  "ratio, dB (broadband: in a bin)."),
+    ref_snr: float | None = typer.Option(None, "--ref-snr",
+                                         help="Stepped: the reference channel's, dB "
+                                              "(default: the DUT's)."),
+    magnitude_u: float = typer.Option(0.1, "--magnitude-u",
+                                      help="Target standard uncertainty of the magnitude, %."),
+    phase_u: float = typer.Option(0.1, "--phase-u",
+                                  help="Target standard uncertainty of the phase, deg."),
+    frequencies: str = typer.Option("80", "--frequencies", help="Stepped: step frequencies, "
+                                                                 "Hz (list or range)."),
+    sample_rate: float = typer.Option(10000.0, "--sample-rate", help="Sample rate, Hz."),
+    resolution: float = typer.Option(5.0, "--resolution", help="Broadband: bin width, Hz."),
+    fmt: str = _FORMAT,
+) -> None:
+    """Periods (stepped) or Welch averages (broadband) that reach a stated uncertainty.
+
+    Rows route,frequency_hz (the step's; broadband: the bin width),segment,averages
+    (periods or segments),n_d,samples,record_s,magnitude_u_pct,phase_u_deg (reached).
+    """
+    from accelcal.methods.response import plan as plan_response
+
+    check_format(fmt)
+    rows = plan_response(route=route, snr_db=snr, ref_snr_db=ref_snr,
+                         magnitude_u_pct=magnitude_u, phase_u_deg=phase_u,
+                         frequencies=parse_grid(frequencies, "--frequencies"),
+                         sample_rate=sample_rate, resolution_hz=resolution)
+    emit(rows, fmt, title=f"frequency-response plan ({route}, SNR {snr:g} dB)")

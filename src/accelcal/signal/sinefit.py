@@ -230,7 +230,9 @@ class HarmonicFit:
         noise-free records (noise below ~1e-5 of the signal) pay the extra
         passes.
         """
-        yy = (y[..., None, :] @ y[..., :, None])[..., 0, 0]
+        # einsum, not a batched matmul: BLAS would thread a (1 x n)(n x 1) product, and
+        # on a busy machine its threads cost 50x the pass itself (a 20-step campaign)
+        yy = np.einsum("...n,...n->...", y, y)
         rss = yy - np.einsum("...i,ij,...j->...", x, self.gram, x)
         close = rss <= 1e3 * np.sqrt(self.samples) * np.finfo(float).eps * yy
         if np.any(close):

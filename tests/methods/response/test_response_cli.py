@@ -104,3 +104,61 @@ def test_frequency_not_in_the_data_is_refused(record, tmp_path, capsys):
 def test_bad_options_one_line(record, tmp_path, capsys, args, words):
     args = [a.format(rec=record, tmp=tmp_path) for a in args]
     refused(["response", *args], capsys, *words)
+
+
+@pytest.mark.parametrize(("excitation", "method", "extra"), [
+    ("random", "response/broadband", ["--duration", "2", "--sample-rate", "5000"]),
+    ("laser", "response/laser", ["--frequencies", "400,1600", "--periods", "5"]),
+    ("gravity", "response/gravity", ["--frequencies", "0.5,2"])])
+def test_simulate_and_reduce_each_route(tmp_path, capsys, excitation, method, extra):
+    path = tmp_path / f"{excitation}.csv"
+    code, _, err = run_cli(["response", "simulate", "--excitation", excitation, *extra,
+                            "--out", path], capsys)
+    assert code == 0, err
+    assert read(path).excitation == excitation
+    code, out, err = run_cli(["response", "reduce", path, "--format", "json"], capsys)
+    assert code == 0, err
+    rows = json.loads(out)
+    assert rows
+    assert all(r["unit"] == "V/g" for r in rows)
+    code, out, err = run_cli(["response", "reduce", path, "--method", method.split("/")[1]],
+                             capsys)
+    assert code == 0, err
+    assert method in out
+
+
+def test_route_refusals_in_one_line(record, tmp_path, capsys):
+    refused(["response", "reduce", record, "--method", "laser"], capsys, "laser records")
+    refused(["response", "reduce", record, "--method", "fourier"], capsys, "not one of")
+    refused(["response", "reduce", record, "--segment", "512"], capsys, "does not apply")
+    refused(["response", "simulate", "--excitation", "chirp", "--out", tmp_path / "x.csv"],
+            capsys, "--excitation")
+    refused(["response", "plan", "--method", "laser"], capsys, "not one of")
+    refused(["response", "plan", "--snr", "-100"], capsys, "snr")
+
+
+def test_gravity_tie_in_the_title(tmp_path, capsys):
+    path = tmp_path / "g.csv"
+    run_cli(["response", "simulate", "--excitation", "gravity", "--frequencies", "0.5,1",
+             "--noise", "0", "--out", path], capsys)
+    code, out, err = run_cli(["response", "reduce", path, "--static-scale-factor",
+                              "1.3,1e-6"], capsys)
+    assert code == 0, err
+    assert "static scale factor - 1 =" in out
+    assert "ppm" in out
+
+
+def test_plan_rows(capsys):
+    code, out, err = run_cli(["response", "plan", "--frequencies", "10,1000", "--snr", "40",
+                              "--magnitude-u", "0.01", "--format", "json"], capsys)
+    assert code == 0, err
+    rows = json.loads(out)
+    assert [r["frequency_hz"] for r in rows] == [10.0, 1000.0]
+    # 1 / (snr sqrt(n)) per channel, two channels: n = 2 / (100^2 1e-4^2) = 2e4 samples
+    assert rows[1]["samples"] == pytest.approx(2e4, rel=0.01)
+    assert all(r["magnitude_u_pct"] <= 0.01 for r in rows)
+    code, out, err = run_cli(["response", "plan", "--method", "broadband", "--snr", "20",
+                              "--magnitude-u", "1", "--format", "json"], capsys)
+    (row,) = json.loads(out)
+    assert row["n_d"] >= 50
+    assert row["magnitude_u_pct"] <= 1.0

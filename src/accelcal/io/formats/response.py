@@ -13,7 +13,11 @@ Columns, one row per sample, rows of a step contiguous:
 ``t`` (s)
     Sample time from the start of the step's record.
 ``ref``, ``dut`` (V, or the DUT's output unit)
-    The two channels: the reference's output (V) and the DUT's.
+    The two channels: the reference's output (V) and the DUT's. A laser
+    record's ``ref`` is the interferometer's in-phase signal (V), a gravity
+    record's the rotation table's encoder angle (rad).
+``quadrature`` (V, laser records only)
+    The interferometer's quadrature signal.
 
 Metadata fields: ``sample_rate_hz``, ``output_unit`` (the DUT's: ``V``,
 ``mV`` or ``mA``), ``amplitudes_g`` (one per step, informative), and
@@ -23,7 +27,11 @@ optionally ``reference`` (the reference's certificate: ``frequency_hz``,
 channel mismatch, DUT over reference: ``gain_ratio`` and ``delay_s``),
 ``true`` (the DUT's transfer function a simulation used: ``S0``, ``fn_hz``,
 ``zeta``, ``pole_hz``, ``delay_s``), ``simulated``, ``seed``, ``noise_v``,
-and the laboratory fields ``serial``, ``operator``, ``date``.
+``excitation`` (how the record was excited, :data:`EXCITATIONS`: an object
+of ``kind`` and its settings; absent for a stepped sine), and the
+laboratory fields ``serial``, ``operator``, ``date``. A broadband record
+(``random`` or ``swept``) is one step whose ``frequency`` is 0 (random) or
+the sweep's instantaneous frequency.
 
 The simulator is :mod:`accelcal.rigs.shaker_response`; the method,
 :mod:`accelcal.methods.response`.
@@ -59,6 +67,12 @@ OUTPUT_UNITS = ("V", "mV", "mA")
 
 COLUMNS = ("step", "frequency", "t", "ref", "dut")
 """The record's columns, in order."""
+
+QUADRATURE = "quadrature"
+"""The optional column of a laser record: the interferometer's quadrature signal, V."""
+
+EXCITATIONS = ("stepped", "random", "swept", "laser", "gravity")
+"""Kinds of the ``excitation`` metadata (``stepped`` when absent)."""
 
 REFERENCE_KEYS = ("frequency_hz", "magnitude", "phase_deg", "magnitude_U", "phase_U")
 """Lists of a reference certificate table (``magnitude`` in V/g, phase in deg, U at k = 2)."""
@@ -100,13 +114,14 @@ class ResponseRecord:
     sample_rate_hz: float
     output_unit: str = "V"
     metadata: dict = field(default_factory=dict)
+    quadrature: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        arrays = {n: np.array(getattr(self, n), dtype=float).reshape(-1)
-                  for n in ("step", "frequency", "t", "ref", "dut")}
+        names = (*COLUMNS, *((QUADRATURE,) if self.quadrature is not None else ()))
+        arrays = {n: np.array(getattr(self, n), dtype=float).reshape(-1) for n in names}
         if len({a.size for a in arrays.values()}) != 1:
             raise AccelcalError("a response record needs columns step, frequency, t, ref, dut "
-                                "of one length")
+                                "(and quadrature, if given) of one length")
         check_header(self.sample_rate_hz, self.output_unit, "response record")
         for name, a in arrays.items():
             bad = np.flatnonzero(~(np.abs(a) <= MAX_VALUE))
@@ -136,6 +151,11 @@ class ResponseRecord:
     def frequencies(self) -> np.ndarray:
         """Frequency of each step, Hz."""
         return np.array([self.frequency[s.start] for s in self.steps])
+
+    @property
+    def excitation(self) -> str:
+        """The kind of excitation (:data:`EXCITATIONS`; ``stepped`` when not stated)."""
+        return (self.metadata.get("excitation") or {}).get("kind", "stepped")
 
     @property
     def lab(self) -> LabInfo:
@@ -192,6 +212,11 @@ def check_metadata(meta: dict, where, steps: int) -> None:
         if not (0 < gain <= 1e6 and abs(delay) <= 1.0):
             raise AccelcalError(f"{where}: daq gain_ratio must be in (0, 1e6] and delay_s "
                                 "within 1 s")
+    if "excitation" in meta:
+        exc = meta["excitation"]
+        if not isinstance(exc, dict) or exc.get("kind") not in EXCITATIONS:
+            raise AccelcalError(f"{where}: excitation must be an object whose kind is one of "
+                                f"{', '.join(EXCITATIONS)}; got {shown(exc)}")
     if "reference" in meta:
         ref = meta["reference"]
         keys = [k for k in REFERENCE_KEYS if isinstance(ref, dict) and k in ref]
@@ -210,11 +235,16 @@ def check_metadata(meta: dict, where, steps: int) -> None:
 
 def write(path, data: ResponseRecord) -> None:
     """Write a response record file (atomically; CSV, or Parquet for ``.parquet``)."""
-    units = {"step": "-", "frequency": "Hz", "t": "s", "ref": "V", "dut": data.output_unit}
+    ref_unit = "rad" if data.excitation == "gravity" else "V"
+    units = {"step": "-", "frequency": "Hz", "t": "s", "ref": ref_unit, "dut": data.output_unit}
+    columns = {c: getattr(data, c) for c in COLUMNS}
+    if data.quadrature is not None:
+        units[QUADRATURE] = "V"
+        columns[QUADRATURE] = data.quadrature
     meta = {"units": units, "sample_rate_hz": float(data.sample_rate_hz),
             "output_unit": data.output_unit,
             **{k: v for k, v in data.metadata.items() if k not in _RESERVED}}
-    write_record(path, KIND, meta, {c: getattr(data, c) for c in COLUMNS})
+    write_record(path, KIND, meta, columns)
 
 
 def read(path) -> ResponseRecord:
@@ -238,6 +268,7 @@ def read(path) -> ResponseRecord:
         return ResponseRecord(**{c: cols[c] for c in COLUMNS},
                               sample_rate_hz=meta["sample_rate_hz"],
                               output_unit=meta["output_unit"],
-                              metadata={k: v for k, v in meta.items() if k not in _RESERVED})
+                              metadata={k: v for k, v in meta.items() if k not in _RESERVED},
+                              quadrature=cols.get(QUADRATURE))
     except AccelcalError as exc:
         raise AccelcalError(f"{path}: {exc}") from None

@@ -9,7 +9,9 @@ real pole and a pure delay::
 ``s = i 2 pi f``. :func:`fit_model` fits it to the complex points of a
 stepped-sine reduction by weighted complex least squares: the residuals
 ``model - data`` are stacked as ``[Re, Im]`` pairs, each pair whitened by
-the inverse Cholesky factor of the point's 2 x 2 covariance, and solved by
+the inverse Cholesky factor of the point's 2 x 2 covariance (of the whole
+covariance where the points are correlated, as neighbouring bins of a
+broadband response are), and solved by
 :func:`scipy.optimize.least_squares` (trust region, from the best of a
 grid of ``fn`` and ``zeta``). The covariance of the parameters is
 ``(J'J)^-1`` of the whitened Jacobian at the solution (the points' own
@@ -38,6 +40,10 @@ METHOD = "response/model-fit"
 
 TERMS = ("pole", "delay")
 """Optional terms of the model beside ``second-order``."""
+
+BANDWIDTH = "f_3dB"
+"""The derived coefficient a fit's estimate carries after its parameters: the -3 dB
+bandwidth, Hz (its records, and so the store's history, hold it)."""
 
 RELATIVE_FLOOR = 1e-12
 """Floor of each point's standard uncertainty, relative to its magnitude: the rounding of
@@ -71,13 +77,40 @@ def evaluate(params, names, f) -> np.ndarray:
                     delay_s=p.get("delay", 0.0))
 
 
-def _whiteners(values, covariance) -> np.ndarray:
-    """Per point, the inverse Cholesky factor of its 2 x 2 covariance (with the floor)."""
-    from accelcal.polar import blocks
+class _Whitener:
+    """Whitening by the Cholesky factor of the points' ``[Re, Im]`` covariance (with the floor).
 
-    floor = (RELATIVE_FLOOR * np.abs(values)) ** 2
-    v = blocks(covariance) + floor[:, None, None] * np.eye(2)
-    return np.linalg.inv(np.linalg.cholesky(v))
+    Per point (2 x 2 blocks) where the points are independent; where they
+    are correlated (neighbouring bins of a broadband response) by the whole
+    covariance, held as a band (its Cholesky factor is as narrow).
+    """
+
+    def __init__(self, values, covariance) -> None:
+        from accelcal.polar import blocks
+
+        floor = (RELATIVE_FLOOR * np.abs(values)) ** 2
+        covariance = np.asarray(covariance, dtype=float) + np.kron(np.diag(floor), np.eye(2))
+        rows, cols = np.nonzero(covariance)
+        self.band = int(np.max(np.abs(rows - cols))) if rows.size else 0
+        if self.band <= 1 and not np.any(covariance[1::2, 2::2]):
+            self.blocks = np.linalg.inv(np.linalg.cholesky(blocks(covariance)))
+            return
+        from scipy.linalg import cholesky_banded
+
+        n, b = covariance.shape[0], self.band
+        lower = np.zeros((b + 1, n))
+        for k in range(b + 1):
+            lower[k, :n - k] = np.diagonal(covariance, -k)
+        self.blocks = None
+        self.factor = cholesky_banded(lower, lower=True)
+
+    def __call__(self, pairs: np.ndarray) -> np.ndarray:
+        """The whitened residuals of ``pairs`` (shape ``(m, 2)``), flattened."""
+        if self.blocks is not None:
+            return np.einsum("kij,kj->ki", self.blocks, pairs).ravel()
+        from scipy.linalg import solve_banded
+
+        return solve_banded((self.band, 0), self.factor, pairs.ravel())
 
 
 def _start(f, data, w, names) -> np.ndarray:
@@ -96,7 +129,7 @@ def _start(f, data, w, names) -> np.ndarray:
 
 def _residuals(x, names, f, data, w) -> np.ndarray:
     d = evaluate(x, names, f) - data
-    return np.einsum("kij,kj->ki", w, np.stack([d.real, d.imag], axis=1)).ravel()
+    return w(np.stack([d.real, d.imag], axis=1))
 
 
 def fit_model(reduction, model: str = "second-order") -> Reduction:
@@ -115,7 +148,9 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
     accelcal.results.Reduction
         Family ``response``, method ``response/model-fit``: ``S0`` (output unit
         per g), ``fn`` (Hz), ``zeta``, and ``pole`` (Hz), ``delay`` (s) where
-        asked, with covariance; ``dof`` is ``2 m - p``; the assumption
+        asked, then ``f_3dB`` (Hz, the -3 dB bandwidth the parameters give,
+        where it is below 100 fn), with their joint covariance (the
+        bandwidth's to first order); ``dof`` is ``2 m - p``; the assumption
         ``chi2`` gives the fit's chi-square and ``birge_ratio`` its square root
         per degree of freedom; observations ``frequency_hz`` and the points.
 
@@ -142,7 +177,7 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
     if 2 * f.size <= len(names):
         raise AccelcalError(f"{f.size} frequencies give {2 * f.size} real data, too few for "
                             f"the {len(names)} parameters of {model}", parameter="model")
-    w = _whiteners(data, est.covariance)
+    w = _Whitener(data, est.covariance)
     x0 = _start(f, data, w, names)
     lower = [-np.inf, 0.0, 0.0] + [0.0] * ("pole" in names) + [-np.inf] * ("delay" in names)
     scale = np.abs(x0) + np.array([0, 0, 0] + [0] * ("pole" in names) +
@@ -159,8 +194,9 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
     dof = 2 * f.size - len(names)
     chi2 = float(2.0 * sol.cost)
     unit = next(iter(est.units.values()))
-    units = {"S0": unit, "fn": "Hz", "zeta": "1", "pole": "Hz", "delay": "s"}
-    fitted = Estimate(names, sol.x, covariance, {n: units[n] for n in names}, METHOD, dof=dof,
+    units = {"S0": unit, "fn": "Hz", "zeta": "1", "pole": "Hz", "delay": "s", BANDWIDTH: "Hz"}
+    values, covariance, names = _with_bandwidth(sol.x, covariance, names)
+    fitted = Estimate(names, values, covariance, {n: units[n] for n in names}, METHOD, dof=dof,
                       residuals=sol.fun)
     return Reduction(
         family=reduction.family, method=METHOD, sensors=(fitted,), sensor_names=("dut",),
@@ -177,6 +213,24 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
         notes=(("Weighted complex least squares of the transfer function; covariance from "
                 "the points' own (not rescaled by the chi-square)."),),
     )
+
+
+def _with_bandwidth(x, covariance, names):
+    """The parameters and the -3 dB bandwidth after them, with their joint covariance.
+
+    The bandwidth where the band reaches it, its covariance to first order:
+    records, and so the store's history, then carry it.
+    """
+    f_hi = 100.0 * x[names.index("fn")]
+    value = _bandwidth(x, names, f_hi)
+    if not np.isfinite(value):
+        return x, covariance, names
+    grad = _gradient(lambda p: _bandwidth(p, names, f_hi), x, names)
+    cov = np.zeros((x.size + 1, x.size + 1))
+    cov[:-1, :-1] = covariance
+    cov[:-1, -1] = cov[-1, :-1] = covariance @ grad
+    cov[-1, -1] = max(float(grad @ covariance @ grad), 0.0)
+    return np.append(x, value), cov, (*names, BANDWIDTH)
 
 
 def _gradient(func, x, names) -> np.ndarray:
@@ -244,7 +298,9 @@ def derived(fit: Reduction, phase_at=()) -> list[dict]:
         raise AccelcalError(f"frequencies must be above 0 and up to 1e9 Hz, got {bad[0]!r}",
                             parameter="phase_at")
     est = fit.estimate
-    names, x, cov = est.names, np.asarray(est.values, float), est.covariance
+    keep = [k for k, n in enumerate(est.names) if n != BANDWIDTH]
+    names = tuple(est.names[k] for k in keep)
+    x, cov = np.asarray(est.values, float)[keep], est.covariance[np.ix_(keep, keep)]
     f_hi = 100.0 * x[names.index("fn")]
     quantities = [("f_3dB", "Hz", lambda p: _bandwidth(p, names, f_hi)),
                   ("f_peak", "Hz", lambda p: _peak(p, names, f_hi)[0]),
@@ -267,5 +323,5 @@ def fit_rows(fit: Reduction, phase_at=()) -> list[dict]:
     """What ``accelcal response fit`` prints: the parameters, then :func:`derived`."""
     est = fit.estimate
     rows = [{"coefficient": n, "estimate": float(v), "std": float(s), "unit": est.units[n]}
-            for n, v, s in zip(est.names, est.values, est.std, strict=True)]
+            for n, v, s in zip(est.names, est.values, est.std, strict=True) if n != BANDWIDTH]
     return rows + derived(fit, phase_at)

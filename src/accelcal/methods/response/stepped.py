@@ -185,6 +185,10 @@ def reduce_stepped(records, reference=None, *, reference_frequency: float | None
     if len(units) > 1:
         raise AccelcalError(f"the records' DUT units differ ({', '.join(sorted(units))})",
                             parameter="records")
+    for rec in records:
+        if rec.excitation != "stepped":
+            raise AccelcalError(f"a stepped-sine reduction needs stepped records, not "
+                                f"{rec.excitation} ones", parameter="method")
     freqs, amps, values, blocks, dofs, periods = [], [], [], [], [], []
     for n, rec in enumerate(records):
         table = reference
@@ -211,37 +215,65 @@ def reduce_stepped(records, reference=None, *, reference_frequency: float | None
             amps.append(float(amp_meta[k]) if k < len(amp_meta) else float("nan"))
             dofs.append(dof)
             periods.append(p)
+    source = "the records' own" if reference is None else "given"
+    points = {"freqs": freqs, "amps": amps, "values": values, "blocks": blocks, "dofs": dofs,
+              "periods": periods}
+    return assemble(
+        METHOD, f"{records[0].output_unit}/g", points, reference_frequency, extra=(
+            Assumption("reference", source, "",
+                       f"reference sensitivity from {source} certificate, interpolated "
+                       "linearly in frequency (its uncertainty is not included)"),
+            Assumption("daq", (gain, delay), "", "DUT channel's gain ratio and delay (s) "
+                       "relative to the reference's, corrected")),
+        note=("Stepped-sine comparison (ISO 16063-21): three-parameter sine fits on whole "
+              "periods, covariance of each step's [Re, Im] from the fits' residuals."))
+
+
+def assemble(method: str, unit: str, points: dict, reference_frequency, *, extra=(),
+             note: str, provenance=None) -> Reduction:
+    """A response reduction of points in any order: sorted by frequency, named, block covariance.
+
+    Parameters
+    ----------
+    method, unit : str
+        The method id and the points' unit (output unit per g).
+    points : dict
+        Sequences ``freqs, amps, values, blocks, dofs, periods``, one entry per
+        point: frequency (Hz), amplitude (g), complex value, 2 x 2 covariance
+        of ``[Re, Im]``, degrees of freedom, periods fitted.
+    reference_frequency : float or None
+        Frequency of the deviations, Hz (default :data:`REFERENCE_FREQUENCY`).
+    extra : tuple of Assumption
+        The route's own assumptions.
+    note : str
+        The route in one sentence.
+    provenance : dict, optional
+        More provenance.
+    """
+    freqs, amps, values, blocks, dofs, periods = (points[k] for k in (
+        "freqs", "amps", "values", "blocks", "dofs", "periods"))
     order = np.argsort(freqs, kind="stable")
-    freqs = np.asarray(freqs)[order]
+    freqs = np.asarray(freqs, dtype=float)[order]
     names = _names(freqs, np.asarray(amps)[order])
     covariance = np.zeros((2 * len(names), 2 * len(names)))
     for i, j in enumerate(order):
         covariance[2 * i:2 * i + 2, 2 * i:2 * i + 2] = blocks[j]
-    unit = f"{records[0].output_unit}/g"
     est = Estimate(names, np.asarray(values)[order], covariance, dict.fromkeys(names, unit),
-                   METHOD, dof=int(min(dofs)))
+                   method, dof=int(min(dofs)))
     f_ref = REFERENCE_FREQUENCY if reference_frequency is None else reference_frequency
     if not (isinstance(f_ref, int | float) and 1e-6 <= f_ref <= 1e9):
         raise AccelcalError(f"must be a frequency from 1e-6 to 1e9 Hz, got {f_ref!r}",
                             parameter="reference_frequency")
     ref_name = names[int(np.argmin(np.abs(np.log(freqs / f_ref))))]
-    source = "the records' own" if reference is None else "given"
     return Reduction(
-        family=FAMILY, method=METHOD, sensors=(est,), sensor_names=("dut",), dof=int(min(dofs)),
+        family=FAMILY, method=method, sensors=(est,), sensor_names=("dut",), dof=int(min(dofs)),
         assumptions=(
             Assumption("reference_frequency", float(freqs[names.index(ref_name)]), "Hz",
-                       f"deviations from the sensitivity at {ref_name}"),
-            Assumption("reference", source, "",
-                       f"reference sensitivity from {source} certificate, interpolated "
-                       "linearly in frequency (its uncertainty is not included)"),
-            Assumption("daq", (gain, delay), "", "DUT channel's gain ratio and delay (s) "
-                       "relative to the reference's, corrected"),
-        ),
+                       f"deviations from the sensitivity at {ref_name}"), *extra),
         observations={"frequency_hz": freqs, "amplitude_g": np.asarray(amps)[order],
                       "periods": np.asarray(periods)[order]},
-        provenance={"steps": len(names), "unit": unit},
-        notes=(("Stepped-sine comparison (ISO 16063-21): three-parameter sine fits on whole "
-                "periods, covariance of each step's [Re, Im] from the fits' residuals."),),
+        provenance={"steps": len(names), "unit": unit, **(provenance or {})},
+        notes=(note,),
     )
 
 
