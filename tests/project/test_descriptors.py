@@ -115,7 +115,7 @@ def test_demo_help_names_every_test_it_runs(capsys, monkeypatch):
     text = _help(["demo", "--help"], capsys, monkeypatch)
     tests = listed((f"{m.demo_test} ({m.paper})" for m in demo_methods()), "and")
     assert f"The tests, in order: {tests}." in text
-    assert len(demo_methods()) == 8
+    assert len(demo_methods()) == 9
 
 
 # ------------------------------------------------------------------------------ documents
