@@ -145,6 +145,7 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
     CampaignResult
     """
     from accelcal.calibration import now
+    from accelcal.formatting import format_date
     from accelcal.store import Store
     from accelcal.validation import shown
 
@@ -177,7 +178,7 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
         written = step(_write_records, out / "records", outcomes)
         store_url, ids = step(_store, store, [r for _, r in written])
         report, figures = step(_report, out, store, outcomes, title,
-                               subtitle.format(seed=seed, date=date), history_serial)
+                               subtitle.format(seed=seed, date=format_date(date)), history_serial)
     return CampaignResult(out=out, data=data, records=[p for p, _ in written], report=report,
                           figures=figures, store=store_url, record_ids=ids, seed=seed,
                           seconds=time.perf_counter() - start, outcomes=outcomes)

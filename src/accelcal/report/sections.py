@@ -75,10 +75,10 @@ def reduction_sections(reduction, records, *, unavailable: str = "", **context
 
 
 def _sensor_section(name: str, record, text) -> Section:
-    """One sensor's section of a several-sensor reduction."""
+    """One sensor's section of a several-sensor reduction (in the report's appendix)."""
     column = name != record.serial  # a reduction rebuilt from records names sensors by serial
     return Section(title=f"{record.serial}: {text.title}" + (f" ({name})" if column else ""),
-                   record=record,
+                   record=record, appendix=True,
                    summary=((f"Sensor column {name}. " if column else "")
                             + text.sensor_summary).strip())
 
@@ -109,10 +109,12 @@ def _report_text(reduction, *, rebuilt_from_records: bool):
 
 
 def overview_rows(reduction, records) -> list[dict]:
-    """Coefficient x sensor table: ``value ± std``, the first engineering unit below it.
+    """Coefficient x sensor table: ``value ± std``, the first field unit below it.
 
-    The sensors' own sections show every engineering unit (e.g. arcsec beside µrad).
-    A complex coefficient shows ``magnitude ± std ∠ phase ± std°``.
+    The sensors' own sections show every field unit (e.g. arcsec beside µrad);
+    a coefficient the engineering table does not convert gets its field unit
+    from :func:`accelcal.report.units.field_values`. A complex coefficient
+    shows ``magnitude ± std ∠ phase ± std°``.
     """
     from accelcal.outputs import reduction_rows
 
@@ -138,10 +140,24 @@ def overview_rows(reduction, records) -> list[dict]:
             else:
                 cell = pm(r["estimate"], r["std"]) if r["status"] == "fitted" else \
                     f"{r['estimate']:.6g} (fixed)"
-            eng = format_engineering(r["engineering"][:1])
+            eng = _field_text(reduction, r)
             row[head] = f"{cell}\n({eng})" if eng and r["status"] == "fitted" else cell
         table.append(row)
     return table
+
+
+def _field_text(reduction, row) -> str:
+    """A reduction row's first field unit: its engineering unit, else :mod:`accelcal.report.units`'s."""
+    from accelcal.report.units import field_values
+
+    if row["engineering"]:
+        return format_engineering(row["engineering"][:1])
+    if "phase_deg" in row:
+        return ""
+    k = list(reduction.sensor_names).index(row["sensor"]) if reduction.sensor_names else 0
+    found = field_values(row.get("plain", row["coefficient"]), row["estimate"], row["std"],
+                         row["unit"], scale_factor=reduction.scale_factor(k))
+    return found[0].text()
 
 
 def _column(sensor: str, record) -> str:

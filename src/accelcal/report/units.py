@@ -10,9 +10,9 @@ coefficient of every method, so this module extends it for the report:
   ``g*sqrt(s)`` -> µg/√Hz, ``g/sqrt(s)`` -> µg/√s);
 * a triad's bias in counts becomes µg through the same axis's scale factor
   (``b_x s_x`` is the bias in m/s², Tedaldi2014 eq. (8));
-* a scale factor without a nominal value keeps its unit and states its
-  uncertainty relative to itself, in ppm (IEEE 1293's scale-factor
-  stability is quoted so);
+* a scale factor without a nominal value keeps its unit (a triad's m/s² per
+  count becomes µg per count) and states its uncertainty relative to
+  itself, in ppm (IEEE 1293's scale-factor stability is quoted so);
 * anything else (a time constant in s) stays in its own unit, which is then
   the field's.
 
@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 from accelcal.engineering import QUANTITIES, engineering
 from accelcal.formatting import format_std, format_unit, format_value
+from accelcal.units import STANDARD_GRAVITY
 
 _BY_UNIT = {"g": "bias", "m/s^2": "bias", "mg": "bias", "ug": "bias", "rad": "misalignment",
             "1": "ratio", "g/g": "ratio", "g/g^2": "second", "g/g^3": "third",
@@ -38,6 +39,9 @@ _BY_UNIT = {"g": "bias", "m/s^2": "bias", "mg": "bias", "ug": "bias", "rad": "mi
 
 _NOISE = {"g*sqrt(s)": "ug/sqrt(Hz)", "g/sqrt(s)": "ug/sqrt(s)", "g/sqrt(Hz)": "ug/sqrt(Hz)"}
 """Noise coefficients in g-based units -> their µg form (x 1e6) [IEEE952]."""
+
+_PER_COUNT = "(m/s^2)/(count"
+"""A triad's scale factor in m/s² per count (``(m/s^2)/(counts)``)."""
 
 _TRIAD = re.compile(r"(?P<kind>[bsa])_(?P<axis>[xyz])[xyz]?")
 
@@ -116,7 +120,10 @@ def field_values(name: str, estimate: float, std: float, unit: str, *,
         if found:
             return tuple(FieldValue(e.estimate, e.std, e.unit) for e in found)
         if estimate != 0:
-            return (FieldValue(estimate, std / abs(estimate) * 1e6, unit, relative=True),)
+            relative = std / abs(estimate) * 1e6
+            if unit.startswith(_PER_COUNT):  # a triad's: in µg per count
+                estimate, unit = estimate / STANDARD_GRAVITY * 1e6, "ug/count"
+            return (FieldValue(estimate, relative, unit, relative=True),)
     if unit in _NOISE:
         return (FieldValue(estimate * 1e6, std * 1e6, _NOISE[unit]),)
     return (FieldValue(estimate, std, unit),)
@@ -135,7 +142,7 @@ def record_field_values(record) -> list[tuple[FieldValue, ...]]:
     names = list(record.names)
     values = dict(zip(names, (float(abs(v)) if record.is_complex else float(v)
                               for v in record.estimates), strict=True))
-    std = dict(zip(names, (float(s) for s in _std(record)), strict=True))
+    std = dict(zip(names, (float(s) for s in coefficient_std(record)), strict=True))
     k1 = next((values[n] for n in ("K_I", "K1") if n in values), None)
     if k1 is None and record.model is not None and not record.is_complex:
         k1 = float(record.model.K1)
@@ -150,7 +157,8 @@ def record_field_values(record) -> list[tuple[FieldValue, ...]]:
     return out
 
 
-def _std(record):
+def coefficient_std(record):
+    """A record's standard uncertainties (of the magnitude for a complex coefficient)."""
     if not record.is_complex:
         return record.std
     return record.polar().magnitude_std
