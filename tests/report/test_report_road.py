@@ -63,7 +63,8 @@ def test_report_command_draws_the_figures(campaign, capsys, tmp_path):
     assert html.count("<figure") == len(campaign.outcomes[0].reduction.figures()) > 0
     assert "No figures" not in html
     assert "Corrections to the published method" in html
-    assert html.count("<h2>") == 5  # the overview and the four sensors
+    assert html.count("<h2>") == 3  # the summary, the test's section, the appendix
+    assert html.count('<div id="sA.') == 4  # the four sensors' records, in the appendix
 
 
 def test_inputs_next_to_the_record_or_given_with_data(campaign, tmp_path):

@@ -16,7 +16,14 @@ References
 
 import numpy as np
 
-from accelcal.formatting import format_engineering, format_unit, pm, pm_polar
+from accelcal.formatting import (
+    format_engineering,
+    format_std,
+    format_unit,
+    format_value,
+    pm,
+    pm_polar,
+)
 from accelcal.report import Figure, Section, figure_svg
 
 ERRATA_SEE = "Details, checks and the code that implements each correction: docs/errata.md"
@@ -64,7 +71,7 @@ def reduction_sections(reduction, records, *, unavailable: str = "", **context
         title=text.title, summary=text.summary, rows=overview_rows(reduction, records),
         notes=notes, errata=errata, figures=figures,
     )
-    if reduction.n_sensors == 1:
+    if reduction.n_sensors == 1 and records[0] is not None:
         return [Section(title=f"{records[0].serial}: {text.title}", record=records[0],
                         summary=text.summary, rows=overview.rows, notes=overview.notes,
                         errata=errata, figures=figures)]
@@ -147,7 +154,10 @@ def overview_rows(reduction, records) -> list[dict]:
 
 
 def _field_text(reduction, row) -> str:
-    """A reduction row's first field unit: its engineering unit, else :mod:`accelcal.report.units`'s."""
+    """A reduction row's first field unit: its engineering unit, else the report's own.
+
+    The report's own: :func:`accelcal.report.units.field_values`.
+    """
     from accelcal.report.units import field_values
 
     if row["engineering"]:
@@ -189,6 +199,7 @@ def history_section(store, serial: str, *, method: str | None = None) -> Section
     """
     from accelcal.errors import AccelcalError
     from accelcal.plotting.records import history_figure
+    from accelcal.report.units import field_values
 
     try:
         rows = store.history(serial, method)
@@ -196,14 +207,24 @@ def history_section(store, serial: str, *, method: str | None = None) -> Section
     except AccelcalError:
         return None
     several = len({s.method for s in stats}) > 1
-    table = [{
-        **({"method": s.method} if several else {}),
-        "coefficient": s.name, "unit": format_unit(s.unit), "calibrations": s.n,
-        "mean": s.mean,
-        "repeatability (1 σ)": s.repeatability if s.n > 1 else "n/a",
-        "mean own σ": s.mean_std if np.isfinite(s.mean_std) else "n/a",
-    } for s in stats]
-    fig = history_figure(rows, serial)
+    k1 = {(s.method, s.name): s.mean for s in stats if s.name in ("K_I", "K1")}
+    table = []
+    for s in stats:
+        scale = next((v for (m, n), v in k1.items() if m == s.method), None)
+        mean, repeat, own = (field_values(s.name, s.mean, x, s.unit, scale_factor=scale)[0]
+                             for x in (s.repeatability, s.repeatability, s.mean_std))
+        unit = "ppm" if repeat.relative else mean.unit
+        table.append({
+            **({"method": s.method} if several else {}),
+            "coefficient": s.name, "unit": format_unit(s.unit), "calibrations": s.n,
+            "mean": (f"{format_value(mean.estimate, repeat.std if s.n > 1 else own.std)} "
+                     f"{format_unit(mean.unit)}"),
+            "repeatability (1 σ)": (f"{format_std(repeat.std)} {format_unit(unit)}" if s.n > 1
+                                    else "n/a"),
+            "mean own σ": (f"{format_std(own.std)} {format_unit(unit)}"
+                           if np.isfinite(s.mean_std) else "n/a"),
+        })
+    fig = history_figure(_field_history(rows), serial)
     names = len(table)
     fig.set_size_inches(6.4, 1.25 * names + 0.9)
     n = len({r["id"] for r in rows})
@@ -214,6 +235,34 @@ def history_section(store, serial: str, *, method: str | None = None) -> Section
                  "of the estimates across calibrations (n/a with one); compare it with the "
                  "calibrations' own standard uncertainties. 'accelcal records stats' adds the "
                  "drift per year."),
-        figures=(Figure("History", figure_svg(fig), "Each coefficient against calibration "
-                        "date; error bars k = 2."),),
+        figures=(Figure("History", figure_svg(fig), "Each coefficient in field units against "
+                        "calibration date (a scale factor as its deviation from the mean, in "
+                        "ppm); error bars k = 2."),),
     )
+
+
+def _field_history(rows) -> list[dict]:
+    """History rows in field units (:mod:`accelcal.report.units`), units as printed.
+
+    An output-unit coefficient is divided by the same calibration's scale
+    factor; a scale factor becomes its deviation from the mean of its
+    calibrations, in ppm, its name saying from what.
+    """
+    from accelcal.report.units import field_values
+
+    k1 = {(r["id"], r["method"]): r["estimate"] for r in rows if r["name"] in ("K_I", "K1")}
+    means = {}
+    for r in rows:
+        means.setdefault((r["method"], r["name"]), []).append(r["estimate"])
+    out = []
+    for r in rows:
+        f = field_values(r["name"], r["estimate"], r["std"], r["unit"],
+                         scale_factor=k1.get((r["id"], r["method"])))[0]
+        if f.relative:
+            ref = float(np.mean(means[(r["method"], r["name"])]))
+            out.append({**r, "name": f"{r['name']} − {ref:.8g} {format_unit(r['unit'])}",
+                        "unit": "ppm", "estimate": (r["estimate"] - ref) / ref * 1e6,
+                        "std": f.std})
+        else:
+            out.append({**r, "unit": format_unit(f.unit), "estimate": f.estimate, "std": f.std})
+    return out

@@ -100,7 +100,7 @@ def summary_rows(records, budgets=None, refs=()) -> list[dict]:
     return list(rows.values())
 
 
-def _line(name: str, test: str, field: FieldValue, std: float, budget,  # noqa: PLR0913, PLR0917
+def _line(name: str, test: str, field: FieldValue, std: float, budget,  # noqa: PLR0917
           ref: str) -> Line:
     """A summary line: the estimate and U in field units (U = k std, or the budget's)."""
     k = COVERAGE

@@ -63,23 +63,28 @@ class FieldValue:
         """``estimate ± k std unit`` (``estimate unit ± k std ppm`` when relative)."""
         u = k * self.std
         if self.relative:
-            return f"{format_value(self.estimate, self.estimate * u * 1e-6)} " \
-                   f"{format_unit(self.unit)} ± {format_std(u)} ppm"
-        return f"{format_value(self.estimate, u)} ± {format_std(u)} {format_unit(self.unit)}"
+            digits = format_value(self.estimate, abs(self.estimate) * self.std * 1e-6)
+            return f"{digits} {format_unit(self.unit)} ± {format_std(u)} ppm"
+        return (f"{format_value(self.estimate, self.std)} ± {format_std(u)} "
+                f"{format_unit(self.unit)}")
 
 
 def quantity_of(name: str, unit: str) -> str | None:
     """The quantity of a coefficient (:data:`accelcal.engineering.QUANTITIES` keys' values).
 
-    By its name, then by the parts of its name (split at ``_``, ``+``,
-    ``-``), then by its unit; a triad's ``b_x``, ``s_x``, ``a_yz`` are a
-    bias, a scale factor and a misalignment. None when nothing applies.
+    By its name, the first term of a combination (``K_F+K_OO``), the
+    parts of its name (split at ``_``, ``+``, ``-``), then by its unit; a
+    triad's ``b_x``, ``s_x``, ``a_yz`` are a bias, a scale factor and a
+    misalignment. None when nothing applies.
     """
     if name in QUANTITIES:
         return QUANTITIES[name]
     triad = _TRIAD.fullmatch(name)
     if triad:
         return {"b": "bias", "s": "scale", "a": "misalignment"}[triad["kind"]]
+    first = re.split(r"[+\-]", name)[0]  # a combination's label: K_F+K_OO is a bias
+    if first in QUANTITIES:
+        return QUANTITIES[first]
     for part in re.split(r"[_+\-]", name):
         kind = QUANTITIES.get(part)
         if kind is not None and "/" not in kind:

@@ -150,7 +150,8 @@ def from_inputs(files, record):
             yield calibrate_known(means, rec.up, g, input_unit=rec.input_unit,
                                   labels=rec.labels, counts=counts), {}
         else:
-            found = detect_static(rec.acc, rec.metadata["rate"], init_static=30.0)
+            found = detect_static(rec.acc, rec.metadata["rate"], init_static=30.0,
+                                  unit=rec.input_unit)
             yield (calibrate_unknown(found.means, g, input_unit=rec.input_unit,
                                      counts=found.counts,
                                      labels=[f"I{k + 1}" for k in range(len(found))]),
