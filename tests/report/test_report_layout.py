@@ -39,10 +39,13 @@ def test_summary_table_comes_first_with_a_row_per_serial_in_field_units():
     assert html.index('<table class="results">') < html.index('<table class="coef">')
     rows = _tbody_rows(html, "results")
     assert len(rows) == 2  # two serial numbers, SN-1 tested twice
-    assert "SN-1" in rows[0] and "SN-2" in rows[1]
+    assert "SN-1" in rows[0]
+    assert "SN-2" in rows[1]
     assert "U (k=2)" in html
     for row in rows:
-        assert " µg" in row and " ppm" in row and " µrad" in row
+        assert " µg" in row
+        assert " ppm" in row
+        assert " µrad" in row
     # K_F = -8.3e-4 V over K_I = 1.2993698 V/g is -638.77 µg; U = 2 x 1e-6 V / K_I = 1.5 µg
     assert "-638.77 µg" in rows[0]
     assert "1.5 µg" in rows[0]
@@ -73,7 +76,9 @@ def test_a_budgets_u_and_k_replace_the_default():
     assert row["cells"]["scale"][0].expanded == "3.1 ppm"  # no budget: 2 x 2e-6 / K_I
     html = render_report([Section("head", rec)], title="T", budgets=budget)
     assert 'id="budgets"' in html
-    assert "local gravity" in html and "1.0 %" in html and "∞" in html
+    assert "local gravity" in html
+    assert "1.0 %" in html
+    assert "∞" in html
     assert 'id="budgets"' not in render_report([Section("head", rec)], title="T")
 
 
@@ -103,8 +108,10 @@ def test_a_triads_bias_goes_through_its_axis_scale_factor():
     bias, scale, angle = (fv[0] for fv in record_field_values(rec))
     assert bias.unit == "ug"
     assert bias.estimate == pytest.approx(310.0 * 6e-4 / 9.80665 * 1e6)
-    assert scale.unit == "ug/count" and scale.relative
-    assert angle.unit == "urad" and angle.estimate == pytest.approx(2000.0)
+    assert scale.unit == "ug/count"
+    assert scale.relative
+    assert angle.unit == "urad"
+    assert angle.estimate == pytest.approx(2000.0)
     assert quantity_of("K_F+K_OO", "V") == "bias"
     assert quantity_of("K_II-K_OO", "V/g^2") == "second"
     assert field_values("mystery", 3.0, 0.1, "Hz")[0].text() == "3.00 ± 0.10 Hz"

@@ -96,7 +96,7 @@ def figure_svg(fig) -> str:
     plain_log_labels(fig)
     no_offset(fig)
     buf = io.StringIO()
-    fig.savefig(buf, format="svg")
+    fig.savefig(buf, format="svg", metadata={"Date": None})  # no time stamp: reproducible
     text = buf.getvalue()
     return text[text.index("<svg"):]
 
