@@ -222,12 +222,13 @@ def test_records_of_the_commands_defaults_get_their_figures(capsys, tmp_path, mo
     monkeypatch.chdir(tmp_path)
     for args in (["triad", "simulate", "--out", "t.csv", "--positions", "18"],
                  ["triad", "calibrate", "t.csv", "--orientations", "unknown", "--out", "c.json",
-                  "--record", "norm.json", "--serial", "T1"]):
+                  "--record", "norm.json", "--serial", "T1", "--operator", "A. Person"]):
         code, _, err = run_cli(args, capsys)
         assert code == 0, err
     (section,) = report_sections(["norm.json"])
     assert not section.notes[0].startswith("No figures"), section.notes[0]
     assert section.figures
+    assert section.record.operator == "A. Person"
 
 
 def test_a_record_given_twice_is_reported_once(campaign, tmp_path):
