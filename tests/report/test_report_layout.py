@@ -146,3 +146,20 @@ def test_errata_and_per_sensor_records_go_to_the_appendix():
     assert html.index('<div id="sA.1">') > appendix
     assert html.count("shared note") == 1  # not repeated in the sensors' records
     assert html.count('<table class="coef">') == 2
+
+
+def test_history_in_field_units(tmp_path):
+    from accelcal.report.sections import history_section
+    from accelcal.store import Store
+
+    with Store(str(tmp_path / "s.sqlite")) as store:
+        store.add(make_record(date="2026-01-01T00:00:00+00:00"))
+        store.add(make_record(date="2026-02-01T00:00:00+00:00", shift=1e-6))
+        section = history_section(store, "SN-1")
+    rows = {r["coefficient"]: r for r in section.rows}
+    # K_F: -8.3e-4 and -8.29e-4 V over K_I ~1.2993708 V/g: mean -638.4 µg, spread 0.54 µg
+    assert rows["K_F"]["mean"] == "-638.39 µg"
+    assert rows["K_F"]["repeatability (1 σ)"] == "0.54 µg"
+    assert rows["K_I"]["mean"] == "1.29937030 V/g"  # to two digits of its 0.54 ppm spread
+    assert rows["K_I"]["mean own σ"] == "1.5 ppm"  # 2e-6 V/g of 1.2993703 V/g
+    assert "ppm" in section.figures[0].svg  # the scale factor drawn as ppm from its mean

@@ -214,7 +214,7 @@ def _view(section: Section, number: str, *, shown=frozenset()) -> dict:
             "coefficients": _complex_coefficients(rec) if rec.is_complex else [
                 {"name": n, "unit": rec.units.get(n, ""), "estimate": float(v),
                  "std": float(s), "expanded": float(u),
-                 "engineering": "; ".join(f.text() for f in fv), "polar": None}
+                 "engineering": [f.text() for f in fv], "polar": None}
                 for n, v, s, u, fv in zip(rec.names, rec.estimates, std, rec.expanded, fields,
                                           strict=True)
             ],
@@ -233,7 +233,7 @@ def _complex_coefficients(rec) -> list[dict]:
     pol, k = rec.polar(), rec.coverage_factor
     return [
         {"name": n, "unit": rec.units.get(n, ""), "estimate": float(m), "std": float(s),
-         "expanded": float(k * s), "engineering": "",
+         "expanded": float(k * s), "engineering": [],
          "polar": {"phase": float(np.degrees(ph)), "phase_std": float(np.degrees(phs)),
                    "phase_expanded": float(np.degrees(k * phs)),
                    "real": float(v.real), "imag": float(v.imag)}}

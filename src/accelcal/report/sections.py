@@ -217,8 +217,8 @@ def history_section(store, serial: str, *, method: str | None = None) -> Section
         table.append({
             **({"method": s.method} if several else {}),
             "coefficient": s.name, "unit": format_unit(s.unit), "calibrations": s.n,
-            "mean": (f"{format_value(mean.estimate, repeat.std if s.n > 1 else own.std)} "
-                     f"{format_unit(mean.unit)}"),
+            "mean": f"{format_value(mean.estimate, _digits(mean, repeat, own, s.n))} "
+                    f"{format_unit(mean.unit)}",
             "repeatability (1 σ)": (f"{format_std(repeat.std)} {format_unit(unit)}" if s.n > 1
                                     else "n/a"),
             "mean own σ": (f"{format_std(own.std)} {format_unit(unit)}"
@@ -241,12 +241,21 @@ def history_section(store, serial: str, *, method: str | None = None) -> Section
     )
 
 
+def _digits(mean, repeat, own, n: int) -> float:
+    """The uncertainty that sets a history mean's digits: the repeatability, else the own σ.
+
+    A relative one (ppm, a scale factor's) is taken back to the mean's unit.
+    """
+    std = repeat.std if n > 1 else own.std
+    return abs(mean.estimate) * std * 1e-6 if mean.relative else std
+
+
 def _field_history(rows) -> list[dict]:
     """History rows in field units (:mod:`accelcal.report.units`), units as printed.
 
     An output-unit coefficient is divided by the same calibration's scale
     factor; a scale factor becomes its deviation from the mean of its
-    calibrations, in ppm, its name saying from what.
+    calibrations (the history table's mean), in ppm.
     """
     from accelcal.report.units import field_values
 
@@ -260,9 +269,8 @@ def _field_history(rows) -> list[dict]:
                          scale_factor=k1.get((r["id"], r["method"])))[0]
         if f.relative:
             ref = float(np.mean(means[(r["method"], r["name"])]))
-            out.append({**r, "name": f"{r['name']} − {ref:.8g} {format_unit(r['unit'])}",
-                        "unit": "ppm", "estimate": (r["estimate"] - ref) / ref * 1e6,
-                        "std": f.std})
+            out.append({**r, "name": f"{r['name']} − mean", "unit": "ppm",
+                        "estimate": (r["estimate"] - ref) / ref * 1e6, "std": f.std})
         else:
             out.append({**r, "unit": format_unit(f.unit), "estimate": f.estimate, "std": f.std})
     return out
