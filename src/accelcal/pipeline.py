@@ -269,7 +269,8 @@ def _report(out: Path, store, outcomes, title: str, subtitle: str,  # noqa: PLR0
     report = out / "report.html"
     write_report(report, sections, title=title, subtitle=subtitle)
     figures = []
-    for i, section in enumerate(sections, 1):
+    main = [s for s in sections if not s.appendix]  # numbered as in the report
+    for i, section in enumerate(main, 1):
         for j, fig in enumerate(section.figures, 1):
             path = out / "figures" / f"{i:02d}-{j}-{_slug(fig.title)}.svg"
             write_text_atomic(path, fig.svg)

@@ -135,6 +135,8 @@ def test_other_accelcal_files_are_named_in_one_line(campaign, capsys, tmp_path):
     kalibr.write_text("accelerometer_noise_density: 2.0e-4\n", encoding="utf-8")
     refused(["report", kalibr, "--out", tmp_path / "r.html"], capsys,
             "imu.yaml is not JSON: it is a Kalibr IMU noise file", "--record")
+    refused(["report", campaign.out / "records.sqlite", "--out", tmp_path / "r.html"], capsys,
+            "records.sqlite is not JSON: it is a records store", "--history --db")
     refused(["report", campaign.out / "data" / "triad.csv", "--out", tmp_path / "r.html"],
             capsys, "record file of data (kind 'triad')", "--record")
     refused(["report", campaign.records[0], "--out", tmp_path / "r.html", "--data",

@@ -111,11 +111,14 @@ def _reduction(data: dict, name: str):
 def _data_kind(path: Path, raw: bytes = b"") -> str:
     """What a file that is not JSON is, when accelcal wrote it: ``: it is ...``, else ``""``.
 
-    A record file of data (its metadata's ``kind``) or a Kalibr IMU noise
-    file (``accelcal noise ... --export``).
+    A records store (SQLite), a Kalibr IMU noise file (``accelcal noise ...
+    --export``) or a record file of data (its metadata's ``kind``).
     """
     from accelcal.io.lab_metadata import read_metadata
 
+    if raw.startswith(b"SQLite format 3\x00"):
+        return (": it is a records store; give record files, and --history --db FILE for "
+                "the store's calibration history")
     if b"accelerometer_noise_density" in raw[:4096]:
         return (": it is a Kalibr IMU noise file (exported from a noise fit); report the noise "
                 "fit's calibration record (--record FILE) instead")
