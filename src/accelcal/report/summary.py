@@ -74,14 +74,16 @@ def summary_rows(records, budgets=None, refs=()) -> list[dict]:
     Returns
     -------
     list of dict
-        ``{"serial", "tests", "cells"}``, ``cells`` a dict of
-        :data:`GROUPS` key -> list of :class:`Line`.
+        ``{"serial", "tests", "simulated", "cells"}``, ``cells`` a dict of
+        :data:`GROUPS` key -> list of :class:`Line`; ``simulated`` when a
+        record of the serial is of simulated data.
     """
     rows: dict = {}
     refs = list(refs) or [""] * len(records)
     for rec, ref in zip(records, refs, strict=True):
-        row = rows.setdefault(rec.serial, {"serial": rec.serial, "tests": [],
+        row = rows.setdefault(rec.serial, {"serial": rec.serial, "tests": [], "simulated": False,
                                            "cells": {key: [] for key, _ in GROUPS}})
+        row["simulated"] = row["simulated"] or bool(rec.simulated)
         test = _test_name(rec.method)
         row["tests"].append(test)
         budget = {b.get("coefficient"): b for b in (budgets or {}).get((rec.serial, rec.method),
