@@ -163,3 +163,19 @@ def test_history_in_field_units(tmp_path):
     assert rows["K_I"]["mean"] == "1.29937030 V/g"  # to two digits of its 0.54 ppm spread
     assert rows["K_I"]["mean own σ"] == "1.5 ppm"  # 2e-6 V/g of 1.2993703 V/g
     assert "ppm" in section.figures[0].svg  # the scale factor drawn as ppm from its mean
+
+
+def test_print_css_keeps_figures_and_tables_whole_and_legible():
+    html = render_report([Section("head", make_record())], title="T")
+    css = html[html.index("<style>"):html.index("</style>")]
+    page = re.search(r"@page\s*{([^}]*)}", css).group(1)
+    assert "A4" in page
+    printed = css[css.index("@media print"):]
+    sizes = [float(x) for x in re.findall(r"font-size:\s*([\d.]+)pt", printed)]
+    assert sizes
+    assert min(sizes) >= 8
+    assert not re.search(r"font-size:\s*[\d.]+px", printed)  # print sizes in points only
+    assert re.search(r"table, figure\s*{[^}]*break-inside: avoid", printed)
+    assert re.search(r"figure svg\s*{[^}]*max-width: 100%", printed)
+    # screen: numbers never wrap in a cell
+    assert re.search(r"th, td\s*{[^}]*white-space: nowrap", css)
