@@ -31,8 +31,17 @@ are page cache) and its peak anonymous resident memory (``RssAnon`` of
 holds) beside the samples' size as float64, with the stream's wall time
 (one run) and the load average before it.
 
-``--update-docs`` writes the tables into ``docs/benchmarks.md`` (section
-``noise``).
+``kinds``: every deviation kind at octave taus (white FM plus a random walk),
+``deviation`` against allantools' function of the same kind, at 1e6 and 1e7
+samples (``--samples`` gives one size), medians of ``--repeats`` interleaved
+runs beside the floor of one read; the summary gives, per kind and size, the
+ratio accelcal / allantools, the largest relative difference of the
+deviations and how many of the identified alphas equal allantools'
+``autocorr_noise_id`` at the same averaging factor (clipped to the kind's
+range as accelcal clips it).
+
+``--update-docs`` writes the tables into ``docs/benchmarks.md`` (sections
+``noise`` and ``noise.kinds``).
 """
 
 import common  # noqa: I001  (first: it pins BLAS to one thread before numpy loads)
@@ -94,6 +103,53 @@ def bench_speed(report: common.Report, samples: int, repeats: int, rate: float =
     ], "Noise speed: summary"))
 
 
+KINDS = ("oadev", "adev", "mdev", "hdev", "ohdev", "totdev")
+"""The kinds compared with allantools (its functions of the same names)."""
+
+
+def bench_kinds(report: common.Report, sizes, repeats: int, rate: float = 100.0) -> None:
+    """accelcal vs allantools for every kind, at each size."""
+    import allantools
+
+    from accelcal.signal.allan.deviations import deviation
+    from accelcal.signal.allan.identify import alpha_range
+
+    lines = []
+    for samples in sizes:
+        rng = np.random.default_rng(2)
+        y = 1e-4 * rng.standard_normal(samples) + 1e-7 * np.cumsum(rng.standard_normal(samples))
+        for kind in KINDS:
+            theirs_fn = getattr(allantools, kind)
+            ours = deviation(y, rate, kind=kind, taus="octave")
+            taus, dev, _, _ = theirs_fn(y, rate=rate, data_type="freq", taus=ours.tau)
+            agree, n_common = _agreement(ours, taus, dev)
+            low, high = alpha_range(kind)
+            dmax = 3 if kind in ("hdev", "ohdev") else 2
+            ident = [k for k, s in enumerate(ours.alpha_source) if s == "identified"]
+            same = sum(int(ours.alpha[k]) == min(max(allantools.autocorr_noise_id(
+                y, int(ours.m[k]), data_type="freq", dmax=dmax)[0], low), high) for k in ident)
+            floor, mine, other = "read once", f"accelcal {kind}", f"allantools {kind}"
+            detail: dict = {}
+            runs = common.interleaved({
+                floor: lambda y=y: np.sum(y),
+                mine: lambda y=y, kind=kind: deviation(y, rate, kind=kind, taus="octave"),
+                other: lambda y=y, f=theirs_fn, t=ours.tau: f(y, rate=rate, data_type="freq",
+                                                             taus=t),
+            }, repeats, detail=detail)
+            rows = {r.name: r for r in common.figures(runs, detail, floor=floor)}
+            what = (f"{kind}, {samples:,} samples: accelcal / allantools (median wall); "
+                    "deviations' largest relative difference; alphas equal")
+            value = (f"{rows[mine].median_s / rows[other].median_s:.2f} "
+                     f"({rows[mine].median_s:.3g} s / {rows[other].median_s:.3g} s); "
+                     f"{agree:.2g} over {n_common} taus; {same} of {len(ident)}")
+            lines.append((what, value))
+            print(lines[-1][0].split(":")[0], lines[-1][1], flush=True)
+    lines.append(("load before the last run (1 min)",
+                  f"{os.getloadavg()[0]:.2f} on {common.cpus()} CPUs"))
+    report.add(common.pairs(lines, "Noise speed by kind: deviation() against allantools "
+                            f"(median of {repeats} interleaved runs)"))
+
+
 _CHILD = """
 import json, resource, sys, threading, time
 from accelcal.methods.noise.stream import stream_deviation
@@ -148,7 +204,7 @@ def bench_memory(report: common.Report, samples: int, rate: float = 1000.0) -> N
     ], "Noise memory: oadev of a long record streamed by stream_deviation (fresh subprocess)"))
 
 
-DEFAULT_SAMPLES = {"speed": 10_000_000, "memory": 100_000_000}
+DEFAULT_SAMPLES = {"speed": 10_000_000, "memory": 100_000_000, "kinds": (1_000_000, 10_000_000)}
 """The sections and the samples of each when ``--samples`` is not given."""
 
 
@@ -161,15 +217,21 @@ def main() -> None:
                         help="speed: interleaved repeats (>= 5)")
     common.add_docs_option(parser)
     args = parser.parse_args()
+    # "kinds" keeps its own section of the docs (noise.kinds), so that either can be rerun
+    reports = {"kinds": common.Report("noise.kinds", "noise.py kinds")}
     report = common.Report("noise")
     print(common.describe(report.start))
     for name in args.sections or DEFAULT_SAMPLES:
         samples = args.samples or DEFAULT_SAMPLES[name]
         if name == "speed":
             bench_speed(report, samples, args.repeats)
+        elif name == "kinds":
+            bench_kinds(reports["kinds"], (samples,) if args.samples else samples, args.repeats)
         else:
             bench_memory(report, samples)
-    report.finish(args.update_docs)
+    for part in (report, *reports.values()):
+        if part.parts:
+            part.finish(args.update_docs)
 
 
 if __name__ == "__main__":

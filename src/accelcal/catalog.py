@@ -215,13 +215,16 @@ METHODS: tuple[Method, ...] = (
         name="acceptance", family="acceptance", title="acceptance tests",
         package=_m("acceptance"), kinds=("steps",), formats=("accelcal.io.formats.acceptance",),
         rig="accelcal.rigs.acceptance", cli="accelcal.cli.acceptance",
-        cli_help=("Acceptance tests of pendulous accelerometers on the indexing head (IEEE "
-                  "1293): threshold and resolution by the 50 % rule with the decision's error "
-                  "probability, hysteresis over the input cycle; simulated records and their "
-                  "reduction."),
+        cli_help=("Acceptance tests of pendulous accelerometers (IEEE 1293): threshold and "
+                  "resolution by the 50 % rule with the decision's error probability, "
+                  "hysteresis over the input cycle, input range and saturation, turn-on "
+                  "repeatability; simulated records and their reduction; repeatability over a "
+                  "serial's records and the shift between two; pass/fail against a "
+                  "specification file."),
         verbs=("simulate", "reduce"),
         report="accelcal.methods.acceptance.report_text", docs="docs/acceptance.md",
-        paper="IEEE1293"),
+        paper="IEEE1293", demo="accelcal.methods.acceptance.demo", demo_order=8,
+        demo_sensors="one", demo_test="acceptance tests"),
     Method(
         name="response", family="response", title="frequency response",
         package=_m("response"), kinds=("response",), formats=("accelcal.io.formats.response",),

@@ -25,6 +25,9 @@ The stages, each in its method's package:
 7. triad (:mod:`accelcal.methods.triad.demo`, Tedaldi2014): a three-axis
    housing on 18 static positions, bias, scale factor and non-orthogonality
    by the known-orientation and the gravity-norm routes.
+8. acceptance tests (:mod:`accelcal.methods.acceptance.demo`, IEEE 1293):
+   the threshold on the indexing head, the input range on a centrifuge
+   (saturation, clipping, the bias after the overload) and eight turn-ons.
 
 Every run is stamped with the current time (microseconds), which goes into
 the files' ``date`` and so into the records: running the demo twice adds

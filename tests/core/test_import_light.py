@@ -55,3 +55,26 @@ def test_cli_app_import_does_not_load_plotting_or_tables():
     loaded = _loaded_after("import accelcal.cli.app")
     assert "typer" in loaded
     assert not loaded & {"matplotlib", "pandas", "scipy", "dask", "sqlalchemy"}
+
+
+def test_noise_adev_on_a_record_imports_only_what_it_uses(tmp_path):
+    """A command imports no module it does not use: ``noise adev`` on a Parquet record
+    reads it with pyarrow and computes with numpy and scipy.special, and loads neither
+    pandas (pyarrow's to_numpy shim), nor scipy.stats (one chi-square quantile), nor the
+    plotting, tables or store libraries."""
+    import numpy as np
+
+    from accelcal.io.formats.noise import write_blocks
+
+    path = tmp_path / "still.parquet"
+    write_blocks(path, [np.random.default_rng(0).standard_normal((4096, 1))], rate=100.0,
+                 unit="g")
+    code = ("import sys\nfrom accelcal.cli import main\ntry:\n"
+            f"    main(['noise', 'adev', {str(path)!r}])\nexcept SystemExit as e:\n"
+            "    assert not e.code, e.code\n"
+            "print('LOADED', ' '.join(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('pandas', 'matplotlib', 'sqlalchemy', 'jinja2', 'dask', 'h5py', 'nptdms') "
+            "or m == 'scipy.stats')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.rstrip().splitlines()[-1].strip() == "LOADED", out.splitlines()[-1]

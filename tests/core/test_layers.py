@@ -55,8 +55,8 @@ LAZY_UP = {
     ("accelcal.results", "accelcal.methods"): "Reduction.figures: the method's figures",
     ("accelcal.results", "accelcal.plotting"): "Reduction.plot",
     **{(f"accelcal.methods.{m}.demo", "accelcal.pipeline"): "the method's demo stage"
-       for m in ("centrifuge", "dividing_head", "noise", "thermal", "transverse", "triad",
-                 "vre")},
+       for m in ("acceptance", "centrifuge", "dividing_head", "noise", "thermal", "transverse",
+                 "triad", "vre")},
 }
 """Imports inside functions that run up a floor, with the reason each is allowed."""
 

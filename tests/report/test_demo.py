@@ -24,8 +24,9 @@ def test_demo_writes_everything_and_runs_twice(tmp_path):
     assert elapsed < 30  # the demo must finish well under a minute; it takes ~7 s of CPU
     assert first.report.is_file()
     assert first.report.stat().st_size > 100_000
-    # 4 head, shaker, vibrafuge, noise, thermal, centrifuge; the triad by two routes
-    assert len(first.records) == 11
+    # 4 head, shaker, vibrafuge, noise, thermal, centrifuge; the triad by two routes;
+    # the acceptance tests' threshold, input range and turn-ons
+    assert len(first.records) == 14
     assert all(p.is_file() for p in first.records)
     assert all(p.exists() for p in first.data)
     assert len(list((tmp_path / "demo" / "data" / "shaker").glob("*.csv"))) == 12
@@ -35,7 +36,9 @@ def test_demo_writes_everything_and_runs_twice(tmp_path):
     assert sorted({r.serial for r in records}) == [*SERIALS, TRIAD_SERIAL]
     assert {r.method for r in records} == {"dividing-head/joint", "transverse/2w", "vre/identify",
                                            "noise/ieee952-fit", "thermal/wls", "centrifuge/joint",
-                                           "triad/known-orientations", "triad/gravity-norm"}
+                                           "triad/known-orientations", "triad/gravity-norm",
+                                           "acceptance/threshold", "acceptance/range",
+                                           "acceptance/turn-on"}
     _new_stages_recover_their_truth(first, records)
     # Reduced coefficients agree with the truth within 5 standard uncertainties.
     # The truth, by an independent route: the same reduction of noise-free
@@ -56,12 +59,12 @@ def test_demo_writes_everything_and_runs_twice(tmp_path):
                                      5 * head[serial].std + 1e-9, err_msg=serial)
     assert head["ACC-0002"].estimates[1] == pytest.approx(DONG2014_TABLE1[1]["K_I"], abs=5e-6)
     with Store(str(db)) as store:
-        assert len(store.calibrations()) == 11
+        assert len(store.calibrations()) == 14
     # Twice: a new date, so new and distinct records, no duplicate error.
     second = run(tmp_path / "demo", db=str(db), seed=3, progress=False)
     with Store(str(db)) as store:
-        assert len(store.calibrations()) == 22
-        assert len(store.calibrations("ACC-0001")) == 12
+        assert len(store.calibrations()) == 28
+        assert len(store.calibrations("ACC-0001")) == 18
     assert second.record_ids != first.record_ids
     html = second.report.read_text(encoding="utf-8")
     assert "calibration history by dividing-head/joint" in html
@@ -101,6 +104,7 @@ def _new_stages_recover_their_truth(result, records):
     """The still recording's N and K, the thermal test's first-order temperature
     coefficients, the centrifuge's K2 and K3 and the triad's nine parameters agree with
     the truth the simulators wrote into the data files (:func:`_within`)."""
+    from accelcal.io.formats import acceptance as steps_format
     from accelcal.io.formats import centrifuge, noise, thermal, triad
 
     still = next(p for p in result.data if p.name.startswith("still"))
@@ -123,6 +127,16 @@ def _new_stages_recover_their_truth(result, records):
     for rec in (r for r in records if r.method.startswith("triad/")):
         for name in rec.names:
             _within(rec, name, params[name])
+    first = next(p for p in result.data if p.name == "acceptance-threshold.csv")
+    steps = {n: steps_format.read(first.with_name(n))
+             for n in ("acceptance-threshold.csv", "acceptance-range.csv")}
+    (threshold,) = [r for r in records if r.method == "acceptance/threshold"]
+    assert threshold.estimates[0] == pytest.approx(
+        steps["acceptance-threshold.csv"].metadata["true_threshold_g"])
+    (ranged,) = [r for r in records if r.method == "acceptance/range"]
+    neg, pos = steps["acceptance-range.csv"].metadata["true_range_g"]
+    _within(ranged, "range_pos", pos)
+    _within(ranged, "range_neg", -neg)
 
 
 def test_demo_report_renders_in_headless_chromium(tmp_path, chromium):
@@ -140,7 +154,7 @@ def test_demo_report_renders_in_headless_chromium(tmp_path, chromium):
     assert pixels.std() > 20
     # What a reader must find: coefficient tables with uncertainties, figures.
     html = result.report.read_text(encoding="utf-8")
-    assert len(re.findall(r"<table class=\"coef\">", html)) == 11
+    assert len(re.findall(r"<table class=\"coef\">", html)) == 14
     assert "Expanded (k = 2)" in html
     assert "± " in html
     assert "Corrections to the published method" in html
@@ -218,4 +232,4 @@ def test_demo_command_prints_where_everything_is_and_never_touches_the_users_sto
     (store_line,) = [line for line in out.out.splitlines() if line.startswith("store:")]
     assert str(own) in store_line
     with Store(str(own)) as store:
-        assert len(store.calibrations()) == 11
+        assert len(store.calibrations()) == 14

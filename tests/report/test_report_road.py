@@ -178,7 +178,8 @@ def test_triad_calibration_file_gets_its_section(campaign, capsys, tmp_path):
     assert field["a_zy"] == "-2000 µrad"
     assert field["b_x"] == f"{310.0 * 6e-4 / 9.80665 * 1e6:.7g} µg"  # b_x s_x in g
     out = tmp_path / "r.html"
-    code, _, err = run_cli(["report", path, campaign.records[-1], "--out", out], capsys)
+    triad = next(p for p in campaign.records if p.name.startswith("IMU-0001"))
+    code, _, err = run_cli(["report", path, triad, "--out", out], capsys)
     assert code == 0, err
     html = out.read_text(encoding="utf-8")
     assert "cal.json: triad calibration" in html

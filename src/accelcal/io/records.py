@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.arrow_numbers import floats
 from accelcal.io.atomic import atomic_path
 from accelcal.io.limits import MAX_JSON_BYTES, check_regular_file, load_json, read_rest
 from accelcal.validation import one_line, shown, shown_name
@@ -278,7 +279,7 @@ def _parse_rows(body: bytes, names: list[str], path) -> dict[str, np.ndarray]:
         _raise_first_bad_cell(body, names, path)
     if table.num_rows == 0:
         raise AccelcalError(f"{path}: the record has no data rows")
-    columns = {n: table.column(i).to_numpy() for i, n in enumerate(names)}
+    columns = {n: floats(table.column(i)) for i, n in enumerate(names)}
     bad = np.flatnonzero(~np.logical_and.reduce([np.isfinite(c) for c in columns.values()]))
     if bad.size:
         row = int(bad[0])
@@ -400,12 +401,33 @@ def _read_parquet(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
         if column.null_count:
             raise AccelcalError(f"{path}: column {shown_name(name)} has {column.null_count} "
                                 "missing values")
-        columns[name] = column.to_numpy().astype(float)
+        columns[name] = floats(column)
         bad = np.flatnonzero(~np.isfinite(columns[name]))
         if bad.size:
             raise AccelcalError(
                 f"{path}: row {bad[0]}, column {shown_name(name)}: value is not finite")
     return meta, columns
+
+
+PARQUET_CODEC = "lz4"
+"""Compression of the Parquet records accelcal writes.
+
+Noise-like float channels barely compress, so the codec is chosen for speed;
+dictionary encoding, pyarrow's default, spent most of an import's write on
+float columns whose values never repeat (``benchmarks/import.py`` times the
+import beside one read of the same file)."""
+
+
+def parquet_options(schema) -> dict:
+    """Writer options of a record's Parquet file: no dictionary on float channels, LZ4.
+
+    A dictionary only pays on columns of few distinct values (a point index,
+    text); float samples get none (:data:`PARQUET_CODEC`).
+    """
+    import pyarrow as pa
+
+    keep = [f.name for f in schema if not pa.types.is_floating(f.type)]
+    return {"use_dictionary": keep or False, "compression": PARQUET_CODEC}
 
 
 def _write_parquet(path, header: dict, columns: dict[str, np.ndarray]) -> None:
@@ -416,7 +438,7 @@ def _write_parquet(path, header: dict, columns: dict[str, np.ndarray]) -> None:
         {"accelcal": json.dumps(header, allow_nan=False)}
     )
     with atomic_path(path) as tmp:
-        pq.write_table(table, tmp)
+        pq.write_table(table, tmp, **parquet_options(table.schema))
 
 
 def _is_parquet(path) -> bool:

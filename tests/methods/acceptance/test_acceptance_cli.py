@@ -91,8 +91,9 @@ def test_a_cycle_with_a_missing_leg_is_refused(files, tmp_path, capsys):
 def test_wrong_test_and_options_are_refused(files, capsys):
     refused(["acceptance", "reduce", files["threshold"], "--test", "hysteresis"], capsys,
             "threshold test, not hysteresis")
-    refused(["acceptance", "reduce", files["threshold"], "--test", "range"], capsys, "--test")
-    refused(["acceptance", "simulate", "--test", "range", "--out", "x.csv"], capsys, "--test")
+    refused(["acceptance", "reduce", files["threshold"], "--test", "range"], capsys,
+            "threshold test, not range")
+    refused(["acceptance", "simulate", "--test", "shock", "--out", "x.csv"], capsys, "--test")
 
 
 def test_an_angle_only_recording_reads_as_sin_of_the_angle(files, tmp_path):

@@ -97,3 +97,36 @@ def test_noise_adev_notes_the_taus_whose_intervals_rest_on_an_assumption(tmp_pat
     assert "alpha is carried from the longest identified taus" in err
     assert "equivalent degrees of freedom" in err
     assert out.splitlines()[0] == "tau_s,n,alpha,dev,dev_low,dev_high"
+
+
+def test_detrended_lag1_equals_the_two_step_route():
+    """One-pass lag-1 autocorrelation of the detrended series against forming the
+    residual of the least-squares line (numpy.polyfit) and correlating it; the series
+    include a strong trend and integrated noises, where cancellation would show."""
+    from accelcal.signal.allan.identify import detrended_lag1, lag1_autocorrelation
+
+    rng = np.random.default_rng(11)
+    t = np.arange(5000.0)
+    for z in (rng.standard_normal(5000), np.cumsum(rng.standard_normal(5000)),
+              3.0 + 1e-3 * t + rng.standard_normal(5000),
+              np.cumsum(np.cumsum(rng.standard_normal(5000))), rng.standard_normal(31)):
+        tt = t[:len(z)]
+        resid = z - np.polyval(np.polyfit(tt, z, 1), tt)
+        assert detrended_lag1(z) == pytest.approx(lag1_autocorrelation(resid), abs=1e-9)
+
+
+@pytest.mark.parametrize("alpha", [2, 0, -2])
+def test_capped_identification_decides_as_the_whole_record(alpha):
+    """The identification reads at most ID_AVERAGES block averages per tau: on a record
+    16 times longer than the cap it names the same alpha at every tau as reading all."""
+    from accelcal.signal.allan.identify import ID_AVERAGES
+
+    rng = np.random.default_rng(5 + alpha)
+    n = 16 * ID_AVERAGES
+    white = rng.standard_normal(n)
+    y = {2: np.diff(white, prepend=0.0), 0: white, -2: np.cumsum(white)}[alpha]
+    x = phase(y)
+    m = np.array([1, 2, 4, 8, 16, 32, 64])
+    capped, _ = interval_alphas(x, m, "oadev")
+    whole, _ = interval_alphas(x, m, "oadev", cap=n)
+    assert list(capped) == list(whole) == [alpha] * m.size

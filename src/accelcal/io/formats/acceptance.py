@@ -3,8 +3,11 @@
 A record file (see :mod:`accelcal.io.records`) of kind ``steps`` holds an
 acceptance test of one accelerometer in which the input is held at a
 sequence of values (dwells) and the output recorded at each: the threshold
-and resolution tests (small increments about a set point) and the
-hysteresis cycle (0 -> +1 g -> 0 -> -1 g -> 0). One row per sample.
+and resolution tests (small increments about a set point), the
+hysteresis cycle (0 -> +1 g -> 0 -> -1 g -> 0), the input-range test (a
+centrifuge's ladder of inputs up to and past full scale, with zero-input
+dwells before and after the overload) and the turn-on test (dwells at
++1 g and -1 g through each of several turn-ons). One row per sample.
 Columns:
 
 ``t`` (s)
@@ -16,12 +19,17 @@ Columns:
     A dwell is a run of rows with the same input.
 ``output`` (output unit)
     The accelerometer's output.
+``turn_on`` (``1`` or ``-``: an index; turn-on tests only, required there)
+    The turn-on (power cycle) the sample belongs to, 1, 2, ...; a dwell
+    ends where it changes.
 
-Metadata fields: ``test`` (``"threshold"``, ``"resolution"`` or
-``"hysteresis"``), ``output_unit`` and ``scale_factor`` (output unit per g,
-the nominal scale factor the 50 % rule predicts the output change with) are
-required. The simulator adds ``simulated``, ``seed``, the true threshold,
-resolution or hysteresis and the step size; the laboratory fields
+Metadata fields: ``test`` (``"threshold"``, ``"resolution"``,
+``"hysteresis"``, ``"range"`` or ``"turn-on"``), ``output_unit`` and
+``scale_factor`` (output unit per g, the nominal scale factor the 50 % rule
+predicts the output change with) are required; ``rail`` (output unit,
+optional, range tests) is the output's clipping level (amplifier or DAQ
+rail) where known. The simulator adds ``simulated``, ``seed``, the truth
+(threshold, resolution, hysteresis, range, turn-on values) and the step size; the laboratory fields
 ``serial``, ``operator``, ``date``, ``local_gravity`` are optional
 (:mod:`accelcal.io.lab_metadata`).
 
@@ -52,7 +60,7 @@ KIND = "steps"
 IMPORT = ImportLayout(time=True)
 """How ``accelcal import`` makes this kind from a recording (a time column ``t``)."""
 
-TESTS = ("threshold", "resolution", "hysteresis")
+TESTS = ("threshold", "resolution", "hysteresis", "range", "turn-on")
 """The tests a step record holds (metadata ``test``)."""
 
 MAX_INPUT_G = 100.0
@@ -79,6 +87,8 @@ class StepRecord:
         Nominal scale factor, output unit per g.
     angle : numpy.ndarray or None
         The indexing head's angle, deg, where the record has it.
+    turn_on : numpy.ndarray or None
+        The turn-on of each sample (1, 2, ...): turn-on tests only.
     metadata : dict
         The file's other metadata (JSON-ready).
     """
@@ -90,6 +100,7 @@ class StepRecord:
     output_unit: str
     scale_factor: float
     angle: np.ndarray | None = None
+    turn_on: np.ndarray | None = None
     metadata: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -97,6 +108,8 @@ class StepRecord:
                 for n in ("t", "input", "output")}
         if self.angle is not None:
             cols["angle"] = np.array(self.angle, dtype=float).reshape(-1)
+        if self.turn_on is not None:
+            cols["turn_on"] = np.array(self.turn_on, dtype=float).reshape(-1)
         if len({c.size for c in cols.values()}) != 1:
             raise AccelcalError("a step record's columns must have equal lengths")
         _check(cols, "step record", self.test, self.output_unit, self.scale_factor)
@@ -111,8 +124,11 @@ class StepRecord:
         return check_lab_metadata(self.metadata, "step record")
 
     def dwells(self) -> np.ndarray:
-        """Start index of each dwell (a run of rows with one input), then ``n``."""
-        change = np.flatnonzero(np.diff(self.input) != 0.0) + 1
+        """Start index of each dwell (a run of rows with one input and turn-on), then ``n``."""
+        moved = np.diff(self.input) != 0.0
+        if self.turn_on is not None:
+            moved |= np.diff(self.turn_on) != 0.0
+        change = np.flatnonzero(moved) + 1
         return np.r_[0, change, self.input.size]
 
 
@@ -135,6 +151,15 @@ def _check(cols: dict, where, test, output_unit, scale_factor) -> None:
                                 "a number; is the file corrupt?")
     if not np.all(np.diff(cols["t"]) > 0):
         raise AccelcalError(f"{where}: column t must increase strictly from row to row")
+    turn_on = cols.get("turn_on")
+    if (test == "turn-on") != (turn_on is not None):
+        raise AccelcalError(f"{where}: a turn-on test, and only it, needs a column turn_on "
+                            "(the turn-on of each sample: 1, 2, ...)")
+    if turn_on is not None and turn_on.size and not (
+            np.all(turn_on == np.round(turn_on)) and turn_on.min() >= 1
+            and np.all(np.diff(turn_on) >= 0) and turn_on.max() <= 1e6):
+        raise AccelcalError(f"{where}: column turn_on must hold whole numbers 1, 2, ... that "
+                            "do not decrease")
 
 
 def write(path, data: StepRecord) -> None:
@@ -144,6 +169,9 @@ def write(path, data: StepRecord) -> None:
     if data.angle is not None:
         units["angle"] = "deg"
         columns["angle"] = data.angle
+    if data.turn_on is not None:
+        units["turn_on"] = "1"
+        columns["turn_on"] = data.turn_on
     meta = {"units": units, "test": data.test, "output_unit": data.output_unit,
             "scale_factor": data.scale_factor,
             **{k: v for k, v in data.metadata.items() if k not in _RESERVED}}
@@ -168,8 +196,8 @@ def read(path) -> StepRecord:
     if units["output"] != meta["output_unit"]:
         raise AccelcalError(f"{path}: the output column's unit {shown(units['output'])} is not "
                             f"metadata output_unit {shown(meta['output_unit'])}")
-    for name, unit in (("input", "g"), ("angle", "deg"), ("t", "s")):
-        if name in cols and units[name] != unit:
+    for name, unit in (("input", "g"), ("angle", "deg"), ("t", "s"), ("turn_on", "1")):
+        if name in cols and units[name] != unit and not (name == "turn_on" and units[name] == "-"):
             raise AccelcalError(f"{path}: column {name} must be in {unit}, not "
                                 f"{shown(units[name])}")
     angle = cols.get("angle")
@@ -184,7 +212,7 @@ def read(path) -> StepRecord:
     try:
         return StepRecord(t=cols["t"], input=applied, output=cols["output"], test=meta["test"],
                           output_unit=meta["output_unit"], scale_factor=meta["scale_factor"],
-                          angle=angle,
+                          angle=angle, turn_on=cols.get("turn_on"),
                           metadata={k: v for k, v in meta.items() if k not in _RESERVED})
     except AccelcalError as exc:
         raise AccelcalError(f"{path}: {exc.message.removeprefix('step record: ')}") from None

@@ -176,7 +176,9 @@ def write_blocks(path, blocks, *, rate: float, unit: str, channels=("acc",),
 
             schema = pa.schema([(c, pa.float64()) for c in channels],
                                metadata={"accelcal": text})
-            with pq.ParquetWriter(tmp, schema) as writer:
+            from accelcal.io.records import parquet_options
+
+            with pq.ParquetWriter(tmp, schema, **parquet_options(schema)) as writer:
                 for block in blocks:
                     arr = np.asarray(block, dtype=float).reshape(len(block), -1)
                     writer.write_table(pa.table({c: arr[:, k] for k, c in enumerate(channels)},

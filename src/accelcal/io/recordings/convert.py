@@ -278,10 +278,10 @@ def _writer(path: Path, schema, header: dict):
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
-    from accelcal.io.records import MARKER
+    from accelcal.io.records import MARKER, parquet_options
 
     if path.suffix.lower() == ".parquet":
-        with pq.ParquetWriter(path, schema) as sink:
+        with pq.ParquetWriter(path, schema, **parquet_options(schema)) as sink:
             yield sink.write_table
         return
     with open(path, "wb") as fh:

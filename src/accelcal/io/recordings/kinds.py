@@ -42,7 +42,7 @@ _TO_RECORD = {"g": ("g", 1.0), "mg": ("g", 1e-3), "ug": ("g", 1e-6), "m/s^2": ("
               "V": ("V", 1.0), "mV": ("mV", 1.0), "counts": ("1", 1.0), "deg": ("deg", 1.0),
               "rad": ("deg", 180.0 / math.pi), "s": ("s", 1.0), "-": ("-", 1.0)}
 _FIXED = {"t": "s", "input": "g", "angle": "deg", "angle_deg": "deg", "point": "-", "repeat": "-",
-          "ref": "g", "ref_n": "g", "ref_ia": "g"}
+          "ref": "g", "ref_n": "g", "ref_ia": "g", "turn_on": "-"}
 """Columns whose record unit is fixed, by name (they are not the sensor's output)."""
 
 _OUTPUT_UNITS = ("V", "mV", "mA", "g")

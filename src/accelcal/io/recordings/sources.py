@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from accelcal.errors import AccelcalError
+from accelcal.io.arrow_numbers import floats
 from accelcal.io.limits import check_regular_file
 from accelcal.io.recordings.channels import Source
 from accelcal.validation import MAX_LABEL_LENGTH, one_line, shown, shown_name
@@ -207,7 +208,7 @@ def batches(source: Source, numeric: list[str], text: list[str], rows: int
                         or pa.types.is_null(col.type)):
                     raise AccelcalError(f"{shown_name(source.path.name)}: column "
                                         f"{shown_name(name)} holds {col.type}, not numbers")
-                out[name] = col.to_numpy(zero_copy_only=False).astype(float, copy=False)
+                out[name] = floats(col)
             for name in text:
                 out[name] = _labels(batch.column(name).cast(pa.string()), name, source)
             yield out

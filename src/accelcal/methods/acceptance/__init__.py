@@ -1,4 +1,4 @@
-"""Acceptance tests of pendulous accelerometers: threshold, resolution, hysteresis (issue 27).
+"""Acceptance tests of pendulous accelerometers: threshold, resolution, hysteresis, range, turn-on.
 
 The tests of a specification that are not calibration coefficients (IEEE
 1293, IEEE 337), on the indexing head. The package:
@@ -12,11 +12,21 @@ The tests of a specification that are not calibration coefficients (IEEE
 :mod:`~accelcal.methods.acceptance.hysteresis`
     :func:`reduce_hysteresis`: decreasing minus increasing leg at each
     input point of the cycle 0 -> +1 g -> 0 -> -1 g -> 0.
+:mod:`~accelcal.methods.acceptance.range`
+    :func:`reduce_range`: the input where the nonlinearity leaves a limit,
+    clipped samples, the bias before and after the overload.
+:mod:`~accelcal.methods.acceptance.turnon`
+    :func:`reduce_turn_on`: bias and scale-factor repeatability from
+    turn-on to turn-on, in-run drift.
+:mod:`~accelcal.methods.acceptance.records`
+    :func:`repeatability` over several calibration records of a serial,
+    :func:`compare` of two (the shift, E_n, z or Welch t).
 :mod:`~accelcal.methods.acceptance.figures`
     :func:`figures`: the step response with the 50 % line, the hysteresis
-    loop.
+    loop, the range curve with clipping marked, the repeatability chart.
 
-The rig simulator is :mod:`accelcal.rigs.acceptance`, the record format
+The rig simulators are :mod:`accelcal.rigs.acceptance` (indexing head) and
+:mod:`accelcal.rigs.acceptance_runs` (centrifuge, turn-ons), the record format
 :mod:`accelcal.io.formats.acceptance` (kind ``steps``). The verbs:
 :func:`simulate` (the rig) and :func:`reduce` (a record, or its file, to a
 Reduction: what ``accelcal acceptance reduce`` does); :func:`quantity_rows`
@@ -33,11 +43,15 @@ from accelcal.methods import ReportText
 from accelcal.methods.acceptance.dwells import Dwells, dwell_means
 from accelcal.methods.acceptance.figures import figures
 from accelcal.methods.acceptance.hysteresis import reduce_hysteresis
+from accelcal.methods.acceptance.range import reduce_range
+from accelcal.methods.acceptance.records import compare, repeatability
 from accelcal.methods.acceptance.steps import FAMILY, MAX_ERROR, RULE, TARGET, reduce_steps
+from accelcal.methods.acceptance.turnon import reduce_turn_on
 
 __all__ = [
-    "ERRATA", "FAMILY", "MAX_ERROR", "RULE", "TARGET", "Dwells", "dwell_means", "figures",
-    "quantity_rows", "reduce", "reduce_hysteresis", "reduce_steps", "report_text", "simulate",
+    "ERRATA", "FAMILY", "MAX_ERROR", "RULE", "TARGET", "Dwells", "compare", "dwell_means",
+    "figures", "from_inputs", "quantity_rows", "reduce", "reduce_hysteresis", "reduce_range",
+    "reduce_steps", "reduce_turn_on", "repeatability", "report_text", "simulate",
 ]
 
 ERRATA = ()
@@ -48,7 +62,16 @@ def report_text(reduction) -> ReportText:
     """The report's title and summary of an acceptance reduction."""
     prov = reduction.provenance
     test = prov.get("test", "")
-    if test == "hysteresis":
+    if test == "range":
+        summary = ("A ladder of inputs up to and past full scale on both sides, at rest before "
+                   "and after: the input range is where the nonlinearity leaves "
+                   f"{prov.get('limit', 0.0):g} of the input; clipped samples counted; the "
+                   "bias before and after the overload.")
+    elif test == "turn-on":
+        summary = (f"{prov.get('turn_ons', 0)} turn-ons, each with dwells at +1 g and -1 g: "
+                   "bias, scale factor and in-run drift per turn-on; their spread from turn-on "
+                   "to turn-on with 95 % chi-square intervals.")
+    elif test == "hysteresis":
         summary = (f"Input cycle 0 → +1 g → 0 → −1 g → 0 on the indexing head; the hysteresis at "
                    f"each of {len(prov.get('points_g', []))} input points is the decreasing-leg "
                    "minus the increasing-leg dwell mean over the scale factor.")
@@ -63,19 +86,43 @@ def report_text(reduction) -> ReportText:
 
 
 def simulate(test: str = "threshold", *, seed=None, **settings):
-    """A simulated step test: the rig's :func:`accelcal.rigs.acceptance.simulate`."""
+    """A simulated step test from the rigs.
+
+    :func:`accelcal.rigs.acceptance.simulate` for a threshold, resolution or
+    hysteresis test, :func:`~accelcal.rigs.acceptance_runs.simulate_range`
+    and :func:`~accelcal.rigs.acceptance_runs.simulate_turn_on` for the others.
+    """
+    from accelcal.rigs import acceptance_runs
     from accelcal.rigs.acceptance import simulate as rig_simulate
 
+    if test == "range":
+        return acceptance_runs.simulate_range(seed=seed, **settings)
+    if test == "turn-on":
+        return acceptance_runs.simulate_turn_on(seed=seed, **settings)
     return rig_simulate(test, seed=seed, **settings)
 
 
+def from_inputs(files, record):
+    """Candidate reductions of a record's input files (:mod:`accelcal.methods`).
+
+    The step record the record names, reduced with the command's defaults.
+    """
+    from accelcal.method_ids import canonical
+
+    if not canonical(record.method).startswith(f"{FAMILY}/") or not files:
+        return []
+    return [(reduce(files[0]), {})]
+
+
 def reduce(records, *, test: str | None = None, settle: float = 0.0,
-           max_error: float = MAX_ERROR, target: float = TARGET):
+           max_error: float = MAX_ERROR, target: float = TARGET, limit: float | None = None,
+           linear_span: float | None = None):
     """Reduce a step record (or its file), as ``accelcal acceptance reduce`` does.
 
     ``test`` (optional) must be the record's own; ``settle``, ``max_error``
-    and ``target`` as :func:`reduce_steps` takes them (the hysteresis uses
-    ``settle`` only).
+    and ``target`` as :func:`reduce_steps` takes them (the hysteresis and
+    turn-on use ``settle`` only); ``limit`` and ``linear_span`` as
+    :func:`reduce_range` takes them.
     """
     from os import PathLike
 
@@ -91,15 +138,26 @@ def reduce(records, *, test: str | None = None, settle: float = 0.0,
                             parameter="test")
     if record.test == "hysteresis":
         return reduce_hysteresis(record, settle=settle)
+    if record.test == "range":
+        from accelcal.methods.acceptance.range import LIMIT
+
+        return reduce_range(record, settle=settle, limit=LIMIT if limit is None else limit,
+                            linear_span=linear_span)
+    if record.test == "turn-on":
+        return reduce_turn_on(record, settle=settle)
     return reduce_steps(record, settle=settle, max_error=max_error, target=target)
 
 
 def quantity_rows(reduction) -> list[dict]:
     """Rows ``quantity, estimate, std, unit``: accelerations in ug, responses as fractions.
 
-    A resolution also gets ``resolution / input`` (ppm of the set point's input).
+    A resolution also gets ``resolution / input`` (ppm of the set point's input);
+    a range test states the input range in g; a turn-on test's rows also
+    have ``low`` and ``high``, the 95 % interval of a standard deviation.
     """
     est, prov = reduction.estimate, reduction.provenance
+    if prov.get("test") in _LABELS:
+        return _run_rows(reduction)
     rows = []
     for name, value, std in zip(est.names, est.values, est.std, strict=True):
         unit = est.units[name]
@@ -116,4 +174,46 @@ def quantity_rows(reduction) -> list[dict]:
         rows.insert(1, {"quantity": "resolution / input", "unit": "ppm",
                         "estimate": reduction.value("resolution") / a0 * 1e6,
                         "std": reduction.std("resolution") / a0 * 1e6})
+    return rows
+
+
+_LABELS = {
+    "range": {"range_pos": ("input range (+)", 1.0, "g"),
+              "range_neg": ("input range (-)", 1.0, "g"),
+              "clipped_samples": ("clipped samples", 1.0, "1"),
+              "bias_before": ("bias before overload", 1e6, "ug"),
+              "bias_after": ("bias after overload", 1e6, "ug"),
+              "overload_shift": ("overload bias shift", 1e6, "ug")},
+    "turn-on": {"bias_repeatability": ("bias repeatability", 1e6, "ug"),
+                "scale_repeatability": ("scale-factor repeatability", 1e6, "ppm"),
+                "drift": ("bias drift", 1e6 * 3600.0, "ug/h"),
+                "bias_mean": ("mean bias", 1e6, "ug")},
+}
+"""Row label, factor and unit of each coefficient of a range or turn-on reduction."""
+
+
+def _run_rows(reduction) -> list[dict]:
+    """:func:`quantity_rows` of a range or turn-on reduction."""
+    import math
+
+    est, prov = reduction.estimate, reduction.provenance
+    labels = _LABELS[prov["test"]]
+    intervals = {"bias_repeatability": (prov.get("bias_interval_g"), 1e6),
+                 "scale_repeatability": (prov.get("scale_interval"), 1e6)}
+    rows = []
+    for name, value, std in zip(est.names, est.values, est.std, strict=True):
+        kind, _, k = name.rpartition("_")
+        if name in labels:
+            label, factor, unit = labels[name]
+        elif kind == "bias":
+            label, factor, unit = f"bias at turn-on {k}", 1e6, "ug"
+        else:
+            label, factor, unit = f"scale factor at turn-on {k}", 1e6, "ppm"
+        row = {"quantity": label, "estimate": float(value) * factor,
+               "std": float(std) * factor, "unit": unit}
+        if prov["test"] == "turn-on":
+            interval, f = intervals.get(name, (None, 1.0))
+            row["low"], row["high"] = ((interval[0] * f, interval[1] * f) if interval
+                                       else (math.nan, math.nan))
+        rows.append(row)
     return rows

@@ -57,8 +57,12 @@ class Dwells:
         return np.r_[0.0, np.sign(np.diff(self.input))]
 
 
-def dwell_means(record, settle: float = 0.0) -> Dwells:
+def dwell_means(record, settle: float = 0.0, pool=None) -> Dwells:
     """The dwells of ``record`` with the first ``settle`` s of each dropped.
+
+    ``pool`` (optional, a boolean per dwell) selects the dwells whose scatter
+    is pooled into ``sigma`` (e.g. leaving out dwells with clipped samples,
+    whose scatter the clipping removes); by default every dwell's.
 
     Raises
     ------
@@ -81,9 +85,12 @@ def dwell_means(record, settle: float = 0.0) -> Dwells:
         inputs.append(record.input[lo])
         means.append(y.mean())
         counts.append(y.size)
-        ss += float(np.sum((y - y.mean()) ** 2))
+        if pool is None or pool[k]:
+            ss += float(np.sum((y - y.mean()) ** 2))
     counts = np.asarray(counts, dtype=float)
-    dof = int(np.sum(counts - 1))
+    dof = int(np.sum((counts - 1) if pool is None else (counts - 1)[np.asarray(pool, bool)]))
+    if dof < 1:
+        raise AccelcalError("no dwell left to estimate the noise from")
     sigma = float(np.sqrt(ss / dof))
     return Dwells(input=np.asarray(inputs), mean=np.asarray(means),
                   se=sigma / np.sqrt(counts), kept=counts * dt,

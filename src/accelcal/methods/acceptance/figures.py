@@ -24,19 +24,29 @@ def figures(reduction, **context) -> list:
         ``acceptance-steps`` (the response to each increment with its 95 %
         interval, the 50 % line and the decided increment) for a threshold
         or resolution test; ``acceptance-hysteresis`` (the loop: the output's
-        departure from the scale-factor line on each leg) for a cycle.
+        departure from the scale-factor line on each leg) for a cycle;
+        ``acceptance-range`` (the nonlinearity against the input, the limit
+        and the range, clipped dwells marked) for a range test;
+        ``acceptance-turn-on`` (bias and scale factor per turn-on with 95 %
+        intervals and the mean +- one repeatability) for a turn-on test.
     """
-    if reduction.provenance.get("test") == "hysteresis":
+    test = reduction.provenance.get("test")
+    if test == "hysteresis":
         return [_loop(reduction)]
+    if test == "range":
+        return [_range(reduction)]
+    if test == "turn-on":
+        return [_turn_on(reduction)]
     return [_steps(reduction)]
 
 
 def _steps(reduction):
-    import matplotlib.pyplot as plt
+    from accelcal.plotting import new_figure
 
     obs, test = reduction.observations, reduction.provenance["test"]
     size = obs["size"] * 1e6
-    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    fig = new_figure(figsize=(6.4, 4.0))
+    ax = fig.subplots()
     ax.errorbar(size, obs["response"], yerr=1.96 * obs["response_std"], fmt="o", capsize=3,
                 label="response (95 %)")
     ax.axhline(0.5, color="C3", ls="--", label="50 % rule")
@@ -45,7 +55,6 @@ def _steps(reduction):
     ax.set_xlabel("input increment (µg)")
     ax.set_ylabel("output change / predicted change")
     ax.legend(loc="best")
-    fig.tight_layout()
     caption = (f"Mean output change per predicted change for each increment about "
                f"{reduction.provenance['set_point_g']:.3g} g; the {test} is the smallest "
                "increment reaching 50 % (error probability "
@@ -54,13 +63,14 @@ def _steps(reduction):
 
 
 def _loop(reduction):
-    import matplotlib.pyplot as plt
+    from accelcal.plotting import new_figure
 
     obs, k1 = reduction.observations, reduction.provenance["scale_factor"]
     a, m, d = obs["dwell_input"], obs["dwell_mean"], obs["dwell_direction"]
     dev = m / k1 - a
     dev = (dev - np.mean(dev)) * 1e6
-    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    fig = new_figure(figsize=(6.4, 4.0))
+    ax = fig.subplots()
     ax.plot(a, dev, color="0.7", lw=0.8)
     for sign, label, marker in ((1.0, "increasing input", "^"), (-1.0, "decreasing input", "v")):
         sel = d == sign
@@ -69,8 +79,66 @@ def _loop(reduction):
     ax.set_xlabel("input (g)")
     ax.set_ylabel("output / K1 − input, about its mean (µg)")
     ax.legend(loc="best")
-    fig.tight_layout()
     caption = ("The output's departure from the scale-factor line at each dwell of the cycle "
                "0 → +1 g → 0 → −1 g → 0 (95 % intervals); the hysteresis at a point is the "
                "decreasing leg minus the increasing one.")
     return ("acceptance-hysteresis", "Hysteresis loop", fig, caption)
+
+
+def _range(reduction):
+    from accelcal.plotting import new_figure
+
+    obs, prov = reduction.observations, reduction.provenance
+    a, m = obs["dwell_input"], obs["dwell_mean"]
+    ref = np.maximum.accumulate(np.where(a == 0.0, np.arange(a.size), 0))
+    k1 = prov["line_scale_factor"]
+    on = a != 0.0
+    n = (m[on] - m[ref][on] - k1 * a[on]) / (k1 * a[on])
+    clip = np.asarray(obs["dwell_clipped"], dtype=bool)[on]
+    fig = new_figure(figsize=(6.4, 4.0))
+    ax = fig.subplots()
+    ax.semilogy(np.abs(a[on])[~clip & (a[on] > 0)], np.abs(n)[~clip & (a[on] > 0)], "^",
+                label="positive input")
+    ax.semilogy(np.abs(a[on])[~clip & (a[on] < 0)], np.abs(n)[~clip & (a[on] < 0)], "v",
+                label="negative input")
+    if clip.any():
+        ax.semilogy(np.abs(a[on])[clip], np.abs(n)[clip], "x", color="C3", ms=8,
+                    label="clipped samples in the dwell")
+    ax.axhline(prov["limit"], color="C3", ls="--", label=f"limit {prov['limit']:g}")
+    for name, ls in (("range_pos", ":"), ("range_neg", "-.")):
+        if name in reduction.estimate.names:
+            ax.axvline(reduction.value(name), color="C2", ls=ls,
+                       label=f"range {'+' if name == 'range_pos' else '−'}"
+                             f"{reduction.value(name):.4g} g")
+    ax.set_xlabel("|input| (g)")
+    ax.set_ylabel("|nonlinearity| / input")
+    ax.legend(loc="best", fontsize="small")
+    caption = ("The output's departure from the straight line, relative to the input, at "
+               "each dwell of the ladder; the input range is where it leaves the limit; "
+               "dwells with clipped samples are marked with crosses.")
+    return ("acceptance-range", "Input range and saturation", fig, caption)
+
+
+def _turn_on(reduction):
+    from accelcal.plotting import new_figure
+
+    obs = reduction.observations
+    j = obs["turn_on"]
+    bias = obs["bias"] * 1e6
+    scale = (obs["scale"] / obs["scale"].mean() - 1.0) * 1e6
+    fig = new_figure(figsize=(6.4, 5.2))
+    axes = fig.subplots(2, 1, sharex=True)
+    for ax, y, u, label, name in (
+            (axes[0], bias, obs["bias_std"] * 1e6, "bias (µg)", "bias_repeatability"),
+            (axes[1], scale, obs["scale_std"] / obs["scale"].mean() * 1e6,
+             "scale factor − mean (ppm)", "scale_repeatability")):
+        ax.errorbar(j, y, yerr=1.96 * u, fmt="o", capsize=3)
+        s = reduction.value(name) * 1e6
+        ax.axhline(y.mean(), color="C2")
+        ax.axhspan(y.mean() - s, y.mean() + s, color="C2", alpha=0.15, label=f"±1 SD {s:.3g}")
+        ax.set_ylabel(label)
+        ax.legend(loc="best", fontsize="small")
+    axes[1].set_xlabel("turn-on")
+    caption = ("Bias and scale factor at each turn-on (95 % intervals of each turn-on's "
+               "measurement) with the mean and the turn-on-to-turn-on standard deviation.")
+    return ("acceptance-turn-on", "Turn-on repeatability", fig, caption)

@@ -15,8 +15,8 @@ chunks, and the PSD is accumulated from the phase's differences
 Resident memory: O(block rows) for the block being read (``rows`` x 8
 bytes x a few), O(:data:`~accelcal.signal.allan.kernels.CHUNK`) for
 the kernels, ``64 x MAX_SEGMENT`` samples for the PSD and at most
-:data:`ID_POINTS` phase points for the noise identification at short taus
-(the lag-1 autocorrelation of 2^20 averages pins alpha far beyond need):
+:data:`~accelcal.signal.allan.identify.ID_AVERAGES` phase points for the noise
+identification at short taus (as in memory):
 171 MiB measured for 1e8 samples (libraries included), whatever the length, plus the
 page cache the kernel lends to the memmap (reclaimable; not the process's).
 Disk: 8 bytes per sample in the temporary file.
@@ -45,9 +45,6 @@ from accelcal.errors import AccelcalError
 
 CHUNK = 1 << 16
 """Samples per cumulative-sum chunk (fixed positions: results independent of the block size)."""
-
-ID_POINTS = 1 << 20
-"""Most averages the noise identification uses at one tau (the record's start)."""
 
 STREAM_KINDS = ("oadev", "ohdev")
 """Deviations computed from the phase on disk."""
@@ -124,9 +121,9 @@ def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None):
     if not np.all(dev > 0):
         raise AccelcalError("the signal is constant; a deviation of 0 says nothing",
                             parameter="values")
-    # noise identification: taus with more than ID_POINTS averages use the record's start;
+    # noise identification: taus with more than ID_AVERAGES averages use the record's start;
     # the long taus carry the alpha of the longest identified ones (as in memory)
-    alphas, sources = interval_alphas(x, m, kind, cap=ID_POINTS)
+    alphas, sources = interval_alphas(x, m, kind)
     dof = edf(kind, alphas, m, n)
     lo, hi = confidence_interval(dev, dof, confidence)
     return Deviation(kind=kind, tau=m / rate, m=m, n=counts, dev=dev, alpha=alphas, edf=dof,

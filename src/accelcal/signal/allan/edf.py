@@ -314,11 +314,11 @@ def confidence_interval(dev, edf_values, confidence: float = 0.683):
         ``dev sqrt(edf / chi2_{1-p/2}(edf))`` and ``dev sqrt(edf / chi2_{p/2}(edf))``,
         ``p = 1 - confidence``.
     """
-    from scipy.stats import chi2
+    from scipy.special import gammaincinv  # chi2.ppf(q, nu) = 2 P^-1(nu/2, q): no scipy.stats
 
     p = 1.0 - check_confidence(confidence)
     dev = np.asarray(dev, dtype=float)
     nu = np.asarray(edf_values, dtype=float)
-    low = dev * np.sqrt(nu / chi2.ppf(1.0 - p / 2.0, nu))   # Eq. (45) [SP1065]
-    high = dev * np.sqrt(nu / chi2.ppf(p / 2.0, nu))        # Eq. (45) [SP1065]
+    low = dev * np.sqrt(nu / (2.0 * gammaincinv(nu / 2.0, 1.0 - p / 2.0)))  # Eq. (45) [SP1065]
+    high = dev * np.sqrt(nu / (2.0 * gammaincinv(nu / 2.0, p / 2.0)))       # Eq. (45) [SP1065]
     return low, high

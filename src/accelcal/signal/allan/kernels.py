@@ -127,9 +127,15 @@ def _chunked(x, start, stop, m, order, *, buffers) -> float:
 
 
 def nonoverlapping_sumsq(x: np.ndarray, m: int, order: int) -> tuple[float, int]:
-    """Sum of squared ``order``-th differences of ``x[::m]`` and their number (Eqs. (7), (18))."""
-    v = np.diff(x[::m], order)
-    return float(np.dot(v, v)), len(v)
+    """Sum of squared ``order``-th differences of ``x[::m]`` and their number (Eqs. (7), (18)).
+
+    The differences at lag 1 of the strided view, in chunks (no copy of the
+    record: at m = 1 a whole-array ``np.diff`` allocated two arrays of the
+    record's size).
+    """
+    v = x[::m]
+    count = len(v) - order
+    return (lag_sumsq(v, 0, count, 1, order) if count > 0 else 0.0), max(count, 0)
 
 
 def mdev_sumsq(x: np.ndarray, m: int, work: tuple[np.ndarray, np.ndarray]) -> tuple[float, int]:
