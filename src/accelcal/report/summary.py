@@ -5,7 +5,9 @@ group of quantities (bias, scale factor, alignment, the rest), each cell a
 line per key coefficient and test, in field units
 (:mod:`accelcal.report.units`). Until a calibration carries an uncertainty
 budget, U is ``k`` times the standard uncertainty with ``k = 2``
-(JCGM 100 sec. 6.2: about 95 % for a normal distribution); a budget
+(JCGM 100 sec. 6.2: about 95 % for a normal distribution). A coefficient's
+group is the quantity its name says (a noise fit's B or an acceptance
+test's threshold, in µg, are not a bias: they go to the rest). A budget
 (``accelcal budget ... --format json``: per coefficient ``U`` and ``k``)
 given for a serial and method replaces both, and the cell says its ``k``
 where it differs from the column's.
@@ -22,7 +24,7 @@ from accelcal.formatting import format_std, format_text, format_unit, format_val
 from accelcal.report.units import (
     FieldValue,
     coefficient_std,
-    quantity_of,
+    named_quantity,
     record_field_values,
 )
 
@@ -40,6 +42,7 @@ KEY_COEFFICIENTS = {
     "thermal": ("K0_T1", "K1_T1"),
     "centrifuge": ("K0", "K1", "K2", "K3"),
     "triad": ("b_x", "b_y", "b_z", "s_x", "s_y", "s_z", "a_yz", "a_zy", "a_zx"),
+    "acceptance": ("threshold", "range_pos", "range_neg", "bias_repeatability"),
 }
 """Family -> the coefficients the summary shows (every one for a family not listed)."""
 
@@ -94,7 +97,7 @@ def summary_rows(records, budgets=None, refs=()) -> list[dict]:
             name = rec.names[i]
             plain = rec.plain.get(name, name)
             std = float(stds[i])
-            group = _group(quantity_of(plain, rec.units.get(name, "")))
+            group = _group(named_quantity(plain, rec.units.get(name, "")))
             given = budget.get(name) or budget.get(plain)
             row["cells"][group].append(_line(name, test, fields[i][0], std, given, ref))
     for row in rows.values():

@@ -69,13 +69,27 @@ class FieldValue:
                 f"{format_unit(self.unit)}")
 
 
+SMALL = 1e-2
+"""A coefficient known by its unit alone (``g``, ``1``) is shown in µg or ppm below this
+magnitude (a bias, a ratio); above it (an input range of 30 g, a response of 1.0) it
+keeps its unit."""
+
+
 def quantity_of(name: str, unit: str) -> str | None:
     """The quantity of a coefficient (:data:`accelcal.engineering.QUANTITIES` keys' values).
 
-    By its name, the first term of a combination (``K_F+K_OO``), the
-    parts of its name (split at ``_``, ``+``, ``-``), then by its unit; a
-    triad's ``b_x``, ``s_x``, ``a_yz`` are a bias, a scale factor and a
-    misalignment. None when nothing applies.
+    By its name (:func:`named_quantity`), then by its unit. None when
+    nothing applies.
+    """
+    return named_quantity(name, unit) or _BY_UNIT.get(unit)
+
+
+def named_quantity(name: str, unit: str) -> str | None:
+    """The quantity a coefficient's name says, or None.
+
+    By its name, the first term of a combination (``K_F+K_OO``), the parts
+    of its name (split at ``_``, ``+``, ``-``); a triad's ``b_x``, ``s_x``,
+    ``a_yz`` are a bias, a scale factor and a misalignment.
     """
     if name in QUANTITIES:
         return QUANTITIES[name]
@@ -89,7 +103,7 @@ def quantity_of(name: str, unit: str) -> str | None:
         kind = QUANTITIES.get(part)
         if kind is not None and "/" not in kind:
             return "ratio" if kind == "scale" and unit in ("1", "") else kind
-    return _BY_UNIT.get(unit)
+    return None
 
 
 def field_values(name: str, estimate: float, std: float, unit: str, *,
@@ -112,7 +126,9 @@ def field_values(name: str, estimate: float, std: float, unit: str, *,
     """
     if not math.isfinite(estimate):
         return (FieldValue(estimate, std, unit),)
-    kind = quantity or quantity_of(name, unit)
+    kind = quantity or named_quantity(name, unit)
+    if kind is None and abs(estimate) < SMALL:
+        kind = _BY_UNIT.get(unit)
     if kind == "bias" and unit == "counts" and axis_scale:
         estimate, std, unit = estimate * axis_scale, std * abs(axis_scale), "m/s^2"
     if kind is not None and kind != "scale" and kind.split("/")[0] in _KINDS:
