@@ -56,7 +56,7 @@ def db(request, tmp_path):
 
     engine = sa.create_engine(url)
     with engine.begin() as conn:
-        for table in ("coefficients", "calibrations", "schema_info"):
+        for table in ("journal", "coefficients", "calibrations", "schema_info"):
             conn.execute(sa.text(f"DROP TABLE IF EXISTS {table} CASCADE"))
     engine.dispose()
     return url

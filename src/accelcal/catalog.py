@@ -81,6 +81,11 @@ class Method:
         The stage's test in a few words (the demo's help and subtitle).
     demo_callable : str
         Name of the stage builder, ``stage(sensors, lab) -> Stage``.
+    budget_inputs : tuple of str
+        The lab's input quantities its measurement model has
+        (:data:`accelcal.budget.lab.QUANTITIES`), evaluated by its package's
+        ``budget`` module; empty: no lab inputs modelled, a budget holds the
+        Type A part and the priors only.
     """
 
     name: str
@@ -101,6 +106,7 @@ class Method:
     demo_sensors: str = ""
     demo_test: str = ""
     demo_callable: str = "stage"
+    budget_inputs: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if len(self.kinds) != len(self.formats):
@@ -125,6 +131,11 @@ def _m(package: str) -> str:
     return f"accelcal.methods.{package}"
 
 
+_POSITIONED = ("local_gravity", "head_angle", "autocollimator", "head_axis_tilt", "daq_gain",
+               "daq_offset", "daq_linearity", "load_resistor", "load_resistor_tc",
+               "sensor_temperature")
+"""The inputs of a test on static positions in the gravity field (tumble, indexing head)."""
+
 METHODS: tuple[Method, ...] = (
     Method(
         name="vre", family="vre", title="vibration rectification", package=_m("vre"),
@@ -136,7 +147,9 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "uncertainty"),
         report="accelcal.methods.vre.report_text", docs="docs/vre.md", paper="Guan2021",
         demo="accelcal.methods.vre.demo", demo_order=3, demo_sensors="one",
-        demo_test="vibrafuge grid"),
+        demo_test="vibrafuge grid",
+        budget_inputs=("reference_sensitivity", "centrifuge_rate", "centrifuge_radius",
+                       "daq_gain")),
     Method(
         name="transverse", family="transverse", title="transverse sensitivity",
         package=_m("transverse"), kinds=("shaker",), formats=("accelcal.io.formats.shaker",),
@@ -147,7 +160,8 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "uncertainty"),
         report="accelcal.methods.transverse.report_text", docs="docs/transverse.md",
         paper="GuanTang", demo="accelcal.methods.transverse.demo", demo_order=2,
-        demo_sensors="one", demo_test="shaker transverse sweep"),
+        demo_sensors="one", demo_test="shaker transverse sweep",
+        budget_inputs=("reference_sensitivity",)),
     Method(
         name="dividing-head", family="dividing-head", title="indexing head",
         package=_m("dividing_head"), kinds=("dividing-head",),
@@ -159,7 +173,7 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "uncertainty"),
         report="accelcal.methods.dividing_head.report_text", docs="docs/dividing-head.md",
         paper="Dong2014", demo="accelcal.methods.dividing_head.demo", demo_order=1,
-        demo_sensors="four", demo_test="indexing head"),
+        demo_sensors="four", demo_test="indexing head", budget_inputs=_POSITIONED),
     Method(
         name="tumble", family="tumble", title="multipoint tumble", package=_m("tumble"),
         kinds=("tumble",), formats=("accelcal.io.formats.tumble",), rig="accelcal.rigs.tumble",
@@ -167,7 +181,8 @@ METHODS: tuple[Method, ...] = (
         cli_help=("Multipoint tumble (IEEE 1293 style): what a position set identifies, "
                   "simulated records, and the Fourier / least-squares reduction."),
         verbs=("simulate", "reduce", "plan"),
-        report="accelcal.methods.tumble.report_text", docs="docs/tumble.md", paper="IEEE1293"),
+        report="accelcal.methods.tumble.report_text", docs="docs/tumble.md", paper="IEEE1293",
+        budget_inputs=_POSITIONED),
     Method(
         name="triad", family="triad", title="accelerometer triad", package=_m("triad"),
         kinds=("triad",), formats=("accelcal.io.formats.triad",), rig="accelcal.rigs.triad",
@@ -178,7 +193,7 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "uncertainty", "plan"),
         report="accelcal.methods.triad.report_text", docs="docs/triad.md", paper="Tedaldi2014",
         demo="accelcal.methods.triad.demo", demo_order=7, demo_sensors="triad",
-        demo_test="triad on static positions"),
+        demo_test="triad on static positions", budget_inputs=("local_gravity",)),
     Method(
         name="noise", family="noise", title="noise and stability", package=_m("noise"),
         kinds=("noise",), formats=("accelcal.io.formats.noise",), rig="accelcal.rigs.noise",
@@ -188,7 +203,7 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce"),
         report="accelcal.methods.noise.report_text", docs="docs/noise.md", paper="IEEE952",
         demo="accelcal.methods.noise.demo", demo_order=4, demo_sensors="one",
-        demo_test="still recording"),
+        demo_test="still recording", budget_inputs=("daq_gain",)),
     Method(
         name="thermal", family="thermal", title="temperature", package=_m("thermal"),
         kinds=("thermal",), formats=("accelcal.io.formats.thermal",), rig="accelcal.rigs.thermal",
@@ -199,7 +214,7 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce"),
         report="accelcal.methods.thermal.report_text", docs="docs/thermal.md", paper="IEEE1293",
         demo="accelcal.methods.thermal.demo", demo_order=5, demo_sensors="one",
-        demo_test="thermal chamber"),
+        demo_test="thermal chamber", budget_inputs=_POSITIONED),
     Method(
         name="centrifuge", family="centrifuge", title="centrifuge", package=_m("centrifuge"),
         kinds=("centrifuge",), formats=("accelcal.io.formats.centrifuge",),
@@ -210,7 +225,10 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce", "plan"),
         report="accelcal.methods.centrifuge.report_text", docs="docs/centrifuge.md",
         paper="IEEE836", demo="accelcal.methods.centrifuge.demo", demo_order=6,
-        demo_sensors="one", demo_test="centrifuge"),
+        demo_sensors="one", demo_test="centrifuge",
+        budget_inputs=("local_gravity", "centrifuge_radius", "centrifuge_rate", "daq_gain",
+                       "daq_offset", "daq_linearity", "load_resistor", "load_resistor_tc",
+                       "sensor_temperature")),
     Method(
         name="acceptance", family="acceptance", title="acceptance tests",
         package=_m("acceptance"), kinds=("steps",), formats=("accelcal.io.formats.acceptance",),
@@ -234,7 +252,9 @@ METHODS: tuple[Method, ...] = (
                   "magnitude and phase, fit the transfer function."),
         verbs=("simulate", "reduce"),
         report="accelcal.methods.response.report_text", docs="docs/response.md",
-        paper="ISO16063-21"),
+        paper="ISO16063-21",
+        budget_inputs=("reference_sensitivity", "reference_phase", "frequency", "daq_gain",
+                       "daq_linearity")),
 )
 """Every test method, in the order ``accelcal --help`` lists their groups."""
 

@@ -247,10 +247,8 @@ def _write_records(directory: Path, outcomes):
 
 
 def _store(store, records):
-    import sqlalchemy as sa
-
     ids = store.add_many(records)
-    return sa.make_url(store.url).render_as_string(hide_password=True), ids
+    return store.shown, ids
 
 
 def _report(out: Path, store, outcomes, title: str, subtitle: str,  # noqa: PLR0917
@@ -263,7 +261,8 @@ def _report(out: Path, store, outcomes, title: str, subtitle: str,  # noqa: PLR0
     for o in outcomes:
         sections += reduction_sections(o.reduction, o.records, **o.context)
     if history_serial is not None and outcomes:
-        history = history_section(store, history_serial, method=outcomes[0].reduction.method)
+        history = history_section(store, history_serial, method=outcomes[0].reduction.method,
+                                  chain=store.verify().status_line())
         if history is not None:
             sections.append(history)
     report = out / "report.html"

@@ -245,7 +245,7 @@ def test_store_round_trip_beside_real_records(db):
     (complex_record,) = _reduction().to_records(INFO)
     real_record = _real_record()
     with Store(db) as store:
-        assert store.schema_version == SCHEMA_VERSION == 4
+        assert store.schema_version == SCHEMA_VERSION == 5
         ids = store.add_many([real_record, complex_record])
         back = store.record(ids[1])
         history = store.history("SN-FR")
@@ -279,7 +279,7 @@ def test_a_schema_3_store_gains_the_complex_columns(tmp_path):
         assert store.schema_version == 3
         assert [h["estimate"] for h in store.history("SN-OLD")] == [1e-4]
     with Store(db) as store:
-        assert store.schema_version == 4
+        assert store.schema_version == 5
         store.add(_reduction().to_records(INFO)[0])
         assert len(store.history("SN-FR")) == 3
         assert store.record(old_id).to_json() == dataclasses.replace(

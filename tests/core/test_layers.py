@@ -41,7 +41,8 @@ FLOORS = (
                       "accelcal.uncertainty", "accelcal.montecarlo")),
     ("io", ("accelcal.io",)),
     ("signal", ("accelcal.signal", "accelcal.plotting")),
-    ("rigs and methods", ("accelcal.rigs", "accelcal.methods", "accelcal.calibration")),
+    ("rigs and methods", ("accelcal.rigs", "accelcal.methods", "accelcal.calibration",
+                          "accelcal.budget")),
     ("top", ("accelcal.store", "accelcal.report", "accelcal.pipeline", "accelcal.demo",
              "accelcal.cli")),
 )

@@ -61,6 +61,7 @@ MEMORY_LIMIT = 6 * 2**30
 BASE: dict[str, list[str]] = {
     "demo": ["--out", "{out}/demo", "--seed", "1"],
     "report": ["{record}", "--out", "{out}/report.html"],
+    "budget": ["{tumble}"],
     "model show": [],
     "model new": ["--out", "{out}/model.json"],
     "model eval": ["--ai", "1"],
@@ -111,9 +112,13 @@ BASE: dict[str, list[str]] = {
     "records list": ["--db", "{store}"],
     "records history": ["ACC-0001", "--db", "{store}"],
     "records stats": ["ACC-0001", "--db", "{store}"],
+    "records verify": ["--db", "{store}"],
+    "records supersede": ["1", "--by", "{fixed}", "--who", "A. Tester", "--why", "a test",
+                          "--db", "{store}"],
 }
 """A valid invocation of each command (placeholders: ``{out}`` a fresh directory per run,
-``{examples}`` examples/data, ``{record}`` a calibration record, ``{tumble}`` a tumble
+``{examples}`` examples/data, ``{record}`` a calibration record (``{fixed}`` a correction of
+it, not stored), ``{tumble}`` a tumble
 record, ``{centrifuge}`` a centrifuge record, ``{response}`` a response record, ``{store}``
 a store holding the record and two noise fits). Commands without required parameters may be
 left out (their base is empty)."""
@@ -178,7 +183,8 @@ KINDS: dict[str, str] = {
 COMMAND_KINDS: dict[tuple[str, str], str] = {
     ("records history", "method"): "str", ("records stats", "method"): "str",
     ("transverse simulate", "out"): "output-dir", ("demo", "out"): "output-dir",
-    ("report", "data"): "input-dir",
+    ("report", "data"): "input-dir", ("budget", "data"): "input-dir",
+    ("records supersede", "by"): "input",
 }
 """(command, parameter) -> kind, where the parameter name means something else there."""
 
@@ -476,7 +482,9 @@ def _fill(tmp: Path) -> dict:
         with pytest.raises(SystemExit) as info:
             main(args)
         assert info.value.code == 0, args
-    return {"record": str(record), "tumble": str(tumble), "store": str(store),
+    fixed = tmp / "fixed.json"
+    fixed.write_text(record.read_text().replace('"operator": "', '"operator": "corrected ', 1))
+    return {"record": str(record), "fixed": str(fixed), "tumble": str(tumble), "store": str(store),
             "centrifuge": str(centrifuge), "steps": str(steps),
             "response": str(response)}
 

@@ -30,7 +30,7 @@ def test_records_workflow(capsys, tmp_path):
     code, out, _ = run(capsys, "records", "history", "SN-1", "--db", db, "--format", "csv",
                          "--plot", str(tmp_path / "fig"))
     assert code == 0
-    assert out.splitlines()[0] == "id,date,method,name,unit,estimate,std"
+    assert out.splitlines()[0] == "id,date,method,name,unit,estimate,std,superseded_by"
     assert len(out.splitlines()) == 1 + 9
     assert (tmp_path / "fig" / "history-SN-1.png").stat().st_size > 1000
     assert (tmp_path / "fig" / "history-SN-1.svg").exists()

@@ -127,7 +127,7 @@ def test_schema_1_store_migrates_to_the_simulated_column(db):
         assert [r["simulated"] for r in store.calibrations()] == [False]
         assert store.schema_version == 1
     with Store(db) as store:
-        assert store.schema_version == SCHEMA_VERSION == 4
+        assert store.schema_version == SCHEMA_VERSION == 5
         store.add(dataclasses.replace(make_record(serial="NEW"), simulated=True))
         rows = {r["serial"]: r["simulated"] for r in store.calibrations()}
     assert rows == {"OLD": False, "NEW": True}

@@ -200,7 +200,7 @@ def test_schema_2_store_migrates_to_3_keeping_every_record(db):
         old_indexes = _indexes(store)
     assert "ix_calibrations_serial" in old_indexes["calibrations"]
     with Store(db) as store:
-        assert store.schema_version == SCHEMA_VERSION == 4
+        assert store.schema_version == SCHEMA_VERSION == 5
         after = _everything(store)
         indexes = _indexes(store)
     assert indexes == {

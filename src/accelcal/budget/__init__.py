@@ -1,6 +1,78 @@
 """Uncertainty budgets: the lab's standards and influence quantities through each method's model.
 
 :mod:`accelcal.budget.gum` holds the GUM's arithmetic (inputs, rows, the
-combined and expanded uncertainty, Welch-Satterthwaite); the lab file and
-each method's measurement model feed it.
+combined and expanded uncertainty, Welch-Satterthwaite); the lab file
+(:mod:`accelcal.budget.lab`) and each method's measurement model (its
+package's ``budget`` module, the inputs named by
+:attr:`accelcal.catalog.Method.budget_inputs`) feed it through
+:mod:`accelcal.budget.engine`; :mod:`accelcal.budget.mc` checks a budget by
+Monte Carlo (JCGM 101). :func:`budgets` is the one call; ``accelcal
+budget`` (:mod:`accelcal.cli.budget`) reads the files and prints them.
+
+The package sits beside the methods (each method's ``budget`` module uses
+:mod:`accelcal.budget.engine`; :func:`budgets` finds that module through the
+method's descriptor).
 """
+
+
+def budgets(reduction, lab=None, *, records=None, model=None, check=None) -> list:
+    """The itemised GUM budget of every reported coefficient of a reduction.
+
+    Parameters
+    ----------
+    reduction : accelcal.results.Reduction
+    lab : accelcal.budget.lab.Lab or None
+        The lab file, read by :func:`accelcal.budget.lab.load_lab`; None:
+        the Type A part and the priors only.
+    records : object, optional
+        The data the reduction was made from, as its method reads it (a
+        tumble record or its file; a dividing-head record or its file; ...).
+        Without it the inputs that enter through the data are left out
+        (the budgets' notes say so).
+    model : accelcal.model.ErrorModel, optional
+        The sensor's model, for its temperature coefficients (default: the
+        reduction's models).
+    check : None, "mc" or dict
+        ``"mc"`` (or ``{"trials": N, "seed": S}``): validate each budget by
+        Monte Carlo (:func:`accelcal.budget.mc.check`); the result is the
+        budget's ``check``.
+
+    Returns
+    -------
+    list of accelcal.budget.gum.Budget
+        One per sensor and reported coefficient (rows of
+        :meth:`Reduction.rows` that are fitted; a complex one's magnitude,
+        in %, and phase, in deg), in the coefficient's engineering unit, in
+        the reduction's row order. Data that cannot be read again leave the
+        inputs entering through them out, with a note.
+    """
+    import dataclasses
+    import importlib
+
+    from accelcal import catalog
+    from accelcal.budget.engine import itemise
+    from accelcal.errors import AccelcalError
+
+    found = [m for m in catalog.METHODS if m.family == reduction.family]
+    inputs = found[0].budget_inputs if found else ()
+    data_model, notes = None, []
+    if inputs:
+        module = importlib.import_module(f"{found[0].package}.budget")
+        try:
+            data_model = module.data_model(reduction, records)
+        except (AccelcalError, OSError, ValueError) as exc:  # the data, read again, refused
+            notes.append(f"the input data could not be read again ({exc})")
+    if lab is None:
+        from accelcal.budget.lab import empty_lab
+
+        lab = empty_lab()
+        notes.append("no lab file given: the Type A part and the priors only")
+    out = itemise(reduction, lab, data_model=data_model, inputs=inputs, model=model,
+                  notes=notes)
+    if check:
+        from accelcal.budget.mc import check as mc_check
+
+        options = check if isinstance(check, dict) else {}
+        out = [dataclasses.replace(b, check=mc_check(b, correlation=lab.correlations, **options))
+               for b in out]
+    return out

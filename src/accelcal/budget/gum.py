@@ -36,8 +36,9 @@ DIVISORS = {"normal": 1.0, "rectangular": math.sqrt(3.0), "triangular": math.sqr
             "u-shaped": math.sqrt(2.0)}
 """Bounds +-a of each distribution over its standard uncertainty (GUM 4.3.7, 4.3.9)."""
 
-DISTRIBUTIONS = (*DIVISORS, "student-t")
-"""How an input's uncertainty is distributed; ``student-t``: a Type A input with its dof."""
+DISTRIBUTIONS = (*DIVISORS, "student-t", "two-point")
+"""How an input's uncertainty is distributed; ``student-t``: a Type A input with its dof;
+``two-point``: ``+-u`` with equal probability (a term of unknown sign and known size)."""
 
 
 def from_expanded(expanded: float, k: float) -> float:
@@ -94,6 +95,10 @@ class Input:
         Where it comes from (``"lab"``, ``"type A"``, ``"prior"``, ...).
     reference : str
         The standard's certificate, the prior's origin, ...
+    components : tuple of float
+        For a vector input (one independent error of this ``u`` per
+        position): the sensitivity of each element; the term's sensitivity
+        is then their root-sum-square. Empty for a scalar input.
     """
 
     quantity: str
@@ -104,6 +109,7 @@ class Input:
     dof: float = math.inf
     source: str = "lab"
     reference: str = ""
+    components: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.u) and self.u >= 0):
@@ -130,9 +136,14 @@ class Row:
     share: float
     source: str = "lab"
     reference: str = ""
+    components: tuple[float, ...] = ()
 
     def as_dict(self) -> dict:
-        """The row's JSON object (``dof`` is ``"inf"`` for an exactly known input)."""
+        """The row's JSON object (``dof`` is ``"inf"`` for an exactly known input).
+
+        A vector input's per-element sensitivities (``components``) are not
+        in it: its ``sensitivity`` is their root-sum-square.
+        """
         return {"quantity": self.quantity, "estimate": self.estimate, "u": self.u,
                 "unit": self.unit, "distribution": self.distribution,
                 "sensitivity": self.sensitivity, "contribution": self.contribution,
@@ -165,6 +176,9 @@ class Budget:
         Whether input correlations enter ``u_c``.
     sensor : int
     serial : str
+    notes : tuple of str
+    check : accelcal.budget.mc.Check or None
+        The Monte Carlo validation, when asked for.
     """
 
     coefficient: str
@@ -179,19 +193,24 @@ class Budget:
     sensor: int = 0
     serial: str = ""
     notes: tuple[str, ...] = field(default=())
+    check: object = None
 
     def as_dict(self) -> dict:
         """The budget's JSON object.
 
         Keys ``coefficient, estimate, unit, u_c, nu_eff, k, U, correlated, rows``
-        (``nu_eff`` is ``"inf"`` when infinite), and ``sensor, serial, notes``.
+        (``nu_eff`` is ``"inf"`` when infinite), and ``sensor, serial, notes``;
+        ``check`` when a Monte Carlo validation was made.
         """
-        return {"coefficient": self.coefficient, "estimate": self.estimate, "unit": self.unit,
+        out = {"coefficient": self.coefficient, "estimate": self.estimate, "unit": self.unit,
                 "u_c": self.u_c,
                 "nu_eff": self.nu_eff if math.isfinite(self.nu_eff) else "inf",
                 "k": self.k, "U": self.U, "correlated": self.correlated,
                 "sensor": self.sensor, "serial": self.serial, "notes": list(self.notes),
                 "rows": [r.as_dict() for r in self.rows]}
+        if self.check is not None:
+            out["check"] = self.check.as_dict()
+        return out
 
 
 def combine(coefficient: str, estimate: float, unit: str, terms, *, correlation=None,
@@ -246,7 +265,7 @@ def combine(coefficient: str, estimate: float, unit: str, terms, *, correlation=
     k = coverage_factor(nu_eff, coverage)
     rows = [Row(inp.quantity, inp.estimate, inp.u, inp.unit, inp.distribution, c, abs(p),
                 inp.dof, (p * p / variance) if variance > 0 else 0.0, inp.source,
-                inp.reference)
+                inp.reference, tuple(inp.components))
             for (inp, c), p in zip(terms, parts, strict=True)]
     rows.sort(key=lambda r: r.contribution, reverse=True)
     return Budget(coefficient, float(estimate), unit, tuple(rows), u_c, nu_eff, k, k * u_c,

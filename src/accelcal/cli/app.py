@@ -16,6 +16,7 @@ from typer.core import TyperGroup
 
 from accelcal import __version__
 from accelcal.catalog import METHODS
+from accelcal.cli import budget as budget_cmd
 from accelcal.cli import demo as demo_cmd
 from accelcal.cli import importer as importer_cmd
 from accelcal.cli import report as report_cmd
@@ -94,6 +95,7 @@ app.command("demo")(demo_cmd.demo)
 app.command("import")(importer_cmd.import_)
 app.command("inspect")(importer_cmd.inspect)
 app.command("report")(report_cmd.report)
+app.command("budget")(budget_cmd.budget)
 
 
 def _version(value: bool) -> None:

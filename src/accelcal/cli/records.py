@@ -19,14 +19,22 @@ _DB_HELP = (
     "Store: an SQLite file path or a database URL (e.g. postgresql+psycopg://user@host/db). "
     "Default: $ACCELCAL_DB, else ~/.local/share/accelcal/records.sqlite."
 )
+_SKIP_HELP = ("Leave out rows of the store that fail validation (changed outside accelcal) and "
+              "count them, instead of refusing.")
 _METHOD_HELP = ("Only calibrations by this method, as 'records list' shows it "
                 "(e.g. dividing-head/joint; an old id such as tumble-fourier also works).")
 
 
-def _store(db: str | None, *, readonly: bool = False):
+def _store(db: str | None, *, readonly: bool = False, skip_bad: bool = False):
     from accelcal.store import Store
 
-    return Store(db, readonly=readonly)
+    return Store(db, readonly=readonly, skip_bad=skip_bad)
+
+
+def _skipped(store) -> None:
+    """Say how many bad rows a read left out (standard error)."""
+    if store.skipped:
+        typer.echo(f"skipped {store.skipped} bad row{'s' * (store.skipped != 1)}", err=True)
 
 
 @app.command("add")
@@ -55,10 +63,12 @@ def list_(
     serial: str | None = typer.Option(None, "--serial", help="Only this serial number."),
     db: str | None = typer.Option(None, "--db", help=_DB_HELP),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+    skip_bad: bool = typer.Option(False, "--skip-bad", help=_SKIP_HELP),
 ) -> None:
-    """List stored calibrations, oldest first."""
-    with _store(db, readonly=True) as store:
+    """List stored calibrations, oldest first (superseded_by: the record correcting one)."""
+    with _store(db, readonly=True, skip_bad=skip_bad) as store:
         columns = store.calibrations_columns(serial)
+        _skipped(store)
     if not columns["id"] and fmt == "table":
         typer.echo("the store holds no calibration" + (f" of {serial}" if serial else ""))
         return
@@ -66,7 +76,7 @@ def list_(
 
 
 @app.command("history")
-def history(
+def history(  # noqa: PLR0917 - one parameter per command-line option
     serial: str = typer.Argument(..., help="Serial number."),
     method: str | None = typer.Option(None, "--method", help=_METHOD_HELP),
     db: str | None = typer.Option(None, "--db", help=_DB_HELP),
@@ -74,16 +84,28 @@ def history(
     plot: Path | None = typer.Option(
         None, "--plot", help="Directory for the history figure (PNG and SVG)."
     ),
+    skip_bad: bool = typer.Option(False, "--skip-bad", help=_SKIP_HELP),
 ) -> None:
-    """Every coefficient of every calibration of SERIAL (estimate and standard uncertainty)."""
-    with _store(db, readonly=True) as store:
+    """Every coefficient of every calibration of SERIAL (estimate and standard uncertainty).
+
+    A calibration corrected by another record ('records supersede') is
+    listed with the id of its correction in superseded_by; the figure
+    leaves it out.
+    """
+    with _store(db, readonly=True, skip_bad=skip_bad) as store:
         columns = store.history_columns(serial, method)
+        _skipped(store)
+        fixes = store.corrections(serial) if fmt == "table" else []
     emit_columns(columns, fmt, title=f"Coefficient history of {serial}")
+    for fix in fixes:
+        typer.echo(f"record {fix['id']} supersedes record {fix['supersedes']}: by {fix['who']} "
+                   f"on {fix['stored_at']}, because {fix['why']}")
     if plot is not None:
         from accelcal.plotting import save_figure
         from accelcal.plotting.records import history_figure
 
-        figure = history_figure(rows_of(columns), serial)
+        current = [r for r in rows_of(columns) if r["superseded_by"] is None]
+        figure = history_figure(current, serial)
         paths = save_figure(figure, plot, f"history-{_safe(serial)}")
         typer.echo("wrote " + ", ".join(map(str, paths)), err=True)
 
@@ -94,13 +116,102 @@ def stats(
     method: str | None = typer.Option(None, "--method", help=_METHOD_HELP),
     db: str | None = typer.Option(None, "--db", help=_DB_HELP),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+    skip_bad: bool = typer.Option(False, "--skip-bad", help=_SKIP_HELP),
 ) -> None:
-    """Repeatability (run-to-run SD) and drift (slope per year) of each coefficient, per method."""
+    """Repeatability (run-to-run SD) and drift (slope per year) of each coefficient, per method.
+
+    Calibrations superseded by a correction are left out.
+    """
     from dataclasses import asdict
 
-    with _store(db, readonly=True) as store:
+    with _store(db, readonly=True, skip_bad=skip_bad) as store:
         rows = [asdict(s) for s in store.stats(serial, method)]
+        _skipped(store)
     emit(rows, fmt, title=f"Repeatability and drift of {serial}")
+
+
+@app.command("verify")
+def verify(
+    db: str | None = typer.Option(None, "--db", help=_DB_HELP),
+    fmt: str = typer.Option("table", "--format", help="Output format: table or json."),
+) -> None:
+    """Check that no record was changed, inserted or deleted outside accelcal.
+
+    Every record is hashed again and compared with the hash chained into the
+    store's journal when it was stored; each record found changed, inserted
+    or deleted is named (id, serial, method, date). On SQLite, PRAGMA
+    integrity_check runs too; on PostgreSQL the chain and the count of
+    records against the journal are what is checked. The last line is the
+    chain's head hash: copied elsewhere (a certificate), it shows later that
+    no record was removed from the end. Exit status 1 when anything is
+    found, 0 when the store verifies.
+    """
+    import json
+
+    from accelcal.errors import AccelcalError
+
+    if fmt not in ("table", "json"):
+        raise AccelcalError(f"--format must be table or json, not {fmt!r}")
+    with _store(db, readonly=True) as store:
+        report = store.verify()
+    if fmt == "json":
+        typer.echo(json.dumps({
+            "verified": report.verified, "records": report.records,
+            "superseded": report.superseded, "chained": report.chained,
+            "integrity": report.integrity, "head": report.head,
+            "findings": [{"kind": f.kind, "id": f.id, "serial": f.serial, "method": f.method,
+                          "date": f.date, "detail": f.detail} for f in report.findings],
+        }, indent=2))
+    else:
+        lines = [f.line() for f in report.findings]
+        lines += [f"integrity check: {report.integrity}", report.status_line(),
+                  f"head: {report.head}"]
+        typer.echo("\n".join(lines))
+    if not report.verified:
+        raise typer.Exit(1)
+
+
+@app.command("corrections")
+def corrections(
+    serial: str | None = typer.Option(None, "--serial", help="Only this serial number."),
+    db: str | None = typer.Option(None, "--db", help=_DB_HELP),
+    fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+) -> None:
+    """List the corrections ('records supersede'): which record supersedes which, who, when, why."""
+    from accelcal.validation import check_label
+
+    if serial is not None:
+        check_label(serial, "serial number")
+    with _store(db, readonly=True) as store:
+        rows = store.corrections(serial)
+    if not rows and fmt == "table":
+        typer.echo("the store holds no correction" + (f" of {serial}" if serial else ""))
+        return
+    emit(rows, fmt, title="Corrections")
+
+
+@app.command("supersede")
+def supersede(
+    record_id: int = typer.Argument(..., help="Id of the stored record to correct "
+                                    "('records list' shows the ids)."),
+    by: str = typer.Option(..., "--by", help="The corrected calibration record (JSON)."),
+    who: str = typer.Option(..., "--who", help="Who makes the correction."),
+    why: str = typer.Option(..., "--why", help="Why the record is corrected."),
+    db: str | None = typer.Option(None, "--db", help=_DB_HELP),
+) -> None:
+    """Correct a stored record: add the corrected one, superseding it (never edited in place).
+
+    The old record stays in the store, marked in 'records history' as
+    superseded; statistics and reports use the correction. Who, why and
+    when are journalled and hash-chained with the new record.
+    """
+    from accelcal.io.calibration_record import CalibrationRecord
+
+    record = CalibrationRecord.load(Path(by))
+    with _store(db) as store:
+        new_id = store.supersede(record_id, record, who=who, why=why, source=by)
+    typer.echo(f"added {by} as record {new_id} (serial {record.serial}), superseding "
+               f"record {record_id}")
 
 
 def _safe(text: str) -> str:

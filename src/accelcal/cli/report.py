@@ -23,6 +23,9 @@ def report(
     db: str | None = typer.Option(
         None, "--db", help="Store for --history: an SQLite file path or a database URL. "
         "Default: $ACCELCAL_DB, else ~/.local/share/accelcal/records.sqlite."),
+    skip_bad: bool = typer.Option(
+        False, "--skip-bad", help="With --history: leave out rows of the store that fail "
+        "validation (changed outside accelcal) and count them, instead of refusing."),
 ) -> None:
     """Write a self-contained HTML report: the same sections as the demo's.
 
@@ -36,15 +39,17 @@ def report(
     from the input files the records name by SHA-256, reduced again (when
     they are not found, or do not reproduce the record, the section says
     so). Every file is read and validated before the report is written; the
-    file is written atomically.
+    file is written atomically. With --history, the store's hash chain is
+    verified and its status line ('chain verified: yes (n records)') printed
+    and written in each history section.
     """
     from accelcal.report import write_report
     from accelcal.report.inputs import report_sections
 
-    if db is not None and not history:
+    if (db is not None or skip_bad) and not history:
         from accelcal.errors import AccelcalError
 
-        raise AccelcalError("--db goes with --history")
+        raise AccelcalError(f"{'--db' if db is not None else '--skip-bad'} goes with --history")
     sections = report_sections(records, search=data)
     if history:
         from accelcal.report.sections import history_section
@@ -52,10 +57,15 @@ def report(
 
         pairs = dict.fromkeys((s.record.serial, s.record.method) for s in sections
                               if s.record is not None)
-        with Store(db, readonly=True) as store:
+        with Store(db, readonly=True, skip_bad=skip_bad) as store:
+            chain = store.verify().status_line()
             for serial, method in pairs:
-                section = history_section(store, serial, method=method)
+                section = history_section(store, serial, method=method, chain=chain)
                 if section is not None:
                     sections.append(section)
+            skipped = store.skipped
+        typer.echo(chain)
+        if skipped:
+            typer.echo(f"skipped {skipped} bad row{'s' * (skipped != 1)}", err=True)
     write_report(out, sections, title=title)
     typer.echo(f"wrote {out}")

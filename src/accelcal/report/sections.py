@@ -178,13 +178,15 @@ def _column(sensor: str, record) -> str:
 
 
 # --------------------------------------------------------------------- history
-def history_section(store, serial: str, *, method: str | None = None) -> Section | None:
+def history_section(store, serial: str, *, method: str | None = None,
+                    chain: str | None = None) -> Section | None:
     """Calibration history of ``serial`` from a store (None when it has none).
 
     A table of the repeatability of each coefficient (sample standard
     deviation across calibrations, IEEE 1293 style, beside the mean of the
     calibrations' own standard uncertainties) and the history plot
-    (estimates with k = 2 error bars against date).
+    (estimates with k = 2 error bars against date). Calibrations superseded
+    by a correction are left out of both.
 
     Parameters
     ----------
@@ -192,6 +194,10 @@ def history_section(store, serial: str, *, method: str | None = None) -> Section
     serial : str
     method : str, optional
         Only calibrations by this method (e.g. ``dividing-head/joint``).
+    chain : str, optional
+        The store's chain status line
+        (:meth:`accelcal.store.ChainReport.status_line`), written in the
+        section's summary.
 
     References
     ----------
@@ -200,10 +206,13 @@ def history_section(store, serial: str, *, method: str | None = None) -> Section
     from accelcal.errors import AccelcalError
     from accelcal.plotting.records import history_figure
     from accelcal.report.units import field_values
+    from accelcal.store.checks import BadRowError
 
     try:
-        rows = store.history(serial, method)
+        rows = store.history(serial, method, current_only=True)
         stats = store.stats(serial, method)
+    except BadRowError:
+        raise
     except AccelcalError:
         return None
     several = len({s.method for s in stats}) > 1
@@ -234,7 +243,7 @@ def history_section(store, serial: str, *, method: str | None = None) -> Section
         summary=(f"{n} stored calibration(s) of {serial}{which}. Repeatability is the spread "
                  "of the estimates across calibrations (n/a with one); compare it with the "
                  "calibrations' own standard uncertainties. 'accelcal records stats' adds the "
-                 "drift per year."),
+                 "drift per year." + (f" Store: {chain}." if chain else "")),
         figures=(Figure("History", figure_svg(fig), "Each coefficient in field units against "
                         "calibration date (a scale factor as its deviation from the mean, in "
                         "ppm); error bars k = 2."),),

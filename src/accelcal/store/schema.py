@@ -17,9 +17,29 @@ Schema versions:
    ``estimate`` and ``std`` are its magnitude and the magnitude's standard
    uncertainty, so ``history`` and ``stats`` follow the magnitude; its full
    covariance is in ``record_json``.
+5. ``journal``: one entry per record, in the order the records were stored
+   (``seq`` 1, 2, ...): the record's id, serial number, method and date (so
+   that a record deleted outside accelcal can still be named), when it was
+   stored (``stored_at``, UTC; NULL for records stored before schema 5), the
+   correction it is (``supersedes``, ``who``, ``why``; NULL otherwise), the
+   SHA-256 of its content (``content_hash``) and the hash chaining the entry
+   to the previous one (``chain_hash``) (:mod:`accelcal.store.chain`). The
+   migration journals the records of an older store in id order, hashing
+   them as they are then.
+
+A column added to ``calibrations`` or ``coefficients`` by a later schema joins
+the records' content hash by being listed in
+:data:`accelcal.store.chain.CALIBRATION_FIELDS` or ``COEFFICIENT_FIELDS``;
+records stored before it (NULL there) keep their hashes, so the migration
+need not rehash them.
+
+A store whose file holds other tables and not accelcal's (another
+application's SQLite database) is refused, never migrated; so is a
+``schema_info`` table with other than one row or a version that is not an
+integer.
 """
 
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 
 INDEXES = {
     "calibrations": {
@@ -32,6 +52,18 @@ INDEXES = {
     },
 }
 """Table -> index name -> columns: the indexes of schema 3."""
+
+JOURNAL_INDEXES = {
+    "ix_journal_calibration_id": ("calibration_id",),
+    "ix_journal_supersedes": ("supersedes",),
+}
+"""Index name -> columns: the indexes of the ``journal`` table (schema 5)."""
+
+WRITE_LOCK = 1293836
+"""PostgreSQL advisory lock key serialising migrations and additions to one store."""
+
+OURS = frozenset({"schema_info", "calibrations"})
+"""Tables every accelcal store has: an SQLite file with tables and not these is not a store."""
 
 _OLD_INDEXES = ("ix_calibrations_serial", "ix_coefficients_calibration_id")
 """Indexes of schemas 1-2 that the schema-3 indexes make redundant."""
@@ -68,10 +100,26 @@ def tables(sa) -> dict:
             sa.Column("estimate_re", sa.Float, nullable=True),
             sa.Column("estimate_im", sa.Float, nullable=True),
         ),
+        "journal": sa.Table(
+            "journal", meta,
+            sa.Column("seq", sa.Integer, primary_key=True, autoincrement=False),
+            sa.Column("calibration_id", sa.Integer, nullable=False),
+            sa.Column("serial", sa.String(200), nullable=False),
+            sa.Column("method", sa.String(200), nullable=False),
+            sa.Column("date", sa.String(40), nullable=False),
+            sa.Column("stored_at", sa.String(40), nullable=True),
+            sa.Column("supersedes", sa.Integer, nullable=True),
+            sa.Column("who", sa.String(200), nullable=True),
+            sa.Column("why", sa.Text, nullable=True),
+            sa.Column("content_hash", sa.String(64), nullable=False),
+            sa.Column("chain_hash", sa.String(64), nullable=False),
+        ),
     }
     for table, indexes in INDEXES.items():
         for name, columns in indexes.items():
             sa.Index(name, *(out[table].c[c] for c in columns))
+    for name, columns in JOURNAL_INDEXES.items():
+        sa.Index(name, *(out["journal"].c[c] for c in columns))
     return out
 
 
@@ -125,8 +173,40 @@ def _migrate_to_4(conn, meta) -> None:
             conn.execute(sa.text(f"ALTER TABLE coefficients ADD COLUMN {name} FLOAT"))
 
 
-MIGRATIONS = {1: _migrate_to_1, 2: _migrate_to_2, 3: _migrate_to_3, 4: _migrate_to_4}
+def _migrate_to_5(conn, meta) -> None:
+    """Schema 5: the ``journal`` (tamper evidence), its entries for the records stored.
+
+    Each record stored so far gets its entry, in id order, hashed as it is
+    now (``stored_at`` NULL: the time it was stored is not known). Records
+    changed before this migration cannot be told from the others.
+    """
+    from accelcal.store.chain import journal_existing
+
+    meta.tables["journal"].create(conn, checkfirst=True)
+    journal_existing(conn, meta)
+
+
+MIGRATIONS = {1: _migrate_to_1, 2: _migrate_to_2, 3: _migrate_to_3, 4: _migrate_to_4,
+              5: _migrate_to_5}
 """Schema version -> function bringing the previous version to it."""
+
+
+def refuse_foreign(names: set[str], where: str) -> None:
+    """Refuse an SQLite database whose tables (``names``) are not a records store's.
+
+    Raises
+    ------
+    AccelcalError
+        When it has tables and not those of :data:`OURS`: another
+        application's database, which accelcal must never modify.
+    """
+    from accelcal.errors import AccelcalError
+
+    if names and not names >= OURS:
+        listed = ", ".join(sorted(names)[:5]) + (", ..." if len(names) > 5 else "")
+        raise AccelcalError(
+            f"{where} is an SQLite database but not an accelcal records store (its tables: "
+            f"{listed}); accelcal never modifies it: give a new or empty file")
 
 
 def stored_version(conn, tables_: dict, where: str) -> int:
@@ -143,16 +223,31 @@ def stored_version(conn, tables_: dict, where: str) -> int:
     Raises
     ------
     AccelcalError
-        If the store was written by a newer accelcal.
+        If the store was written by a newer accelcal, is another
+        application's SQLite database, or its ``schema_info`` is damaged
+        (other than one row, a version that is not a positive integer).
     """
     import sqlalchemy as sa
 
     from accelcal.errors import AccelcalError
+    from accelcal.validation import shown
 
-    if not sa.inspect(conn).has_table("schema_info"):
+    names = set(sa.inspect(conn).get_table_names())
+    if conn.dialect.name == "sqlite":
+        refuse_foreign(names, where)
+    if "schema_info" not in names:
         return 0
     info = tables_["schema_info"]
-    version = conn.execute(sa.select(info.c.version)).scalar_one_or_none() or 0
+    rows = conn.execute(sa.select(info.c.version)).all()
+    if len(rows) != 1:
+        raise AccelcalError(
+            f"the records store {where} is damaged: table schema_info has {len(rows)} rows, "
+            "not 1; it was changed outside accelcal ('accelcal records verify' checks the rest)")
+    version = rows[0][0]
+    if type(version) is not int or version < 1:
+        raise AccelcalError(
+            f"the records store {where} is damaged: table schema_info, field version: "
+            f"{shown(version)} is not a schema version (a positive integer)")
     if version > SCHEMA_VERSION:
         raise AccelcalError(
             f"the records store {where} has schema version {version}, newer than this "
@@ -169,7 +264,7 @@ def migrate(engine, tables_: dict, where: str) -> None:
     with engine.begin() as conn:
         if conn.dialect.name == "postgresql":
             # Serialise concurrent first opens of the same database.
-            conn.execute(sa.text("SELECT pg_advisory_xact_lock(1293836)"))
+            conn.execute(sa.text(f"SELECT pg_advisory_xact_lock({WRITE_LOCK})"))
         for target in range(stored_version(conn, tables_, where) + 1, SCHEMA_VERSION + 1):
             MIGRATIONS[target](conn, meta)
             conn.execute(sa.delete(info))
