@@ -68,9 +68,55 @@ def format_engineering(items) -> str:
 
 
 def format_unit(unit: str) -> str:
-    """A unit with superscript powers and micro signs (``ug/g^2`` -> ``µg/g²``)."""
-    text = unit.replace("^2", "²").replace("^3", "³").replace("^4", "⁴")
-    return "µ" + text[1:] if text.startswith("u") and text[1:2] in ("g", "r") else text
+    """A unit as printed: superscript powers, micro and degree signs, roots.
+
+    ``ug/g^2`` -> ``µg/g²``, ``ppm/degC`` -> ``ppm/°C``, ``g*sqrt(s)`` -> ``g·√s``.
+    """
+    return format_text(unit)
+
+
+_TEXT_RULES = (
+    (re.compile(r"\+-\s?"), "± "),
+    (re.compile(r"(?<![A-Za-z])u(?=(g|rad|V|A)(?![A-Za-z]))"), "µ"),
+    (re.compile(r"(?<![A-Za-z])degC(?![A-Za-z])"), "°C"),
+    (re.compile(r"\^2(?!\d)"), "²"),
+    (re.compile(r"\^3(?!\d)"), "³"),
+    (re.compile(r"\^4(?!\d)"), "⁴"),
+    (re.compile(r"\bsqrt\((\w+)\)"), r"√\1"),
+    (re.compile(r"(?<=\w)\*(?=[√\w])"), "·"),
+)
+"""Plain-ASCII unit spellings in notes and units -> the printed ones."""
+
+
+def format_text(text: str) -> str:
+    """A note or a unit with the printed symbols the report's tables use.
+
+    ``+-`` -> ``±``, ``ug``/``urad`` -> ``µg``/``µrad``, ``degC`` -> ``°C``,
+    ``^2`` -> ``²`` (and ³, ⁴), ``sqrt(Hz)`` -> ``√Hz``, ``g*√s`` -> ``g·√s``:
+    notes, tables and figures then speak alike.
+    """
+    for pattern, replacement in _TEXT_RULES:
+        text = pattern.sub(replacement, text)
+    return text
+
+
+def format_date(text: str) -> str:
+    """An ISO 8601 time stamp as people read it: ``2026-11-26 14:03 UTC``.
+
+    A time with an offset is shown in UTC; a date alone stays a date; text
+    that is not an ISO time is returned unchanged.
+    """
+    import datetime as dt
+
+    try:
+        when = dt.datetime.fromisoformat(str(text))
+    except ValueError:
+        return str(text)
+    if len(str(text)) <= len("2026-11-26"):
+        return when.date().isoformat()
+    if when.tzinfo is None:
+        return when.strftime("%Y-%m-%d %H:%M")
+    return when.astimezone(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
 
 
 def unit_squared(unit: str) -> str:

@@ -145,6 +145,7 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
     CampaignResult
     """
     from accelcal.calibration import now
+    from accelcal.formatting import format_date
     from accelcal.store import Store
     from accelcal.validation import shown
 
@@ -177,7 +178,7 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
         written = step(_write_records, out / "records", outcomes)
         store_url, ids = step(_store, store, [r for _, r in written])
         report, figures = step(_report, out, store, outcomes, title,
-                               subtitle.format(seed=seed, date=date), history_serial)
+                               subtitle.format(seed=seed, date=format_date(date)), history_serial)
     return CampaignResult(out=out, data=data, records=[p for p, _ in written], report=report,
                           figures=figures, store=store_url, record_ids=ids, seed=seed,
                           seconds=time.perf_counter() - start, outcomes=outcomes)
@@ -267,7 +268,8 @@ def _report(out: Path, store, outcomes, title: str, subtitle: str,  # noqa: PLR0
     report = out / "report.html"
     write_report(report, sections, title=title, subtitle=subtitle)
     figures = []
-    for i, section in enumerate(sections, 1):
+    main = [s for s in sections if not s.appendix]  # numbered as in the report
+    for i, section in enumerate(main, 1):
         for j, fig in enumerate(section.figures, 1):
             path = out / "figures" / f"{i:02d}-{j}-{_slug(fig.title)}.svg"
             write_text_atomic(path, fig.svg)

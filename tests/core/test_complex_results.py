@@ -301,7 +301,9 @@ def test_report_shows_magnitude_and_phase_with_uncertainties():
     assert table[1]["estimate ± σ"] == expected
     assert "∠" in expected
     assert expected.endswith("°")
-    html = render_report([Section(title="Frequency response", record=records[0], rows=table)],
+    # the overview (no record) and the sensor's record, in the appendix: one estimate table each
+    html = render_report([Section(title="Frequency response", rows=table),
+                          Section(title="SN-1", record=records[0], appendix=True)],
                          title="t", generated="2026-11-26T00:00:00+00:00")
     assert "S_80Hz (magnitude)" in html
     assert "S_80Hz (phase)" in html

@@ -174,6 +174,51 @@ def test_demo_report_renders_in_headless_chromium(tmp_path, chromium):
     assert "<script" not in html
     assert "<link" not in html
     assert not re.search(r"""(src|href)=["']?(https?:|//)""", html)
+    _laid_out_for_readers(html, tmp_path)
+
+
+MEASURE = """<script>addEventListener('load', () => {
+  let wrapped = [];
+  for (const td of document.querySelectorAll('td')) {
+    const walk = document.createTreeWalker(td, NodeFilter.SHOW_TEXT);
+    for (let n = walk.nextNode(); n; n = walk.nextNode()) {
+      if (!n.textContent.trim() || n.textContent.includes('\\n')) continue;
+      const r = document.createRange(); r.selectNodeContents(n);
+      const tops = new Set(Array.from(r.getClientRects()).map(x => Math.round(x.top)));
+      if (tops.size > 1) wrapped.push(n.textContent);
+    }
+  }
+  const pre = document.createElement('pre'); pre.id = 'measured';
+  pre.textContent = JSON.stringify({height: document.documentElement.scrollHeight,
+    summaryBottom: document.querySelector('#summary table').getBoundingClientRect().bottom,
+    wrapped: wrapped});
+  document.body.appendChild(pre);
+});</script>"""
+"""Measures the page once laid out: its height, where the summary table ends, and every
+text of a table cell that the browser broke over more than one line."""
+
+
+def _laid_out_for_readers(html, tmp_path):
+    """The demo's report in Chromium at 1200 x 1000 px: the summary table ends within the
+    first screen, no number in a table cell is wrapped, and the page is far shorter than
+    the 32,757 px of the report before the summary and the appendix (seed 1)."""
+    import json
+    import shutil
+    import subprocess
+
+    page = tmp_path / "measured.html"
+    page.write_text(html.replace("</body>", MEASURE + "</body>"), encoding="utf-8")
+    proc = subprocess.run(
+        [shutil.which("chromium"), "--headless", "--no-sandbox", "--disable-gpu",
+         f"--user-data-dir={tmp_path / 'measure-profile'}", "--window-size=1200,1000",
+         "--virtual-time-budget=5000", "--dump-dom", page.as_uri()],
+        capture_output=True, text=True, timeout=120, check=False)
+    found = re.search(r'<pre id="measured">(.*?)</pre>', proc.stdout, flags=re.S)
+    assert found, proc.stderr[-2000:]
+    measured = json.loads(found.group(1).replace("&quot;", '"').replace("&amp;", "&"))
+    assert measured["summaryBottom"] < 1000
+    assert measured["wrapped"] == []
+    assert measured["height"] < 24_000  # 32,757 px before, for the same campaign
 
 
 def test_demo_command_prints_where_everything_is_and_never_touches_the_users_store(

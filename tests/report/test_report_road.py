@@ -1,6 +1,7 @@
 """One road to a report: ``accelcal report RECORDS`` gives the demo's sections for them."""
 
 import json
+import re
 import shutil
 
 import numpy as np
@@ -27,6 +28,12 @@ def _demo_sections(result):
                                                                    **o.context)]
 
 
+@pytest.fixture(scope="module")
+def demo_sections(campaign):
+    """The campaign's report sections, as the demo builds them (drawn once)."""
+    return _demo_sections(campaign)
+
+
 def _same_section(a, b):
     assert a.title == b.title
     assert a.summary == b.summary
@@ -42,8 +49,8 @@ def _same_section(a, b):
         assert a.record.notes == b.record.notes
 
 
-def test_report_of_the_records_is_the_demos_report(campaign):
-    demo = _demo_sections(campaign)
+def test_report_of_the_records_is_the_demos_report(campaign, demo_sections):
+    demo = demo_sections
     road = report_sections(campaign.records)  # inputs found in the campaign's data/
     assert [s.title for s in road] == [s.title for s in demo]
     for a, b in zip(road, demo, strict=True):
@@ -63,7 +70,8 @@ def test_report_command_draws_the_figures(campaign, capsys, tmp_path):
     assert html.count("<figure") == len(campaign.outcomes[0].reduction.figures()) > 0
     assert "No figures" not in html
     assert "Corrections to the published method" in html
-    assert html.count("<h2>") == 5  # the overview and the four sensors
+    assert html.count("<h2>") == 3  # the summary, the test's section, the appendix
+    assert html.count('<div id="sA.') == 4  # the four sensors' records, in the appendix
 
 
 def test_inputs_next_to_the_record_or_given_with_data(campaign, tmp_path):
@@ -120,14 +128,34 @@ def test_other_accelcal_files_are_named_in_one_line(campaign, capsys, tmp_path):
     refused(["report", model, "--out", tmp_path / "r.html"], capsys,
             "model.json is an error model file", "report takes calibration records")
     reduction = tmp_path / "reduction.json"
-    reduction.write_text(campaign.outcomes[0].reduction.to_json(), encoding="utf-8")
+    reduction.write_text("{}", encoding="utf-8")
     refused(["report", reduction, "--out", tmp_path / "r.html"], capsys,
-            "reduction's JSON output")
+            "reduction.json is not a calibration record")
+    kalibr = tmp_path / "imu.yaml"
+    kalibr.write_text("accelerometer_noise_density: 2.0e-4\n", encoding="utf-8")
+    refused(["report", kalibr, "--out", tmp_path / "r.html"], capsys,
+            "imu.yaml is not JSON: it is a Kalibr IMU noise file", "--record")
+    refused(["report", campaign.out / "records.sqlite", "--out", tmp_path / "r.html"], capsys,
+            "records.sqlite is not JSON: it is a records store", "--history --db")
     refused(["report", campaign.out / "data" / "triad.csv", "--out", tmp_path / "r.html"],
             capsys, "record file of data (kind 'triad')", "--record")
     refused(["report", campaign.records[0], "--out", tmp_path / "r.html", "--data",
              tmp_path / "nowhere"], capsys, "--data", "not a directory")
     assert not (tmp_path / "r.html").exists()
+
+
+def test_a_reductions_json_output_is_reported_without_figures(campaign, capsys, tmp_path):
+    reduction = tmp_path / "reduction.json"
+    reduction.write_text(campaign.outcomes[0].reduction.to_json(), encoding="utf-8")
+    out = tmp_path / "r.html"
+    code, _, err = run_cli(["report", reduction, "--out", out], capsys)
+    assert code == 0, err
+    html = out.read_text(encoding="utf-8")
+    assert "reduction.json: Indexing head" in html
+    assert "No figures: a reduction&#39;s JSON output holds its coefficients" in html
+    assert "K_F+K_OO" in html
+    assert " µg)" in html
+    assert "<figure" not in html
 
 
 def test_triad_calibration_file_gets_its_section(campaign, capsys, tmp_path):
@@ -146,6 +174,9 @@ def test_triad_calibration_file_gets_its_section(campaign, capsys, tmp_path):
     values = {r["parameter"]: r["value"] for r in section.rows}
     assert values["b_y"] == -245.0
     assert values["a_zy"] == -2e-3
+    field = {r["parameter"]: r["in field units"] for r in section.rows}
+    assert field["a_zy"] == "-2000 µrad"
+    assert field["b_x"] == f"{310.0 * 6e-4 / 9.80665 * 1e6:.7g} µg"  # b_x s_x in g
     out = tmp_path / "r.html"
     from accelcal.io.calibration_record import CalibrationRecord
 
@@ -196,12 +227,13 @@ def test_records_of_the_commands_defaults_get_their_figures(capsys, tmp_path, mo
     monkeypatch.chdir(tmp_path)
     for args in (["triad", "simulate", "--out", "t.csv", "--positions", "18"],
                  ["triad", "calibrate", "t.csv", "--orientations", "unknown", "--out", "c.json",
-                  "--record", "norm.json", "--serial", "T1"]):
+                  "--record", "norm.json", "--serial", "T1", "--operator", "A. Person"]):
         code, _, err = run_cli(args, capsys)
         assert code == 0, err
     (section,) = report_sections(["norm.json"])
     assert not section.notes[0].startswith("No figures"), section.notes[0]
     assert section.figures
+    assert section.record.operator == "A. Person"
 
 
 def test_a_record_given_twice_is_reported_once(campaign, tmp_path):
@@ -210,3 +242,53 @@ def test_a_record_given_twice_is_reported_once(campaign, tmp_path):
     shutil.copy(src, copy)
     (section,) = report_sections([src, copy, src])
     assert section.figures
+
+
+@pytest.mark.slow
+def test_every_figure_axis_has_a_unit_and_no_offset(campaign):
+    """Every labelled axis of every figure of the demo's tests states its unit in
+    parentheses (a categorical axis, labelled by its ticks, excepted), and no axis
+    carries offset or scale text ("+1.298", "1e-6") once drawn as the report draws it."""
+    from accelcal.plotting.ticks import no_offset
+
+    checked = 0
+    for outcome in campaign.outcomes:
+        for stem, _title, fig, _caption in outcome.reduction.figures(**outcome.context):
+            no_offset(fig)
+            fig.draw_without_rendering()
+            for ax in fig.axes:
+                if ax.name == "polar":
+                    continue
+                for axis, label, shared in (
+                        (ax.xaxis, ax.get_xlabel(), ax.get_shared_x_axes().get_siblings(ax)),
+                        (ax.yaxis, ax.get_ylabel(), ax.get_shared_y_axes().get_siblings(ax))):
+                    assert axis.get_offset_text().get_text() == "", (stem, label)
+                    ticks = [t.get_text() for t in axis.get_ticklabels() if t.get_text()]
+                    categorical = bool(ticks) and not ticks[0].lstrip("−-")[:1].isdigit()
+                    if not label and len(shared) > 1:
+                        continue  # labelled once, on the axes it shares with
+                    assert re.search(r"\([^()]+\)\s*$", label) or categorical, (stem, label)
+                checked += 1
+    assert checked >= 20
+
+
+def test_the_demo_sections_render_in_field_units_with_readable_dates(demo_sections):
+    from accelcal.report import render_report
+
+    html = render_report(demo_sections, title="road", generated="2026-11-26T14:03:27+00:00")
+    assert html.index('<section id="summary">') < html.index('<section id="s1">')
+    summary = html[html.index('<table class="results">'):]
+    summary = summary[:summary.index("</table>")]
+    rows = re.findall(r"<tr><td><strong>(.*?)</strong>", summary)
+    assert rows == [*SERIALS, "IMU-0001"]
+    for unit in ("µg", "ppm", "µrad", "µg/g²", "µg/°C", "ppm/°C", "µg/√Hz", "µg/count"):
+        assert unit in summary, unit
+    for table in re.findall(r'<table class="coef">.*?</table>', html, flags=re.S):
+        for row in re.findall(r"<tr>(.*?)</tr>", table[table.index("<tbody>"):], flags=re.S):
+            cells = re.findall(r"<td[^>]*>(.*?)</td>", row, flags=re.S)
+            assert cells[-1].strip(), row  # the field-units column is never empty
+    assert not re.search(r"\d{4}-\d\d-\d\dT\d\d:\d\d", html)  # no raw time stamps
+    assert not re.search(r"(?<![A-Za-z])(ug|degC)(?![A-Za-z])|\+-", html)  # notes as tables
+    main = html[:html.index('<section id="appendix">')]
+    assert main.count('<table class="coef">') == 10  # one per one-sensor test, none repeated
+    assert main.count('<table class="wide">') == 1  # the head's overview

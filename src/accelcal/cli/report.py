@@ -7,8 +7,9 @@ import typer
 
 def report(
     records: list[Path] = typer.Argument(
-        ..., help="Calibration record files (JSON, from a reduction's --record) and triad "
-        "calibration files (triad calibrate --out)."),
+        ..., help="Calibration record files (JSON, from a reduction's --record), triad "
+        "calibration files (triad calibrate --out) and reductions' JSON outputs (--format "
+        "json); any other file accelcal writes is named with what to give instead."),
     *,
     out: Path = typer.Option(..., "--out", help="HTML file to write (self-contained)."),
     title: str = typer.Option("Accelerometer calibration report", "--title", help="Page title."),
@@ -28,7 +29,11 @@ def report(
 ) -> None:
     """Write a self-contained HTML report: the same sections as the demo's.
 
-    Records of one reduction (the sensors of one indexing-head run) share a
+    The page opens with a summary table (per serial number, the key
+    coefficients in µg, ppm, µrad, µg/g² with their expanded uncertainty),
+    then one section per test, then an appendix (each sensor's record of a
+    several-sensor test, the corrections to the published methods). Records
+    of one reduction (the sensors of one indexing-head run) share a
     section with every sensor's coefficients in engineering units, the
     method's summary, figures and the paper's errata; the figures are drawn
     from the input files the records name by SHA-256, reduced again (when

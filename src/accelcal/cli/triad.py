@@ -141,6 +141,7 @@ def calibrate(
     record_out: Path | None = typer.Option(
         None, "--record", help="Write a calibration record (JSON) of the triad."),
     serial: str | None = record_options.SERIAL,
+    operator: str | None = record_options.OPERATOR,
     plot: Path | None = PLOT,
     uncertainty: str = uncertainty_options.UNCERTAINTY,
     trials: int = uncertainty_options.TRIALS,
@@ -176,7 +177,7 @@ def calibrate(
               estimator=estimator, fixture_tilt=tilt)
     red, rec, found = lab.reduction, lab.recording, lab.intervals
     files = [file] if rec.provenance.get("input_format") == "record" else []
-    info = record_options.lab_info_for(record_out, files, serial=serial, operator=None)
+    info = record_options.lab_info_for(record_out, files, serial=serial, operator=operator)
     rows = red.rows()
     if monte_carlo:
         from accelcal.methods.triad.mc import triad_uncertainty

@@ -2,7 +2,7 @@
 
 Every figure is written as PNG and SVG side by side by :func:`save_figure`,
 atomically, with the non-interactive Agg backend; log axes are labelled in
-plain text (:mod:`accelcal.plotting.ticks`).
+plain text and linear axes without offset notation (:mod:`accelcal.plotting.ticks`).
 """
 
 from pathlib import Path
@@ -31,7 +31,7 @@ def save_figure(fig, directory, stem: str) -> list[Path]:
     """
     from accelcal.errors import AccelcalError
     from accelcal.io.atomic import atomic_path
-    from accelcal.plotting.ticks import plain_log_labels
+    from accelcal.plotting.ticks import no_offset, plain_log_labels
 
     directory = Path(directory)
     try:
@@ -39,6 +39,7 @@ def save_figure(fig, directory, stem: str) -> list[Path]:
     except OSError as exc:
         raise AccelcalError(f"cannot create the figure directory {directory}: {exc}") from None
     plain_log_labels(fig)
+    no_offset(fig)
     paths = []
     for ext, extra in (("png", {"dpi": 150}), ("svg", {})):
         target = directory / f"{stem}.{ext}"

@@ -70,3 +70,20 @@ def plain_log_labels(fig) -> None:
                 formatter = get()
                 if type(formatter) is LogFormatterSciNotation:
                     put(PlainLogFormatter.like(formatter))
+
+
+def no_offset(fig) -> None:
+    """Label every linear axis of ``fig`` with its full values, never with an offset.
+
+    Matplotlib shortens labels like 1.29937, 1.29938 to 7, 8 with ``+1.2993``
+    above the axis; a reader of a printed figure misses that text. A figure
+    that plots small deviations subtracts its reference itself and says so
+    in the axis label.
+    """
+    from matplotlib.ticker import ScalarFormatter
+
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            formatter = axis.get_major_formatter()
+            if isinstance(formatter, ScalarFormatter):
+                formatter.set_useOffset(False)

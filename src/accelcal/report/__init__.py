@@ -11,6 +11,16 @@ imaginary parts; its correlations are those of the real and imaginary parts. The
 has no script and no external resource, so it reads offline and prints as
 it shows. Every string that came from a user (serial, operator, file names,
 notes) is HTML-escaped by the template engine (jinja2 autoescaping).
+
+The page reads as a calibration is read: first a summary table (per serial
+number the key coefficients in field units with their expanded
+uncertainty, :mod:`accelcal.report.summary`), then one section per test
+with one estimate table, its figures and notes, then an appendix: each
+sensor's own record of a several-sensor test (coefficients with standard
+and expanded uncertainties, correlations), the corrections to the published
+methods, and the uncertainty budgets when they are given. Numbers never
+wrap inside a cell; dates read ``2026-11-26 14:03 UTC``; the page prints
+on A4 with its figures whole.
 """
 
 import datetime as dt
@@ -21,8 +31,9 @@ import numpy as np
 
 from accelcal.formatting import (
     format_correlation,
-    format_engineering,
+    format_date,
     format_std,
+    format_text,
     format_unit,
     format_value,
 )
@@ -56,8 +67,12 @@ class Section:
     notes : tuple of str
         Identifiability, assumptions and caveats.
     errata : tuple of str
-        Where the implemented method departs from the paper it comes from.
+        Where the implemented method departs from the paper it comes from
+        (shown in the appendix, once per method).
     figures : tuple of Figure
+    appendix : bool
+        A detail of a section before it (one sensor's record of a
+        several-sensor test): shown in the appendix.
     """
 
     title: str
@@ -67,23 +82,27 @@ class Section:
     notes: tuple[str, ...] = ()
     errata: tuple[str, ...] = ()
     figures: tuple[Figure, ...] = field(default_factory=tuple)
+    appendix: bool = False
 
 
 def figure_svg(fig) -> str:
     """A matplotlib figure as SVG text for inline embedding (no XML prologue).
 
-    Log axes are labelled in plain text (:func:`accelcal.plotting.ticks.plain_log_labels`).
+    Log axes are labelled in plain text (:func:`accelcal.plotting.ticks.plain_log_labels`),
+    linear axes without offset notation (:func:`accelcal.plotting.ticks.no_offset`).
     """
-    from accelcal.plotting.ticks import plain_log_labels
+    from accelcal.plotting.ticks import no_offset, plain_log_labels
 
     plain_log_labels(fig)
+    no_offset(fig)
     buf = io.StringIO()
-    fig.savefig(buf, format="svg")
+    fig.savefig(buf, format="svg", metadata={"Date": None})  # no time stamp: reproducible
     text = buf.getvalue()
     return text[text.index("<svg"):]
 
 
-def render_report(sections, *, title: str, subtitle: str = "", generated: str | None = None) -> str:
+def render_report(sections, *, title: str, subtitle: str = "", generated: str | None = None,
+                  budgets=None) -> str:
     """The report as one HTML document.
 
     Parameters
@@ -93,10 +112,17 @@ def render_report(sections, *, title: str, subtitle: str = "", generated: str | 
         Heading of the page (escaped).
     generated : str, optional
         Date shown as the generation time; defaults to now (UTC).
+    budgets : dict, optional
+        Uncertainty budgets, ``(serial, method) -> list of budget objects``
+        as ``accelcal budget --format json`` writes them: their U and k go
+        into the summary and their rows into the appendix
+        (:func:`accelcal.report.summary.budget_views`). Without them U is
+        2 standard uncertainties and there is no budget annex.
     """
     import jinja2
 
     from accelcal import __version__
+    from accelcal.report.summary import COVERAGE, GROUPS, budget_views, summary_rows
 
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("accelcal.report", "templates"),
@@ -109,13 +135,33 @@ def render_report(sections, *, title: str, subtitle: str = "", generated: str | 
     env.filters["std"] = format_std
     env.filters["unit"] = format_unit
     env.filters["corr"] = format_correlation
+    env.filters["text"] = format_text
     template = env.get_template("report.html.j2")
+    main = [s for s in sections if not s.appendix]
+    views = [_view(s, str(i)) for i, s in enumerate(main, 1)]
+    shown = {n for v in views for n in v["all_notes"]}
+    details = [_view(s, f"A.{i}", shown=shown)
+               for i, s in enumerate((s for s in sections if s.appendix), 1)]
+    errata = {}
+    for v in views:
+        if v["errata"]:
+            errata.setdefault(tuple(v["errata"]), v)
+    records, refs, number = [], [], 0
+    for s in sections:  # an appendix section details the main section before it
+        number += not s.appendix
+        if s.record is not None:
+            records.append(s.record)
+            refs.append(str(number))
     return template.render(
         title=title,
-        subtitle=subtitle,
-        generated=generated or dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        subtitle=format_text(subtitle),
+        generated=format_date(generated or dt.datetime.now(dt.UTC).isoformat(timespec="seconds")),
         version=__version__,
-        sections=[_view(s, i) for i, s in enumerate(sections, 1)],
+        summary=summary_rows(records, budgets, refs), groups=GROUPS, coverage=f"{COVERAGE:g}",
+        sections=views, details=details,
+        errata=[{"title": v["title"], "anchor": v["anchor"], "notes": list(e)}
+                for e, v in errata.items()],
+        budgets=budget_views(budgets),
     )
 
 
@@ -124,28 +170,43 @@ def write_report(path, sections, **kwargs) -> None:
     write_text_atomic(path, render_report(sections, **kwargs))
 
 
-def _view(section: Section, number: int) -> dict:
-    """What the template needs of a section (plain values only)."""
+PRIOR_NOTE = "taken as zero"
+"""Notes on the terms a reduction leaves out (:mod:`accelcal.aliasing`) contain this:
+they are listed apart, folded, under the section's other notes."""
+
+
+def _view(section: Section, number: str, *, shown=frozenset()) -> dict:
+    """What the template needs of a section (plain values only).
+
+    ``shown`` are notes already printed in a main section: an appendix
+    section repeats none of them.
+    """
+    from accelcal.report.units import record_field_values
+
     view = {
         "number": number, "anchor": f"s{number}", "title": section.title,
-        "summary": section.summary, "rows": section.rows or [],
+        "summary": format_text(section.summary), "rows": section.rows or [],
         "columns": list(section.rows[0]) if section.rows else [],
-        "notes": list(section.notes), "errata": list(section.errata),
-        "figures": [{"title": f.title, "svg": f.svg, "caption": f.caption}
+        "errata": [format_text(e) for e in section.errata],
+        "figures": [{"title": f.title, "svg": f.svg, "caption": format_text(f.caption)}
                     for f in section.figures],
         "record": None,
     }
     rec = section.record
     record_notes = list(rec.notes) if rec is not None else []
-    view["all_notes"] = list(dict.fromkeys([*section.notes, *record_notes]))
+    notes = [n for n in dict.fromkeys(format_text(n) for n in [*section.notes, *record_notes])
+             if n not in shown]
+    view["all_notes"] = notes
+    view["notes"] = [n for n in notes if PRIOR_NOTE not in n]
+    view["priors"] = [n for n in notes if PRIOR_NOTE in n]
     if rec is not None:
         std = rec.std
-        k1 = _record_scale_factor(rec)
         sd = np.sqrt(np.diag(rec.covariance)) if rec.is_complex else std  # of Re, Im
         with np.errstate(invalid="ignore", divide="ignore"):
             corr = rec.covariance / np.outer(sd, sd)
+        fields = record_field_values(rec)
         view["record"] = {
-            "serial": rec.serial, "method": rec.method, "date": rec.date,
+            "serial": rec.serial, "method": rec.method, "date": format_date(rec.date),
             "operator": rec.operator, "software": rec.software,
             "coverage_factor": rec.coverage_factor, "inputs": dict(rec.inputs),
             "dof": rec.dof, "simulated": rec.simulated,
@@ -153,10 +214,9 @@ def _view(section: Section, number: int) -> dict:
             "coefficients": _complex_coefficients(rec) if rec.is_complex else [
                 {"name": n, "unit": rec.units.get(n, ""), "estimate": float(v),
                  "std": float(s), "expanded": float(u),
-                 "engineering": engineering_text(rec.plain.get(n, n), float(v), float(s),
-                                                 rec.units.get(n, ""), scale_factor=k1),
-                 "polar": None}
-                for n, v, s, u in zip(rec.names, rec.estimates, std, rec.expanded, strict=True)
+                 "engineering": [f.text() for f in fv], "polar": None}
+                for n, v, s, u, fv in zip(rec.names, rec.estimates, std, rec.expanded, fields,
+                                          strict=True)
             ],
             "correlation": corr.tolist() if len(corr) <= 10 else None,
             "names": list(real_names(rec.names) if rec.is_complex else rec.names),
@@ -173,28 +233,10 @@ def _complex_coefficients(rec) -> list[dict]:
     pol, k = rec.polar(), rec.coverage_factor
     return [
         {"name": n, "unit": rec.units.get(n, ""), "estimate": float(m), "std": float(s),
-         "expanded": float(k * s), "engineering": "",
+         "expanded": float(k * s), "engineering": [],
          "polar": {"phase": float(np.degrees(ph)), "phase_std": float(np.degrees(phs)),
                    "phase_expanded": float(np.degrees(k * phs)),
                    "real": float(v.real), "imag": float(v.imag)}}
         for n, v, m, s, ph, phs in zip(rec.names, rec.estimates, pol.magnitude,
                                        pol.magnitude_std, pol.phase, pol.phase_std, strict=True)
     ]
-
-
-def engineering_text(name, value, std, unit, *, scale_factor=None) -> str:
-    """``value ± std unit`` in each engineering unit of a record's coefficient."""
-    from accelcal.engineering import engineering
-
-    return format_engineering(e.as_dict() for e in engineering(name, value, std, unit,
-                                                                 scale_factor=scale_factor))
-
-
-def _record_scale_factor(rec) -> float | None:
-    """A record's scale factor in output unit per g: its K_I or K1, else its model's K1."""
-    if rec.is_complex:
-        return None
-    for name in ("K_I", "K1"):
-        if name in rec.names:
-            return float(rec.estimates[rec.names.index(name)])
-    return float(rec.model.K1) if rec.model is not None else None

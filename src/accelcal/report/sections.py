@@ -16,7 +16,14 @@ References
 
 import numpy as np
 
-from accelcal.formatting import format_engineering, format_unit, pm, pm_polar
+from accelcal.formatting import (
+    format_engineering,
+    format_std,
+    format_unit,
+    format_value,
+    pm,
+    pm_polar,
+)
 from accelcal.report import Figure, Section, figure_svg
 
 ERRATA_SEE = "Details, checks and the code that implements each correction: docs/errata.md"
@@ -64,7 +71,7 @@ def reduction_sections(reduction, records, *, unavailable: str = "", **context
         title=text.title, summary=text.summary, rows=overview_rows(reduction, records),
         notes=notes, errata=errata, figures=figures,
     )
-    if reduction.n_sensors == 1:
+    if reduction.n_sensors == 1 and records[0] is not None:
         return [Section(title=f"{records[0].serial}: {text.title}", record=records[0],
                         summary=text.summary, rows=overview.rows, notes=overview.notes,
                         errata=errata, figures=figures)]
@@ -75,10 +82,10 @@ def reduction_sections(reduction, records, *, unavailable: str = "", **context
 
 
 def _sensor_section(name: str, record, text) -> Section:
-    """One sensor's section of a several-sensor reduction."""
+    """One sensor's section of a several-sensor reduction (in the report's appendix)."""
     column = name != record.serial  # a reduction rebuilt from records names sensors by serial
     return Section(title=f"{record.serial}: {text.title}" + (f" ({name})" if column else ""),
-                   record=record,
+                   record=record, appendix=True,
                    summary=((f"Sensor column {name}. " if column else "")
                             + text.sensor_summary).strip())
 
@@ -109,10 +116,12 @@ def _report_text(reduction, *, rebuilt_from_records: bool):
 
 
 def overview_rows(reduction, records) -> list[dict]:
-    """Coefficient x sensor table: ``value ± std``, the first engineering unit below it.
+    """Coefficient x sensor table: ``value ± std``, the first field unit below it.
 
-    The sensors' own sections show every engineering unit (e.g. arcsec beside µrad).
-    A complex coefficient shows ``magnitude ± std ∠ phase ± std°``.
+    The sensors' own sections show every field unit (e.g. arcsec beside µrad);
+    a coefficient the engineering table does not convert gets its field unit
+    from :func:`accelcal.report.units.field_values`. A complex coefficient
+    shows ``magnitude ± std ∠ phase ± std°``.
     """
     from accelcal.outputs import reduction_rows
 
@@ -138,10 +147,27 @@ def overview_rows(reduction, records) -> list[dict]:
             else:
                 cell = pm(r["estimate"], r["std"]) if r["status"] == "fitted" else \
                     f"{r['estimate']:.6g} (fixed)"
-            eng = format_engineering(r["engineering"][:1])
+            eng = _field_text(reduction, r)
             row[head] = f"{cell}\n({eng})" if eng and r["status"] == "fitted" else cell
         table.append(row)
     return table
+
+
+def _field_text(reduction, row) -> str:
+    """A reduction row's first field unit: its engineering unit, else the report's own.
+
+    The report's own: :func:`accelcal.report.units.field_values`.
+    """
+    from accelcal.report.units import field_values
+
+    if row["engineering"]:
+        return format_engineering(row["engineering"][:1])
+    if "phase_deg" in row:
+        return ""
+    k = list(reduction.sensor_names).index(row["sensor"]) if reduction.sensor_names else 0
+    found = field_values(row.get("plain", row["coefficient"]), row["estimate"], row["std"],
+                         row["unit"], scale_factor=reduction.scale_factor(k))
+    return found[0].text()
 
 
 def _column(sensor: str, record) -> str:
@@ -195,6 +221,7 @@ def history_section(store, serial: str, *, method: str | None = None,
     """
     from accelcal.errors import AccelcalError
     from accelcal.plotting.records import history_figure
+    from accelcal.report.units import field_values
     from accelcal.store.checks import BadRowError
     from accelcal.store.history import renamings
 
@@ -212,16 +239,26 @@ def history_section(store, serial: str, *, method: str | None = None,
         if r["name"] not in names:
             names.append(r["name"])
     several = len({s.method for s in stats}) > 1
-    table = [{
-        **({"method": s.method} if several else {}),
-        "coefficient": s.name,
-        **({"recorded as": " then ".join(recorded[(s.method, s.name)])} if changes else {}),
-        "unit": format_unit(s.unit), "calibrations": s.n,
-        "mean": s.mean,
-        "repeatability (1 σ)": s.repeatability if s.n > 1 else "n/a",
-        "mean own σ": s.mean_std if np.isfinite(s.mean_std) else "n/a",
-    } for s in stats]
-    fig = history_figure(rows, serial)
+    k1 = {(s.method, s.name): s.mean for s in stats if s.name in ("K_I", "K1")}
+    table = []
+    for s in stats:
+        scale = next((v for (m, n), v in k1.items() if m == s.method), None)
+        mean, repeat, own = (field_values(s.name, s.mean, x, s.unit, scale_factor=scale)[0]
+                             for x in (s.repeatability, s.repeatability, s.mean_std))
+        unit = "ppm" if repeat.relative else mean.unit
+        table.append({
+            **({"method": s.method} if several else {}),
+            "coefficient": s.name,
+            **({"recorded as": " then ".join(recorded[(s.method, s.name)])} if changes else {}),
+            "unit": format_unit(s.unit), "calibrations": s.n,
+            "mean": f"{format_value(mean.estimate, _digits(mean, repeat, own, s.n))} "
+                    f"{format_unit(mean.unit)}",
+            "repeatability (1 σ)": (f"{format_std(repeat.std)} {format_unit(unit)}" if s.n > 1
+                                    else "n/a"),
+            "mean own σ": (f"{format_std(own.std)} {format_unit(unit)}"
+                           if np.isfinite(s.mean_std) else "n/a"),
+        })
+    fig = history_figure(_field_history(rows), serial)
     names = len(table)
     fig.set_size_inches(6.4, 1.25 * names + 0.9)
     n = len({r["id"] for r in rows})
@@ -233,6 +270,42 @@ def history_section(store, serial: str, *, method: str | None = None,
                  "calibrations' own standard uncertainties. 'accelcal records stats' adds the "
                  "drift per year." + "".join(f" {c.text()}." for c in changes)
                  + (f" Store: {chain}." if chain else "")),
-        figures=(Figure("History", figure_svg(fig), "Each coefficient against calibration "
-                        "date; error bars k = 2."),),
+        figures=(Figure("History", figure_svg(fig), "Each coefficient in field units against "
+                        "calibration date (a scale factor as its deviation from the mean, in "
+                        "ppm); error bars k = 2."),),
     )
+
+
+def _digits(mean, repeat, own, n: int) -> float:
+    """The uncertainty that sets a history mean's digits: the repeatability, else the own σ.
+
+    A relative one (ppm, a scale factor's) is taken back to the mean's unit.
+    """
+    std = repeat.std if n > 1 else own.std
+    return abs(mean.estimate) * std * 1e-6 if mean.relative else std
+
+
+def _field_history(rows) -> list[dict]:
+    """History rows in field units (:mod:`accelcal.report.units`), units as printed.
+
+    An output-unit coefficient is divided by the same calibration's scale
+    factor; a scale factor becomes its deviation from the mean of its
+    calibrations (the history table's mean), in ppm.
+    """
+    from accelcal.report.units import field_values
+
+    k1 = {(r["id"], r["method"]): r["estimate"] for r in rows if r["name"] in ("K_I", "K1")}
+    means = {}
+    for r in rows:
+        means.setdefault((r["method"], r["name"]), []).append(r["estimate"])
+    out = []
+    for r in rows:
+        f = field_values(r["name"], r["estimate"], r["std"], r["unit"],
+                         scale_factor=k1.get((r["id"], r["method"])))[0]
+        if f.relative:
+            ref = float(np.mean(means[(r["method"], r["name"])]))
+            out.append({**r, "name": f"{r['name']} − mean", "unit": "ppm",
+                        "estimate": (r["estimate"] - ref) / ref * 1e6, "std": f.std})
+        else:
+            out.append({**r, "unit": format_unit(f.unit), "estimate": f.estimate, "std": f.std})
+    return out

@@ -321,6 +321,7 @@ def figure(intervals: StaticIntervals, values=None, *, time=None, bins: int = BI
     -------
     matplotlib.figure.Figure
     """
+    from accelcal.formatting import format_unit, unit_squared
     from accelcal.plotting import new_figure
 
     if values is None:
@@ -335,11 +336,13 @@ def figure(intervals: StaticIntervals, values=None, *, time=None, bins: int = BI
     fig = new_figure(figsize=(8.0, 5.0))
     top, bottom = fig.subplots(2, 1, sharex=True)
     top.plot(t[drawn[0]], norm[drawn[0]], lw=0.6, color="k")
-    top.set_ylabel(f"|u| ({intervals.unit})" if intervals.unit else "|u|")
+    unit = format_unit(intervals.unit) if intervals.unit else "input unit"
+    top.set_ylabel(f"|u| ({unit})")
     bottom.semilogy(t[drawn[1]], stat[drawn[1]], lw=0.6)
     bottom.axhline(intervals.threshold, color="r", lw=0.8,
                    label=f"threshold ({intervals.settings['factor']:g} x initial)")
-    bottom.set(ylabel="ς (variance magnitude)", xlabel="time (s)")
+    squared = format_unit(unit_squared(intervals.unit)) if intervals.unit else "input unit²"
+    bottom.set(ylabel=f"ς, variance magnitude ({squared})", xlabel="time (s)")
     bottom.legend(loc="upper right", fontsize="small")
     for a, b in intervals.times:
         for ax in (top, bottom):

@@ -53,7 +53,7 @@ def _steps(reduction):
     decided = reduction.value(test) * 1e6
     ax.axvline(decided, color="C2", ls=":", label=f"{test} {decided:.3g} µg")
     ax.set_xlabel("input increment (µg)")
-    ax.set_ylabel("output change / predicted change")
+    ax.set_ylabel("output change / predicted change (ratio)")
     ax.legend(loc="best")
     caption = (f"Mean output change per predicted change for each increment about "
                f"{reduction.provenance['set_point_g']:.3g} g; the {test} is the smallest "
@@ -111,7 +111,7 @@ def _range(reduction):
                        label=f"range {'+' if name == 'range_pos' else '−'}"
                              f"{reduction.value(name):.4g} g")
     ax.set_xlabel("|input| (g)")
-    ax.set_ylabel("|nonlinearity| / input")
+    ax.set_ylabel("|nonlinearity| / input (ratio)")
     ax.legend(loc="best", fontsize="small")
     caption = ("The output's departure from the straight line, relative to the input, at "
                "each dwell of the ladder; the input range is where it leaves the limit; "
@@ -138,7 +138,7 @@ def _turn_on(reduction):
         ax.axhspan(y.mean() - s, y.mean() + s, color="C2", alpha=0.15, label=f"±1 SD {s:.3g}")
         ax.set_ylabel(label)
         ax.legend(loc="best", fontsize="small")
-    axes[1].set_xlabel("turn-on")
+    axes[1].set_xlabel("turn-on (number)")
     caption = ("Bias and scale factor at each turn-on (95 % intervals of each turn-on's "
                "measurement) with the mean and the turn-on-to-turn-on standard deviation.")
     return ("acceptance-turn-on", "Turn-on repeatability", fig, caption)

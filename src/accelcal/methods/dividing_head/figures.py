@@ -67,6 +67,12 @@ def residual_figure(reduction) -> tuple:
     x = np.asarray(reduction.observations["positions"]) / DEG
     resid = reduction.residuals()
     unit = reduction.sensors[0].units.get("K_F", "V")
+    # each sensor's residual divided by its own scale factor, in µg (its output unit otherwise)
+    k1 = [reduction.scale_factor(i) for i in range(reduction.n_sensors)]
+    inertial = all(k is not None and np.isfinite(k) and k != 0 for k in k1)
+    if inertial:
+        resid = resid / np.asarray(k1, dtype=float)[:, None]
+        unit = "g"
     fig = _figure()
     ax = fig.add_subplot()
     for i, name in enumerate(reduction.sensor_names):
@@ -77,8 +83,8 @@ def residual_figure(reduction) -> tuple:
     ax.legend(fontsize="small", ncols=min(4, reduction.n_sensors))
     ax.grid(alpha=0.3)
     rms = np.sqrt(np.mean(resid**2, axis=-1)) * 1e6
-    caption = (f"Output minus fitted model per sensor; RMS {', '.join(f'{r:.2g}' for r in rms)}"
-               f" µ{unit}.")
+    caption = (f"Output minus fitted model per sensor{', divided by its K_I' if inertial else ''}"
+               f"; RMS {', '.join(f'{r:.2g}' for r in rms)} µ{unit}.")
     return "dividing_head_residuals", "Residuals", fig, caption
 
 

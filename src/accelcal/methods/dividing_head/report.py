@@ -57,8 +57,8 @@ def report_text(reduction) -> ReportText:
                     f"{'' if dim <= 3 else ', and more: the sensors lie on one line'}; "
                     "the notes say how that gauge is fixed.")
     if k > 1:
-        summary += (" One section per sensor follows with expanded uncertainties and "
-                    "correlations.")
+        summary += (" Each sensor's record, with expanded uncertainties and correlations, is "
+                    "in the appendix.")
     return ReportText(
         title=f"Indexing head: {k} sensor{'s' if k > 1 else ''}, method {method}",
         summary=summary,

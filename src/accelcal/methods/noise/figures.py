@@ -80,7 +80,7 @@ def figures(reduction, **context) -> list[tuple]:
     ax.set_xlabel("averaging time τ (s)")
     ax.set_ylabel(f"Allan deviation ({unit})")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize="x-small")
+    ax.legend(fontsize="small")
     conf = reduction.assumed("confidence", 0.683)
     out = [("noise_adev", "Allan deviation and IEEE 952 fit", fig,
             (f"Points: overlapping Allan deviation with {conf:.1%} intervals (EDF of the "
@@ -111,7 +111,7 @@ def _psd_figure(reduction, values, unit):
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel(f"PSD ({unit}²/Hz)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize="x-small")
+    ax.legend(fontsize="small")
     return ("noise_psd", "Power spectral density", fig,
             ("One-sided Welch PSD; dashed: the fitted terms' levels (white 2 N², flicker "
             "B²/(π f), random walk 2 K²/(2π f)²)."))

@@ -76,7 +76,7 @@ def figures(reduction, **context) -> list[tuple]:
     ax_p.set_xlabel("frequency (Hz)")
     for ax in (ax_m, ax_p):
         ax.grid(True, which="both", alpha=0.3)
-    ax_m.legend(fontsize="x-small")
+    ax_m.legend(fontsize="small")
     return [("response_bode", "Frequency response (Bode)", fig,
              ("Points: the DUT's complex sensitivity at each step; bands: two standard "
               "uncertainties of magnitude and phase; line: the fitted transfer function."))]

@@ -148,14 +148,20 @@ def _warmup(reduction):
     obs, est = reduction.observations, reduction.estimate
     fig = new_figure(figsize=(6.4, 3.6))
     ax = fig.subplots()
-    t = obs["warmup_t"] / 60.0
-    unit = reduction.provenance.get("output_unit", "")
-    ax.plot(t, obs["warmup_output"], ".", ms=3, label="readings")
-    ax.plot(t, obs["warmup_fitted"], "-", lw=1.2, label="c + a exp(−t/τ)")
+    t = obs["warmup_t"]
+    # in µg from the settled output c: (y - c) / K1, c = fitted - a exp(-t/tau), a = amplitude K1
+    k1 = reduction.scale_factor(0)
+    c = float(np.mean(obs["warmup_fitted"]
+                      - est["warmup_amplitude"] * k1 * np.exp(-t / est["warmup_tau"])))
+    ax.plot(t / 60.0, (obs["warmup_output"] - c) / k1 * 1e6, ".", ms=3, label="readings")
+    ax.plot(t / 60.0, (obs["warmup_fitted"] - c) / k1 * 1e6, "-", lw=1.2,
+            label="a exp(−t/τ)")
+    ax.axhline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel("time from turn-on (min)")
-    ax.set_ylabel(f"output ({unit})")
+    ax.set_ylabel("output − settled output (µg)")
     ax.legend(loc="best", fontsize="small")
-    caption = (f"Warm-up at a fixed position: τ = {est['warmup_tau']:.4g} ± "
+    caption = (f"Warm-up at a fixed position, output less its settled value and divided by "
+               f"K1: τ = {est['warmup_tau']:.4g} ± "
                f"{est.std_of('warmup_tau'):.2g} s, bias change "
                f"{est['warmup_amplitude'] * 1e6:.3g} µg, settled bias "
                f"{est['warmup_K0'] * 1e6:.4g} µg.")

@@ -130,7 +130,7 @@ def polar_figure(sweeps, *, linear=None, title: str | None = None, scale: float 
             th, v = _closed(sw.theta, np.asarray(sw.sT) * scale)
             ax.plot(th, v, lw=1.2, label=f"{sw.amplitude:g} g")
         ax.tick_params(labelsize=7)
-        ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(0.95, 0.0))
+        ax.legend(fontsize=8, loc="lower left", bbox_to_anchor=(0.95, 0.0))
         ax.set_title(f"all amplitudes\n{sweeps[0].estimator}, s_T in {label}", fontsize=9)
     if title:
         fig.suptitle(title, fontsize=11)

@@ -96,8 +96,9 @@ def report_text(reduction) -> ReportText:
     else:
         how = (f"{n} static positions of unknown orientation: gravity-norm nonlinear least "
                "squares (Levenberg-Marquardt)")
+    route = "known orientations" if reduction.method == KNOWN_METHOD else "gravity norm"
     return ReportText(
-        title="Accelerometer triad on static positions",
+        title=f"Accelerometer triad on static positions ({route})",
         summary=(f"Triad calibration from {how}{quad}; raw output in {unit}, specific force in "
                  f"m/s² at local gravity {reduction.provenance.get('gravity', float('nan')):.7g} "
                  "m/s²; first-order covariance."),
@@ -150,7 +151,8 @@ def from_inputs(files, record):
             yield calibrate_known(means, rec.up, g, input_unit=rec.input_unit,
                                   labels=rec.labels, counts=counts), {}
         else:
-            found = detect_static(rec.acc, rec.metadata["rate"], init_static=30.0)
+            found = detect_static(rec.acc, rec.metadata["rate"], init_static=30.0,
+                                  unit=rec.input_unit)
             yield (calibrate_unknown(found.means, g, input_unit=rec.input_unit,
                                      counts=found.counts,
                                      labels=[f"I{k + 1}" for k in range(len(found))]),

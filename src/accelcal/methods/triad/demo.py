@@ -65,7 +65,8 @@ def _reduce(path: Path) -> list:
     info = lab_info([path])
     # the gravity norm from the static intervals detected in the signal (as a lab's
     # recording without positions is reduced); known orientations from the record's positions
-    found = detect_static(rec.acc, rec.metadata["rate"], init_static=STILL_S)
+    found = detect_static(rec.acc, rec.metadata["rate"], init_static=STILL_S,
+                          unit=rec.input_unit)
     norm = calibrate_unknown(found.means, g, input_unit=rec.input_unit, counts=found.counts,
                              labels=[f"I{k + 1}" for k in range(len(found))])
     means, counts = rec.interval_means()

@@ -92,7 +92,7 @@ def _positions_figure(reduction):
     ax = fig.subplots()
     ax.plot(az, el, "o", ms=5)
     for x, y, label in zip(az, el, _labels(reduction, len(d)), strict=True):
-        ax.annotate(label, (x, y), textcoords="offset points", xytext=(3, 3), fontsize="x-small")
+        ax.annotate(label, (x, y), textcoords="offset points", xytext=(3, 3), fontsize="small")
     ax.set_xlim(-185, 185)
     ax.set_ylim(-95, 95)
     ax.set_xticks(np.arange(-180, 181, 90))

@@ -123,6 +123,6 @@ def figures(reduction, **context) -> list[tuple]:
         ax.stem(np.arange(vre.size), (vre - fitted) * 1e6, basefmt="0.5")
         ax.set_ylabel("residual (µg)")
         caption = "Measured minus fitted VRE (the points carry no uncertainty)."
-    ax.set_xlabel("test point")
+    ax.set_xlabel("test point (number)")
     ax.grid(alpha=0.3)
     return [measured, ("vre_residuals", "Residuals", fig, caption)]
