@@ -153,11 +153,10 @@ def import_response(paths, options, *, channels: dict, out, metadata: dict | Non
         rec, ref, dut, drive, dut_unit = _read(path, opts, channels)
         if rate is not None and abs(rec.rate - rate) > 1e-9 * rate:
             raise AccelcalError(f"{shown_path(path)} is sampled at {rec.rate:g} Hz, the first "
-                                f"file at {rate:g} Hz: a record has one rate",
-                                parameter="files")
+                                f"file at {rate:g} Hz: a record has one rate")
         if unit is not None and dut_unit != unit:
             raise AccelcalError(f"{shown_path(path)}'s dut channel is in {dut_unit}, the first "
-                                f"file's in {unit}", parameter="files")
+                                f"file's in {unit}")
         rate, unit = rec.rate, dut_unit
         provs.append(rec.provenance)
         line = drive if drive is not None else ref
@@ -201,7 +200,7 @@ def import_response(paths, options, *, channels: dict, out, metadata: dict | Non
 
 def _check(paths, channels, frequencies, steps, window_s, min_periods, min_coherence) -> dict:
     if not paths:
-        raise AccelcalError("give at least one recording", parameter="files")
+        raise AccelcalError("give at least one recording")
     if not isinstance(channels, dict) or not {"ref", "dut"} <= set(channels) or \
             not set(channels) <= set(ROLES):
         raise AccelcalError("a response import maps ref and dut (and optionally drive) to the "
@@ -317,7 +316,7 @@ def plateaus(x, rate: float, *, window_s: float = WINDOW_S, min_periods: int = M
         out.append((a, b, None))
     if not out:
         raise AccelcalError(f"{where}: no step of constant frequency found (no window's line "
-                            "holds half its power)", parameter="files")
+                            "holds half its power)")
     return out
 
 
@@ -369,7 +368,7 @@ def check_step(ref, dut, line, rate: float, f: float | None, *, min_periods: int
             raise AccelcalError(f"{where} ({f:.6g} Hz): the {name} channel is clipped at "
                                 f"{rail:.6g} ({stop - start} samples from "
                                 f"{start / rate:.6g} s in the step): lower the amplitude or "
-                                "widen the channel's range", parameter="files")
+                                "widen the channel's range")
     m = round(periods * rate / f)
     explained = {name: _explained(x[:m], rate, f, sine_fit3) for name, x in
                  (("ref", ref), ("dut", dut))}
