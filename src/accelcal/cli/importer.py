@@ -122,8 +122,8 @@ def import_(
         if temps:
             raise AccelcalError("--temperature does not apply to --kind response",
                                 parameter="temperature")
-        _import_response(files, opts, record_map, out, metadata, fmt,
-                         {k: v for k, v in response.items() if v is not None})
+        _import_response(files, opts, record_map, out=out, metadata=metadata, fmt=fmt,
+                         given={k: v for k, v in response.items() if v is not None})
         return
     given = [k for k, v in response.items() if v is not None]
     if given:
@@ -154,7 +154,7 @@ def import_(
     emit([row], fmt)
 
 
-def _import_response(files, opts, record_map, out, metadata, fmt, given) -> None:
+def _import_response(files, opts, record_map, *, out, metadata, fmt, given) -> None:
     """``--kind response``: two-channel recordings made into a response record."""
     from accelcal.cli.common import parse_grid
     from accelcal.io.recordings.response import import_response

@@ -76,8 +76,8 @@ def simulate(
         help="stepped, random or swept (broadband: --band, --duration, --amplitude the "
              "level in g), laser (ISO 16063-11: --displacement; --frequencies, --periods) or "
              "gravity (ISO 16063-16: --frequencies the rotation rates). Options of another "
-             "excitation are refused (--amplitude: stepped, random, swept; --gain-ratio, --daq-delay: "
-             "not gravity; --distortion: stepped and laser)."),
+             "excitation are refused (--amplitude: stepped, random, swept; --gain-ratio, "
+             "--daq-delay: not gravity; --distortion: stepped and laser)."),
     band: str | None = typer.Option(None, "--band", help="Broadband: lo,hi, Hz (default "
                                                          "5,2000)."),
     duration: float | None = typer.Option(None, "--duration",

@@ -1,4 +1,4 @@
-"""Two-channel shaker recordings made into a ``response`` record (``accelcal import --kind response``).
+"""Two-channel shaker recordings made into a ``response`` record (``import --kind response``).
 
 A comparison on a shaker records the reference accelerometer (``ref``,
 V) and the device under test (``dut``, V, mV or mA) together, and often
@@ -141,8 +141,8 @@ def import_response(paths, options, *, channels: dict, out, metadata: dict | Non
     from accelcal.io.formats import response as fmt
 
     paths = [Path(p) for p in paths]
-    channels = _check(paths, channels, frequencies, steps, window_s, min_periods,
-                      min_coherence)
+    channels = _check(paths, channels, frequencies, steps, window_s=window_s,
+                      min_periods=min_periods, min_coherence=min_coherence)
     out = Path(out)
     if not out.parent.is_dir():
         raise AccelcalError(f"cannot write {shown_path(out)}: directory "
@@ -198,7 +198,7 @@ def import_response(paths, options, *, channels: dict, out, metadata: dict | Non
             "columns": list(fmt.COLUMNS), "steps": table, "provenance": meta["provenance"]}
 
 
-def _check(paths, channels, frequencies, steps, window_s, min_periods, min_coherence) -> dict:
+def _check(paths, channels, frequencies, steps, *, window_s, min_periods, min_coherence) -> dict:
     if not paths:
         raise AccelcalError("give at least one recording")
     if not isinstance(channels, dict) or not {"ref", "dut"} <= set(channels) or \
@@ -282,7 +282,7 @@ def plateaus(x, rate: float, *, window_s: float = WINDOW_S, min_periods: int = M
         recording, no plateau at all, or a plateau shorter than
         ``min_periods`` periods after the trimming.
     """
-    w = int(round(window_s * rate))
+    w = round(window_s * rate)
     if w < 16 or 2 * w > x.size:
         raise AccelcalError(f"{where}: a detection window of {window_s:g} s is {w} samples of "
                             f"{x.size}; give a window from 16 samples to half the recording",
