@@ -169,7 +169,9 @@ def test_low_coherence_flags_the_step_and_the_rest_goes_on(steps, capsys):
     tmp, (a, b) = steps
     rng = np.random.default_rng(3)
     noisy = (a.ref, a.dut), (b.ref, b.dut + rng.normal(0, np.abs(b.dut).max(), b.dut.size))
-    code, out, err = run_cli(_import(tmp, noisy, ["--format", "json"]), capsys)
+    ref = reference_csv(tmp / "ref.csv", a.metadata["reference"])
+    code, out, err = run_cli(_import(tmp, noisy, ["--format", "json", "--reference", ref]),
+                             capsys)
     assert code == 0, err
     rows = json.loads(out)
     assert [r["flagged"] for r in rows] == ["", "yes"]
@@ -178,3 +180,7 @@ def test_low_coherence_flags_the_step_and_the_rest_goes_on(steps, capsys):
     rec = read(tmp / "r.csv")
     assert [f["step"] for f in rec.metadata["flagged"]] == [1]
     assert rec.metadata["flagged"][0]["reason"].startswith("coherence")
+    code, out, err = run_cli(["response", "reduce", tmp / "r.csv",
+                              "--reference-frequency", "20"], capsys)
+    assert code == 0, err
+    assert "1 step(s) flagged at import, coherence below the limit: 40 Hz" in out

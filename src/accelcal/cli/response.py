@@ -207,6 +207,10 @@ def reduce(
         dev, u, f_low = red.assumed("static_tie")
         title += (f"; |S({f_low:g} Hz)| / static scale factor - 1 = {1e6 * dev:.3g} ± "
                   f"{1e6 * u:.2g} ppm")
+    if any(a.name == "flagged" for a in red.assumptions):
+        steps = red.assumed("flagged")
+        title += (f"; {len(steps)} step(s) flagged at import, coherence below the limit: "
+                  + ", ".join(f"{f:g} Hz" for f in steps))
     flagged = red.observations.get("flagged_hz")
     if flagged is not None and len(flagged):
         title += f"; {len(flagged)} bin(s) below the coherence limit left out"
