@@ -165,6 +165,22 @@ def test_bad_steps_refused_in_one_line(steps, capsys):
     assert not (tmp / "r.csv").exists()
 
 
+def test_detected_step_shorter_than_the_stated_periods_refused(tmp_path, capsys):
+    recs = campaign()
+    parts = [(recs[3].ref, recs[3].dut), (recs[4].ref[:300], recs[4].dut[:300])]
+    write_csv(tmp_path / "long.csv", *(np.concatenate(c) for c in zip(*parts, strict=True)))
+    args = ["import", tmp_path / "long.csv", "--kind", "response", "--channels",
+            "ref=ref,dut=dut", "--time", "t", "--unit", "V", "--steps", "detect",
+            "--step-window", "0.05", "--format", "json", "--out", tmp_path / "r.csv"]
+    # 80 Hz for 1 s (72 periods once trimmed), 160 Hz for 0.3 s (32 periods)
+    refused([*args, "--min-periods", "40"], capsys, "the step at 160 Hz from 1 s holds 32",
+            "fewer than 40")
+    code, out, err = run_cli([*args, "--min-periods", "20"], capsys)
+    assert code == 0, err
+    assert [(r["frequency_hz"], r["periods"]) for r in json.loads(out)] == [(80, 72),
+                                                                            (160, 32)]
+
+
 def test_low_coherence_flags_the_step_and_the_rest_goes_on(steps, capsys):
     tmp, (a, b) = steps
     rng = np.random.default_rng(3)

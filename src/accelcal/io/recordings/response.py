@@ -17,7 +17,10 @@ padded four times and refined by parabolic interpolation of the log
 magnitude; a window whose line holds less than half its power has none.
 Consecutive windows whose lines lie within one bin (``1 / window_s`` Hz) of
 the plateau's first make a plateau; one window is trimmed at each end (the
-changes of frequency fall there). A step's frequency is then the
+changes of frequency fall there). A run no longer than those two windows is
+a change of frequency (a window across two lines shows a line between
+them) and is skipped: the window should be at most a quarter of the
+shortest step. A step's frequency is then the
 four-parameter sine fit's (IEEE 1057) on its samples, started at the
 spectral peak, taken as the nominal value of :data:`NOMINAL_DIGITS`
 significant digits when within :data:`NOMINAL_PPM` of it.
@@ -306,6 +309,8 @@ def plateaus(x, rate: float, *, window_s: float = WINDOW_S, min_periods: int = M
     out = []
     for first, f, last in groups:
         a, b = first * hop + w, last * hop
+        if b <= a:  # no longer than the two trimmed windows: a change of frequency
+            continue
         periods = int(np.floor(max(b - a, 0) * f / rate))
         if periods < min_periods:
             raise AccelcalError(
