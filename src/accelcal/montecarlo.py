@@ -41,10 +41,13 @@ References
 .. [NumPySeed] NumPy, "Parallel random number generation" (SeedSequence spawning).
 """
 
+import contextlib
 import functools
 import itertools
 import os
 import re
+import signal
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -467,9 +470,11 @@ def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
                     "and that 'dask scheduler' is running there"
                 ) from None
         else:
-            cluster = LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
-            )
+            with shielded_children():
+                cluster = LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True,
+                    dashboard_address=None
+                )
             client = Client(cluster)
         with client:
             # A bounded window of tasks in flight: memory (futures, and results
@@ -492,6 +497,28 @@ def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
     finally:
         if cluster is not None:
             cluster.close()
+
+
+@contextlib.contextmanager
+def shielded_children():
+    """Threads and processes started in the block have SIGINT and SIGHUP blocked.
+
+    A terminal's Ctrl-C (and hang-up) goes to every process of its group:
+    the workers of a local cluster would each end with a traceback. Blocked
+    (a signal mask is inherited by threads, by ``fork`` and across ``exec``),
+    they leave the signal to the main process, which stops the cluster as it
+    ends. The calling thread's mask is restored at the end of the block; a
+    signal that came meanwhile is delivered then (or to another thread).
+    """
+    shield = getattr(signal, "pthread_sigmask", None)
+    if shield is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved = shield(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGHUP})
+    try:
+        yield
+    finally:
+        shield(signal.SIG_SETMASK, saved)
 
 
 def check_trials(trials) -> None:

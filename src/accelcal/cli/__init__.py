@@ -3,8 +3,12 @@
 :func:`main` runs the typer application with accelcal's error policy: bad
 input (an :class:`~accelcal.errors.AccelcalError` or a usage error) prints
 one line, ``accelcal: error: ...``, on standard error and exits with
-status 2, with no traceback. Command modules import numpy-heavy code inside
-their functions so that ``accelcal --help`` starts quickly.
+status 2, with no traceback; so does any failure of the system to read or
+write a file (an :class:`OSError`: the line names the file). SIGINT, SIGTERM
+and SIGHUP end a run with one line and the status ``128 + signal``
+(:mod:`accelcal.cli.signals`), at any moment from start-up on. Command
+modules import numpy-heavy code inside their functions so that
+``accelcal --help`` starts quickly.
 """
 
 import sys
@@ -22,24 +26,44 @@ parameter's name with ``-`` for ``_`` (see :meth:`accelcal.errors.AccelcalError.
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``accelcal`` console script."""
+    from accelcal.cli import signals
+
+    signals.install()
+    try:
+        code = _run(argv)
+    except KeyboardInterrupt as exc:
+        _interrupted(getattr(exc, "signum", None) or signals.received() or 2)
+    except BrokenPipeError:
+        sys.exit(0)
+    if signals.received():  # a signal a library took for its own and did not raise
+        _interrupted(signals.received())
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+def _run(argv: list[str] | None):
+    """Run the command; every failure but an interrupt becomes one line and exit status 2."""
     import typer
 
     from accelcal.cli.app import app
     from accelcal.errors import AccelcalError
 
-    command = typer.main.get_command(app)
     try:
-        code = command.main(args=argv, prog_name="accelcal", standalone_mode=False)
+        command = typer.main.get_command(app)
+        return command.main(args=argv, prog_name="accelcal", standalone_mode=False)
     except AccelcalError as exc:
         _die(exc.message_for(OPTION_NAMES))
-    except (KeyboardInterrupt, typer.Abort):
-        print("accelcal: aborted", file=sys.stderr)
-        sys.exit(130)
+    except typer.Abort as exc:  # click's wrapping of KeyboardInterrupt (our Interrupted)
+        cause = exc.__context__
+        raise cause if isinstance(cause, KeyboardInterrupt) else KeyboardInterrupt() from None
     except BrokenPipeError:
-        sys.exit(0)
+        raise
+    except OSError as exc:  # a net behind the checks made before writing or reading
+        _die(_os_error(exc))
     except MemoryError:  # a net behind the size estimates made before allocating
         _die("not enough memory for this input on this machine; give fewer samples, "
              "positions or points")
+    except RecursionError:  # a net behind the depth checks of nested input
+        _die("the input nests too deeply to be read; is it the right file?")
     except Exception as exc:
         if type(exc).__name__ == "LinAlgError":  # numpy.linalg: a net behind the validation
             _die(f"the computation failed ({exc}); the input's values are probably far out of "
@@ -54,7 +78,23 @@ def main(argv: list[str] | None = None) -> None:
         ctx = getattr(exc, "ctx", None)
         hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
         _die(exc.format_message() + hint)
-    sys.exit(code if isinstance(code, int) else 0)
+    return None
+
+
+def _os_error(exc: OSError) -> str:
+    """One line of a failed file operation: the file (when known) and what to do."""
+    from accelcal.io.atomic import write_error
+
+    if exc.filename is not None:
+        return write_error(exc.filename, exc).args[0].replace("cannot write", "cannot use", 1)
+    return f"a file operation failed: {exc.strerror or exc}"
+
+
+def _interrupted(signum: int) -> None:
+    from accelcal.cli import signals
+
+    signals.finish(signum)
+    sys.exit(signals.exit_status(signum))
 
 
 def _die(message: str) -> None:
