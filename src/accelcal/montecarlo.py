@@ -470,6 +470,10 @@ def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
                     "and that 'dask scheduler' is running there"
                 ) from None
         else:
+            # The workers' log at error level only: a cluster stopped by Ctrl-C
+            # would print a warning per cancelled task (read from the environment
+            # when each worker process imports distributed).
+            os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
             with shielded_children():
                 cluster = LocalCluster(
                     n_workers=workers, threads_per_worker=1, processes=True,
@@ -501,24 +505,29 @@ def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
 
 @contextlib.contextmanager
 def shielded_children():
-    """Threads and processes started in the block have SIGINT and SIGHUP blocked.
+    """Processes started in the block ignore SIGINT and have SIGHUP blocked.
 
     A terminal's Ctrl-C (and hang-up) goes to every process of its group:
-    the workers of a local cluster would each end with a traceback. Blocked
-    (a signal mask is inherited by threads, by ``fork`` and across ``exec``),
-    they leave the signal to the main process, which stops the cluster as it
-    ends. The calling thread's mask is restored at the end of the block; a
-    signal that came meanwhile is delivered then (or to another thread).
+    the workers of a local cluster would each end with a traceback. An
+    ignored signal stays ignored across ``exec`` (and Python then installs
+    no handler of its own for SIGINT), a blocked one stays blocked (Python
+    unblocks SIGINT at start-up, so it is ignored instead); the workers
+    leave the signals to the main process, which stops the cluster as it
+    ends. The main process itself ignores Ctrl-C while the block runs (the
+    cluster's start, a few seconds), and takes it again after.
     """
-    shield = getattr(signal, "pthread_sigmask", None)
-    if shield is None or threading.current_thread() is not threading.main_thread():
+    if (not hasattr(signal, "pthread_sigmask")
+            or threading.current_thread() is not threading.main_thread()):
         yield
         return
-    saved = shield(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGHUP})
+    saved = signal.getsignal(signal.SIGINT)
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP})
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         yield
     finally:
-        shield(signal.SIG_SETMASK, saved)
+        signal.signal(signal.SIGINT, saved)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
 def check_trials(trials) -> None:

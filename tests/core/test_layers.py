@@ -51,6 +51,8 @@ LAZY_UP = {
     ("accelcal.model", "accelcal.io.model_file"):
         "ErrorModel.to_dict/from_dict/to_json/from_json/save/load: the model file is io's",
     ("accelcal.results", "accelcal.io.limits"): "Reduction.from_json: io's bounded JSON reader",
+    ("accelcal.resources", "accelcal.io.limits"):
+        "available_memory: the process's memory limit is io's limits (memory_limit)",
     ("accelcal.results", "accelcal.calibration"): "Reduction.to_records",
     ("accelcal.results", "accelcal.methods"): "Reduction.figures: the method's figures",
     ("accelcal.results", "accelcal.plotting"): "Reduction.plot",
