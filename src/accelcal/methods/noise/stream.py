@@ -101,12 +101,13 @@ def phase_of(y) -> np.ndarray:
     return np.concatenate(parts)
 
 
-def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None):  # noqa: PLR0917
+def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None,  # noqa: PLR0917
+                          force=False):
     from accelcal.signal.allan.deviations import DIVISOR, Deviation
     from accelcal.signal.allan.edf import check_confidence, confidence_interval, edf
     from accelcal.signal.allan.identify import interval_alphas
     from accelcal.signal.allan.kernels import lag_sumsq
-    from accelcal.signal.allan.taus import tau_grid, taus_to_m
+    from accelcal.signal.allan.taus import check_work, tau_grid, taus_to_m
 
     if kind not in STREAM_KINDS:
         raise AccelcalError(f"{kind} needs the record in memory; stream {' or '.join(STREAM_KINDS)}"
@@ -115,6 +116,7 @@ def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None):
     n = len(x) - 1
     spec = taus if isinstance(taus, str) else taus_to_m(taus, rate)
     m = tau_grid(n, spec, kind=kind)
+    check_work(n, m, kind, force=force)
     order = 2 if kind == "oadev" else 3
     counts = (n + 1 - order * m).astype(np.int64)
     sums = np.empty(m.size)
@@ -152,7 +154,7 @@ def deviation_of_samples(y, rate, *, kind="oadev", taus="octave", confidence=0.6
 
 
 def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confidence=0.683,
-                     rows=None, tmpdir=None, progress=None, psd=False):
+                     rows=None, tmpdir=None, progress=None, psd=False, force=False):
     """Deviation of a one-channel recording file, streamed (bounded memory).
 
     Parameters
@@ -172,6 +174,9 @@ def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confide
         ``progress(done, total)``: rows read (total None when unknown), then taus.
     psd : bool
         Also return the Welch PSD.
+    force : bool
+        Run a tau set estimated to take longer than
+        :data:`~accelcal.signal.allan.taus.MAX_SECONDS` (refused otherwise).
 
     Returns
     -------
@@ -209,7 +214,7 @@ def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confide
                                 "deviation (at least 4)", parameter="values")
         x = np.memmap(fh, dtype=np.float64, mode="r", shape=(builder.samples + 1,))
         unit = options.unit or prov.get("unit", "")
-        dev = _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress)
+        dev = _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress, force)
         spectrum = _psd_from_phase(x, rate) if psd else None
         del x
     mean = builder.centre + builder.last / builder.samples  # x[n] = sum(y - c)
@@ -260,7 +265,7 @@ def _check_gaps(block, rate, last, file):
 
 
 def stream_fit(path, options=None, *, terms=None, taus="octave", confidence=0.683, rows=None,
-               tmpdir=None, progress=None):
+               tmpdir=None, progress=None, force=False):
     """The IEEE 952 fit (:func:`~accelcal.methods.noise.fit.fit_deviation`) of a file, streamed.
 
     Returns
@@ -272,6 +277,6 @@ def stream_fit(path, options=None, *, terms=None, taus="octave", confidence=0.68
 
     dev, spectrum, prov = stream_deviation(path, options, kind="oadev", taus=taus,
                                            confidence=confidence, rows=rows, tmpdir=tmpdir,
-                                           progress=progress, psd=True)
+                                           progress=progress, psd=True, force=force)
     return fit_deviation(dev, terms=terms or TERMS, provenance={"input": prov},
                          spectrum=spectrum, mean=prov["mean"])
