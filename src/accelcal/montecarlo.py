@@ -48,6 +48,7 @@ import os
 import re
 import signal
 import threading
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -231,6 +232,7 @@ def run(
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
     timeout: float = SCHEDULER_TIMEOUT_S,
+    max_seconds: float | None = None,
 ) -> MonteCarloResult:
     """Run a Monte Carlo study.
 
@@ -276,6 +278,10 @@ def run(
         ``progress(done, total)`` called as trials complete.
     timeout : float
         Seconds to wait for ``scheduler`` to answer.
+    max_seconds : float, optional
+        Refuse a run (not on a ``scheduler``) estimated to take longer: the
+        first task is timed here, in this process, and the estimate is its
+        time times the tasks left, shared by the ``workers``. None: no bound.
 
     Returns
     -------
@@ -307,12 +313,20 @@ def run(
         simulate, int(seed), trials, block_size, len(names), stride, covariance, blas_threads
     )
     merger = _InOrder(len(tasks), progress, trials)
+    first = 0
+    if max_seconds is not None and scheduler is None:
+        start = time.monotonic()
+        merger.add(0, spec(tasks[0]))
+        first = 1
+        _check_time((time.monotonic() - start) * (len(tasks) - 1) / (workers or 1),
+                    trials, min(trials, block_size * blocks_per_task), max_seconds)
     if workers is None and scheduler is None:
-        for index, blocks in enumerate(tasks):
-            merger.add(index, spec(blocks))
-    else:
+        for index in range(first, len(tasks)):
+            merger.add(index, spec(tasks[index]))
+    elif first < len(tasks):
         _run_dask(
-            spec, tasks, merger, workers=workers, scheduler=scheduler, timeout=timeout
+            spec, tasks, merger, workers=workers, scheduler=scheduler, timeout=timeout,
+            first=first,
         )
     total = merger.total
     diag = np.diag(total.m2) if total.m2.ndim == 2 else total.m2
@@ -451,7 +465,15 @@ class _Tasks(Sequence):
         return range(start, min(start + self.per_task, self.n_blocks))
 
 
-def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
+def _check_time(seconds: float, trials: int, timed: int, bound: float) -> None:
+    if seconds > bound:
+        raise AccelcalError(
+            f"{trials:,} trials would take about {seconds:,.0f} s more (from the first "
+            f"{timed:,}, timed); the bound is {bound:g} s: give fewer trials or more workers, "
+            "or --force (force=True) to run it anyway", parameter="trials")
+
+
+def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout, first=0):
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError:
@@ -483,7 +505,7 @@ def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
         with client:
             # A bounded window of tasks in flight: memory (futures, and results
             # waiting for their predecessors) stays constant for any trial count.
-            queue = iter(enumerate(tasks))
+            queue = itertools.islice(enumerate(tasks), first, None)
             index = {}
             running = as_completed()
             for i, blocks in itertools.islice(queue, DASK_WINDOW):
