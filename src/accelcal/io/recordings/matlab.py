@@ -185,6 +185,10 @@ def mat_batches(source, names: list[str], rows: int) -> Iterator[dict[str, np.nd
         for name in names:
             var, k = source.locations[name]
             value = np.asarray(data[var])
+            if np.iscomplexobj(value):
+                raise AccelcalError(f"{shown_name(source.path.name)}: variable "
+                                    f"{shown_name(var)} is complex; a channel holds real "
+                                    "samples (save the real and imaginary parts apart)")
             arrays[name] = (value.reshape(-1) if k is None else value[:, k]).astype(float)
             if arrays[name].shape != (length,):
                 raise AccelcalError(f"{shown_name(source.path.name)}: variable "
