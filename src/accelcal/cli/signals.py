@@ -51,6 +51,7 @@ ENDING = 10.0
 _taken = threading.Event()
 _printed = threading.Lock()
 _received: list[int] = []
+_installed: list[bool] = []
 
 
 class Interrupted(KeyboardInterrupt):
@@ -82,9 +83,14 @@ def received() -> int | None:
 
 
 def install() -> None:
-    """Handle SIGINT, SIGTERM and SIGHUP in the main thread, with the watcher behind."""
-    if threading.current_thread() is not threading.main_thread():
+    """Handle SIGINT, SIGTERM and SIGHUP in the main thread, with the watcher behind.
+
+    Once per process (a program calling :func:`accelcal.cli.main` many times
+    gets one watcher).
+    """
+    if _installed or threading.current_thread() is not threading.main_thread():
         return
+    _installed.append(True)
     for sig in SIGNALS:
         with contextlib.suppress(OSError, ValueError):
             if signal.getsignal(sig) is not signal.SIG_IGN:  # nohup: stays ignored
