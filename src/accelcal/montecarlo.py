@@ -49,6 +49,7 @@ import re
 import signal
 import threading
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -492,11 +493,13 @@ def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout, first=0):
                     "and that 'dask scheduler' is running there"
                 ) from None
         else:
-            # The workers' log at error level only: a cluster stopped by Ctrl-C
+            # The workers log critical errors only: a cluster stopped by Ctrl-C
             # would print a warning per cancelled task (read from the environment
             # when each worker process imports distributed).
-            os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
-            with shielded_children():
+            os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "critical")
+            with shielded_children(), warnings.catch_warnings():
+                # the scheduler's HTTP server moves off a port in use, with a warning
+                warnings.filterwarnings("ignore", message="Port .* is already in use")
                 cluster = LocalCluster(
                     n_workers=workers, threads_per_worker=1, processes=True,
                     dashboard_address=None

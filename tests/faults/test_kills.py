@@ -18,6 +18,7 @@ import random
 import signal
 
 import pytest
+
 from helpers.faults import EXIT, kill_after, leftovers, run
 
 pytestmark = pytest.mark.faults

@@ -64,7 +64,8 @@ def start(args, *, cwd: Path, tmpdir: Path, address_space=None, file_size=None,
     return subprocess.Popen(
         [sys.executable, "-m", "accelcal", *map(str, args)], cwd=cwd,
         env=environment(tmpdir), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        preexec_fn=_limits(address_space, file_size), start_new_session=group)
+        preexec_fn=_limits(address_space, file_size),  # noqa: PLW1509 (no threads here)
+        start_new_session=group)
 
 
 def run(args, *, cwd: Path, tmpdir: Path, timeout: float = 180, **limits) -> Run:
@@ -77,20 +78,26 @@ def run(args, *, cwd: Path, tmpdir: Path, timeout: float = 180, **limits) -> Run
 
 def kill_after(args, delay: float, sig: int, *, cwd: Path, tmpdir: Path, group=False,
                timeout: float = 60) -> tuple[Run, float]:
-    """Run ``accelcal ARGS``, send ``sig`` after ``delay`` s; the run and its time to end, s."""
+    """Run ``accelcal ARGS``, send ``sig`` after ``delay`` s.
+
+    Returns the run and the seconds from the signal to the end (None when the
+    run had ended before the signal was due).
+    """
     began = time.monotonic()
     proc = start(args, cwd=cwd, tmpdir=tmpdir, group=group)
     try:
         proc.wait(timeout=delay)
+        sent = None
     except subprocess.TimeoutExpired:
         if group:
             os.killpg(proc.pid, sig)
         else:
             proc.send_signal(sig)
-    sent = time.monotonic()
+        sent = time.monotonic()
     out, err = proc.communicate(timeout=timeout)
     ended = time.monotonic()
-    return Run(list(args), proc.returncode, out, err, ended - began), ended - sent
+    return (Run(list(args), proc.returncode, out, err, ended - began),
+            None if sent is None else ended - sent)
 
 
 def leftovers(*directories: Path) -> list[str]:

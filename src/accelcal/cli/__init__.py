@@ -28,8 +28,8 @@ def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``accelcal`` console script."""
     from accelcal.cli import signals
 
-    signals.install()
     try:
+        signals.install()
         code = _run(argv)
     except KeyboardInterrupt as exc:
         _interrupted(getattr(exc, "signum", None) or signals.received() or 2)
