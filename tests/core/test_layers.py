@@ -38,7 +38,7 @@ FLOORS = (
     ("domain model", ("accelcal.model", "accelcal.defaults", "accelcal.engineering",
                       "accelcal.aliasing", "accelcal.outputs", "accelcal.results",
                       "accelcal.polar", "accelcal.fitting",
-                      "accelcal.uncertainty", "accelcal.montecarlo")),
+                      "accelcal.uncertainty", "accelcal.montecarlo", "accelcal.parallel")),
     ("io", ("accelcal.io",)),
     ("signal", ("accelcal.signal", "accelcal.plotting")),
     ("rigs and methods", ("accelcal.rigs", "accelcal.methods", "accelcal.calibration")),

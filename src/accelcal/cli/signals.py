@@ -17,7 +17,7 @@ not ended :data:`ENDING` seconds after taking it), the watcher removes this
 process's temporaries, prints the line and ends the process itself.
 
 A local Dask cluster's workers are started with SIGINT and SIGHUP blocked
-(:func:`accelcal.montecarlo.shielded_children`): the terminal sends those to
+(:func:`accelcal.parallel.shielded_children`): the terminal sends those to
 the whole process group, and the workers, stopped by the main process as it
 ends, would each print a traceback.
 
