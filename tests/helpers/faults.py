@@ -51,6 +51,10 @@ def environment(tmpdir: Path) -> dict:
 
 def _limits(address_space=None, file_size=None):
     def apply():
+        # as a terminal's command: a run started in the background (nohup, &) would
+        # inherit SIGHUP or SIGINT ignored, and accelcal keeps an ignored signal ignored
+        for sig in (signal.SIGINT, signal.SIGHUP):
+            signal.signal(sig, signal.SIG_DFL)
         if address_space is not None:
             resource.setrlimit(resource.RLIMIT_AS, (address_space, address_space))
         if file_size is not None:
