@@ -12,15 +12,13 @@ from accelcal.report.inputs import report_sections
 from accelcal.report.sections import reduction_sections
 from helpers.cli import refused, run_cli
 
+pytestmark = pytest.mark.xdist_group("demo")  # the shared campaign (tests/report/conftest.py)
+
 
 @pytest.fixture(scope="module")
-def campaign(tmp_path_factory):
+def campaign(demo_campaign):
     """The demo's campaign: every method that writes calibration records."""
-    from accelcal.demo import stages
-    from accelcal.pipeline import run_campaign
-
-    return run_campaign(stages(), tmp_path_factory.mktemp("campaign"), seed=11, progress=False,
-                        title="road")
+    return demo_campaign.result
 
 
 def _demo_sections(result):
