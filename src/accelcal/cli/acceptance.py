@@ -17,11 +17,12 @@ app = typer.Typer(
 )
 
 _TESTS = ("threshold", "resolution", "hysteresis", "range", "turn-on")
+_SIMULATED = (*_TESTS, "environment")
 
 
-def _check_test(test: str) -> None:
-    if test not in _TESTS:
-        raise AccelcalError(f"--test {test[:20]!r} is not one of {', '.join(_TESTS)}")
+def _check_test(test: str, tests=_TESTS) -> None:
+    if test not in tests:
+        raise AccelcalError(f"--test {test[:20]!r} is not one of {', '.join(tests)}")
 
 
 _SPEC_HELP = ("Specification file (TOML: [[limit]] quantity, lower, upper, unit): adds the "
@@ -33,9 +34,12 @@ _RULE_HELP = ("Decision rule with --spec: simple or guarded (guard band w = U un
 @app.command("simulate")
 def simulate(
     *,
-    out: Path = typer.Option(..., "--out", help="Step record to write (CSV or .parquet)."),
+    out: Path = typer.Option(..., "--out", help="Step record to write (CSV or .parquet); "
+                                                "environment: OUT-before and OUT-after, "
+                                                "calibration records (JSON)."),
     test: str = typer.Option("threshold", "--test",
-                             help="threshold, resolution, hysteresis, range or turn-on."),
+                             help="threshold, resolution, hysteresis, range, turn-on or "
+                                  "environment."),
     set_point: float | None = typer.Option(
         None, "--set-point", help="Set-point angle, deg (default 0 for the threshold, 30 for "
                                   "the resolution)."),
@@ -70,14 +74,23 @@ def simulate(
     scale_sd: float = typer.Option(30.0, "--scale-sd",
                                    help="Turn-on test: scale-factor SD between turn-ons, ppm."),
     drift: float = typer.Option(10.0, "--drift", help="Turn-on test: in-run bias drift, ug/h."),
+    shift: str = typer.Option("", "--shift", help="Environment: the coefficients' true shift, "
+                                                  "e.g. K0=30ug,K1=50ppm (K1 in ppm, the "
+                                                  "others in ug, mg, g or urad); none: no "
+                                                  "shift."),
+    serial: str = typer.Option("SN-ENV", "--serial",
+                               help="Environment: serial number of the records."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the random generator."),
 ) -> None:
     """Write a simulated step test (its metadata: the true threshold, resolution or hysteresis)."""
     from accelcal.io.formats import acceptance as steps_format
     from accelcal.rigs.acceptance import simulate as simulate_steps
 
-    _check_test(test)
+    _check_test(test, _SIMULATED)
     check_writable(out)
+    if test == "environment":
+        _simulate_environment(out, shift=shift, noise=noise, serial=serial, seed=seed)
+        return
     try:
         ladder = tuple(float(v) for v in increments.split(","))
     except ValueError:
@@ -103,6 +116,22 @@ def simulate(
                                 seed=seed)
     steps_format.write(out, record)
     typer.echo(f"wrote {out}")
+
+
+def _simulate_environment(out: Path, *, shift: str, noise: float, serial: str,
+                          seed: int) -> None:
+    """Write the before/after calibration records of :func:`simulate_environment`."""
+    from accelcal.rigs.acceptance_env import parse_shift, simulate_environment
+
+    paths = [out.with_name(f"{out.stem}-{when}{out.suffix or '.json'}")
+             for when in ("before", "after")]
+    for path in paths:
+        check_writable(path)
+    pair = simulate_environment(parse_shift(shift), noise=noise * 1e-6, serial=serial,
+                                seed=seed)
+    for path, record in zip(paths, pair, strict=True):
+        record.save(path)
+        typer.echo(f"wrote {path}")
 
 
 @app.command("reduce")

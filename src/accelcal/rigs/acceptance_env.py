@@ -1,0 +1,138 @@
+"""Acceptance-test rigs: a calibration before and after an environment.
+
+environment
+    One accelerometer (one serial) is calibrated by a multipoint tumble
+    (:func:`accelcal.rigs.tumble.simulate`, IA turned about the OA through
+    ``positions`` equally spaced angles, ``repeats`` readings at each), then
+    put through an environment (shock, vibration or a thermal cycle) that
+    shifts its coefficients by ``shift``, then calibrated again the same
+    way. Each calibration has its own noise (independent draws of the
+    reading noise ``sigma``) and is reduced by the IEEE 1293 tumble
+    reduction (:func:`accelcal.methods.tumble.reduce`, noise estimated from
+    the residuals, so each record states its degrees of freedom; the
+    terms left out, the asymmetries, are taken as zero without the Type B
+    bound of their priors: they are the sensor's own, the same in both
+    calibrations, and would cancel in the shift): two
+    calibration records of the serial, a day apart, that ``accelcal
+    acceptance compare`` tests for the shift. With a zero shift the
+    difference of each coefficient is the difference of two independent
+    estimates, Student-t distributed with the records' uncertainties.
+
+References
+----------
+.. [IEEE1293] IEEE Std 1293-2018, tests after environmental exposure and
+   magnetic sensitivity.
+.. [DOMAIN] accelcal domain notes, section 12.
+"""
+
+import datetime as dt
+
+import numpy as np
+
+from accelcal.errors import AccelcalError
+from accelcal.resources import generator
+
+ENV_POSITIONS = 24
+"""Default tumble positions of each calibration."""
+
+SHIFT_UNITS = {"ug": 1e-6, "mg": 1e-3, "g": 1.0, "urad": 1e-6, "ppm": 1e-6}
+"""Units of a coefficient shift (``ppm`` for the scale factor K1 only: relative)."""
+
+
+def parse_shift(text: str) -> dict:
+    """``"K0=30ug,K1=50ppm"`` -> ``{"K0": 3e-5, "K1": 5e-5}`` (K1 relative, others in g/g^n).
+
+    Raises
+    ------
+    AccelcalError
+        For an unknown coefficient or unit, or a value that is not a number.
+    """
+    from accelcal.model import TERMS
+
+    out = {}
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        name, _, value = part.partition("=")
+        name, value = name.strip(), value.strip()
+        unit = next((u for u in sorted(SHIFT_UNITS, key=len, reverse=True)
+                     if value.endswith(u)), None)
+        if name not in TERMS or name == "sigma":
+            raise AccelcalError(f"{part[:30]!r}: {name[:12]!r} is not a coefficient "
+                                "(K0, K1, K2, ...)", parameter="shift")
+        if unit is None or (unit == "ppm") != (name == "K1"):
+            raise AccelcalError(f"{part[:30]!r}: give K1 in ppm and the others in ug, "
+                                "mg, g or urad (e.g. K0=30ug,K1=50ppm)", parameter="shift")
+        try:
+            number = float(value[: -len(unit)])
+        except ValueError:
+            raise AccelcalError(f"{part[:30]!r} is not NAME=NUMBERUNIT",
+                                parameter="shift") from None
+        if not np.isfinite(number) or abs(number * SHIFT_UNITS[unit]) > 0.1:
+            raise AccelcalError(f"{part[:30]!r} must be finite and below 0.1 g "
+                                "(1e5 ppm)", parameter="shift")
+        out[name] = number * SHIFT_UNITS[unit]
+    return out
+
+
+def simulate_environment(shift=None, *, model=None, positions: int = ENV_POSITIONS,
+                         repeats: int = 4, noise: float = 5e-6, serial: str = "SN-ENV",
+                         environment: str = "thermal cycle", date: str = "2026-01-01",
+                         seed=None) -> tuple:
+    """Two calibration records of one serial around an environment (module docs).
+
+    Parameters
+    ----------
+    shift : dict, optional
+        Coefficient -> shift (g/g^n; K1 relative), e.g. from :func:`parse_shift`.
+    model : accelcal.model.ErrorModel, optional
+        The sensor before the environment (default K0 = 100 ug, K1 = 1.25
+        V/g, K2 = 10 ug/g^2).
+    positions, repeats : int
+        Tumble positions and readings at each.
+    noise : float
+        Reading noise SD, g.
+    serial, environment, date : str
+        The serial number, the environment's name (in the records' notes),
+        the date of the first calibration (the second is a day later).
+    seed : int, SeedSequence or Generator, optional
+
+    Returns
+    -------
+    tuple of CalibrationRecord
+        ``(before, after)``, method ``tumble/fourier``, simulated.
+    """
+    import dataclasses
+
+    from accelcal.io.lab_metadata import LabInfo
+    from accelcal.methods import tumble
+    from accelcal.model import ErrorModel
+
+    shift = dict(shift or {})
+    if not (isinstance(positions, int) and 8 <= positions <= 3600):
+        raise AccelcalError(f"positions {positions!r:.20} must be a whole number in [8, 3600]",
+                            parameter="positions")
+    if not (isinstance(repeats, int) and 1 <= repeats <= 1000):
+        raise AccelcalError(f"repeats {repeats!r:.20} must be a whole number in [1, 1000]",
+                            parameter="repeats")
+    if not 0.0 < noise <= 1e-2:
+        raise AccelcalError(f"noise {noise:g} g must be in (0, 0.01]", parameter="noise")
+    base = model or ErrorModel(K0=100e-6, K1=1.25, K2=10e-6)
+    changed = {k: getattr(base, k) + v for k, v in shift.items() if k != "K1"}
+    if "K1" in shift:
+        changed["K1"] = base.K1 * (1.0 + shift["K1"])
+    models = (dataclasses.replace(base, sigma=noise),
+              dataclasses.replace(base, sigma=noise, **changed))
+    rng = generator(seed)
+    angles = np.radians(np.arange(positions) * 360.0 / positions)
+    first = dt.datetime.fromisoformat(date).replace(tzinfo=dt.UTC)
+    told = ", ".join(f"{k}={v:.6g}" for k, v in sorted(shift.items())) or "none"
+    out = []
+    for i, (m, when) in enumerate(zip(models, ("before", "after"), strict=True)):
+        data = tumble.simulate(angles, m, repeats=repeats, seed=rng)
+        red = tumble.reduce(data, priors="none")
+        day = (first + dt.timedelta(days=i)).isoformat()
+        info = LabInfo(serials=(serial,), date=day, simulated=True)
+        rec = red.to_records(info, date=day)[0]
+        out.append(dataclasses.replace(rec, notes=(
+            *rec.notes, (f"simulated calibration {when} a {environment}; true shift "
+                         f"(g/g^n, K1 relative): {told}"))))
+    return tuple(out)
