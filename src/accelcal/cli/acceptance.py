@@ -16,7 +16,7 @@ app = typer.Typer(
     no_args_is_help=True,
 )
 
-_TESTS = ("threshold", "resolution", "hysteresis", "range", "turn-on")
+_TESTS = ("threshold", "resolution", "hysteresis", "range", "turn-on", "magnetic")
 _SIMULATED = (*_TESTS, "environment")
 
 
@@ -38,8 +38,8 @@ def simulate(
                                                 "environment: OUT-before and OUT-after, "
                                                 "calibration records (JSON)."),
     test: str = typer.Option("threshold", "--test",
-                             help="threshold, resolution, hysteresis, range, turn-on or "
-                                  "environment."),
+                             help="threshold, resolution, hysteresis, range, turn-on, "
+                                  "magnetic or environment."),
     set_point: float | None = typer.Option(
         None, "--set-point", help="Set-point angle, deg (default 0 for the threshold, 30 for "
                                   "the resolution)."),
@@ -80,6 +80,11 @@ def simulate(
                                                   "shift."),
     serial: str = typer.Option("SN-ENV", "--serial",
                                help="Environment: serial number of the records."),
+    sensitivity: str = typer.Option("20,5,8", "--sensitivity",
+                                    help="Magnetic test: sensitivity along the IA, PA, OA, "
+                                         "ug/mT."),
+    fields: str = typer.Option("-1,-0.5,0.5,1", "--fields",
+                               help="Magnetic test: field steps along each axis, mT."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the random generator."),
 ) -> None:
     """Write a simulated step test (its metadata: the true threshold, resolution or hysteresis)."""
@@ -102,6 +107,13 @@ def simulate(
         record = simulate_range(full_scale=full_scale, rail=rail or None,
                                 overload_shift=overload_shift * 1e-6, dwell=dwell, rate=rate,
                                 noise=noise * 1e-6 * 0.2, seed=seed)
+    elif test == "magnetic":
+        from accelcal.rigs.acceptance_env import simulate_magnetic
+
+        record = simulate_magnetic(
+            tuple(v * 1e-6 for v in _numbers(sensitivity, "--sensitivity", "ug/mT")),
+            fields=_numbers(fields, "--fields", "mT"), dwell=dwell, rate=rate,
+            noise=noise * 1e-6, seed=seed)
     elif test == "turn-on":
         from accelcal.rigs.acceptance_runs import simulate_turn_on
 
@@ -116,6 +128,13 @@ def simulate(
                                 seed=seed)
     steps_format.write(out, record)
     typer.echo(f"wrote {out}")
+
+
+def _numbers(text: str, option: str, unit: str) -> tuple:
+    try:
+        return tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise AccelcalError(f"{option} {text[:40]!r} is not a list of numbers ({unit})") from None
 
 
 def _simulate_environment(out: Path, *, shift: str, noise: float, serial: str,
@@ -139,8 +158,8 @@ def reduce(
     file: Path = typer.Argument(..., help="Step record (CSV or Parquet, kind steps)."),
     *,
     test: str | None = typer.Option(None, "--test", help="threshold, resolution, hysteresis, "
-                                                         "range or turn-on (default: the "
-                                                         "record's)."),
+                                                         "range, turn-on or magnetic (default: "
+                                                         "the record's)."),
     settle: float = typer.Option(0.0, "--settle", help="Seconds dropped at the start of each "
                                                        "dwell."),
     max_error: float = typer.Option(

@@ -1,4 +1,4 @@
-"""Acceptance-test rigs: a calibration before and after an environment.
+"""Acceptance-test rigs: a calibration before and after an environment, and Helmholtz coils.
 
 environment
     One accelerometer (one serial) is calibrated by a multipoint tumble
@@ -17,6 +17,15 @@ environment
     acceptance compare`` tests for the shift. With a zero shift the
     difference of each coefficient is the difference of two independent
     estimates, Student-t distributed with the records' uncertainties.
+magnetic
+    Helmholtz coils apply a uniform field B (mT) along each axis of the
+    sensor in turn (x = IA, y = PA, z = OA), stepping it through
+    ``fields`` (mT) and back to zero, with the IA horizontal (no gravity
+    input). The sensor (physical model: the torquer's permanent magnet and
+    the pendulum's magnetic parts give an output linear in the field,
+    IEEE 1293 magnetic sensitivity): ``E = K1 (K0 + m . B) + noise``, m the
+    magnetic sensitivity vector (g/mT). Recorded as a step record (test
+    ``magnetic``) with the field columns ``field_x, field_y, field_z`` (mT).
 
 References
 ----------
@@ -37,6 +46,13 @@ ENV_POSITIONS = 24
 
 SHIFT_UNITS = {"ug": 1e-6, "mg": 1e-3, "g": 1.0, "urad": 1e-6, "ppm": 1e-6}
 """Units of a coefficient shift (``ppm`` for the scale factor K1 only: relative)."""
+
+
+MAGNETIC_FIELDS_MT = (-1.0, -0.5, 0.5, 1.0)
+"""Default field steps of the Helmholtz coils, mT."""
+
+AXES = ("x", "y", "z")
+"""The field axes: x along the IA, y along the PA, z along the OA."""
 
 
 def parse_shift(text: str) -> dict:
@@ -136,3 +152,67 @@ def simulate_environment(shift=None, *, model=None, positions: int = ENV_POSITIO
             *rec.notes, (f"simulated calibration {when} a {environment}; true shift "
                          f"(g/g^n, K1 relative): {told}"))))
     return tuple(out)
+
+
+def simulate_magnetic(sensitivity=(20e-6, 5e-6, 8e-6), *, fields=MAGNETIC_FIELDS_MT,
+                      scale_factor: float = 1.25, bias: float = 100e-6, output_unit: str = "V",
+                      dwell: float = 10.0, rate: float = 10.0, noise: float = 5e-6,
+                      seed=None):
+    """A simulated magnetic-sensitivity test in Helmholtz coils (module docs).
+
+    A dwell at zero field, then along each axis in turn one at each of
+    ``fields`` and one at zero field (every dwell ``dwell`` s).
+
+    Parameters
+    ----------
+    sensitivity : sequence of 3 float
+        The magnetic sensitivity vector m along the IA, PA, OA, g/mT.
+    fields : sequence of float
+        Field steps, mT (at least one non-zero).
+    scale_factor, bias : float
+        K1 (output unit per g) and K0 (g).
+    output_unit : str
+    dwell, rate, noise : float
+        Time per dwell (s), sample rate (Hz), output noise SD (g).
+    seed : int, SeedSequence or Generator, optional
+
+    Returns
+    -------
+    accelcal.io.formats.acceptance.StepRecord
+        Test ``magnetic``, input 0 g; metadata ``true_sensitivity_g_per_mT``,
+        ``fields_mT``, ``simulated``, ``seed`` (an int seed).
+    """
+    from accelcal.io.formats.acceptance import StepRecord
+
+    m = np.asarray(sensitivity, dtype=float).reshape(-1)
+    steps = np.asarray(fields, dtype=float).reshape(-1)
+    if m.size != 3 or not np.all(np.isfinite(m)) or np.abs(m).max() > 1.0:
+        raise AccelcalError("the sensitivity is three finite numbers below 1 g/mT",
+                            parameter="sensitivity")
+    if not steps.size or not np.all(np.isfinite(steps)) or not np.any(steps != 0.0) \
+            or np.abs(steps).max() > 100.0:
+        raise AccelcalError("the field steps are finite numbers up to 100 mT, one non-zero",
+                            parameter="fields")
+    n = round(dwell * rate)
+    if n < 3 or not 0.0 < rate <= 1e5:
+        raise AccelcalError("dwell * rate must give at least three samples per dwell",
+                            parameter="dwell")
+    if not 0.0 <= noise <= 1e-2 or scale_factor == 0 or not np.isfinite(scale_factor):
+        raise AccelcalError("the noise is in [0, 0.01] g and the scale factor non-zero",
+                            parameter="noise")
+    levels = [np.zeros(3)]
+    for axis in range(3):
+        for b in (*steps, 0.0):
+            vec = np.zeros(3)
+            vec[axis] = b
+            levels.append(vec)
+    field = np.repeat(np.asarray(levels), n, axis=0)
+    rng = generator(seed)
+    out = scale_factor * (bias + field @ m + noise * rng.standard_normal(len(field)))
+    meta = {"simulated": True, "true_sensitivity_g_per_mT": m.tolist(),
+            "fields_mT": steps.tolist(), "noise_sd_g": noise}
+    if isinstance(seed, int):
+        meta["seed"] = seed
+    return StepRecord(t=np.arange(len(field)) / rate, input=np.zeros(len(field)), output=out,
+                      test="magnetic", output_unit=output_unit, scale_factor=scale_factor,
+                      field=field, metadata=meta)
