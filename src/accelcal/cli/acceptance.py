@@ -139,15 +139,15 @@ def _numbers(text: str, option: str, unit: str) -> tuple:
 
 def _simulate_environment(out: Path, *, shift: str, noise: float, serial: str,
                           seed: int) -> None:
-    """Write the before/after calibration records of :func:`simulate_environment`."""
-    from accelcal.rigs.acceptance_env import parse_shift, simulate_environment
+    """Write the before/after calibration records of :func:`simulate_pair`."""
+    from accelcal.methods.acceptance.environment import simulate_pair
+    from accelcal.rigs.acceptance_env import parse_shift
 
     paths = [out.with_name(f"{out.stem}-{when}{out.suffix or '.json'}")
              for when in ("before", "after")]
     for path in paths:
         check_writable(path)
-    pair = simulate_environment(parse_shift(shift), noise=noise * 1e-6, serial=serial,
-                                seed=seed)
+    pair = simulate_pair(parse_shift(shift), noise=noise * 1e-6, serial=serial, seed=seed)
     for path, record in zip(paths, pair, strict=True):
         record.save(path)
         typer.echo(f"wrote {path}")

@@ -7,16 +7,8 @@ environment
     put through an environment (shock, vibration or a thermal cycle) that
     shifts its coefficients by ``shift``, then calibrated again the same
     way. Each calibration has its own noise (independent draws of the
-    reading noise ``sigma``) and is reduced by the IEEE 1293 tumble
-    reduction (:func:`accelcal.methods.tumble.reduce`, noise estimated from
-    the residuals, so each record states its degrees of freedom; the
-    terms left out, the asymmetries, are taken as zero without the Type B
-    bound of their priors: they are the sensor's own, the same in both
-    calibrations, and would cancel in the shift): two
-    calibration records of the serial, a day apart, that ``accelcal
-    acceptance compare`` tests for the shift. With a zero shift the
-    difference of each coefficient is the difference of two independent
-    estimates, Student-t distributed with the records' uncertainties.
+    reading noise ``sigma``). :func:`accelcal.methods.acceptance.environment.simulate_pair`
+    reduces the two tumble records to calibration records.
 magnetic
     Helmholtz coils apply a uniform field B (mT) along each axis of the
     sensor in turn (x = IA, y = PA, z = OA), stepping it through
@@ -33,8 +25,6 @@ References
    magnetic sensitivity.
 .. [DOMAIN] accelcal domain notes, section 12.
 """
-
-import datetime as dt
 
 import numpy as np
 
@@ -90,10 +80,8 @@ def parse_shift(text: str) -> dict:
 
 
 def simulate_environment(shift=None, *, model=None, positions: int = ENV_POSITIONS,
-                         repeats: int = 4, noise: float = 5e-6, serial: str = "SN-ENV",
-                         environment: str = "thermal cycle", date: str = "2026-01-01",
-                         seed=None) -> tuple:
-    """Two calibration records of one serial around an environment (module docs).
+                         repeats: int = 4, noise: float = 5e-6, seed=None) -> tuple:
+    """The tumble records of two calibrations around an environment (module docs).
 
     Parameters
     ----------
@@ -106,21 +94,17 @@ def simulate_environment(shift=None, *, model=None, positions: int = ENV_POSITIO
         Tumble positions and readings at each.
     noise : float
         Reading noise SD, g.
-    serial, environment, date : str
-        The serial number, the environment's name (in the records' notes),
-        the date of the first calibration (the second is a day later).
     seed : int, SeedSequence or Generator, optional
 
     Returns
     -------
-    tuple of CalibrationRecord
-        ``(before, after)``, method ``tumble/fourier``, simulated.
+    tuple of accelcal.io.formats.tumble.TumbleRecord
+        ``(before, after)``, each with its own noise.
     """
     import dataclasses
 
-    from accelcal.io.lab_metadata import LabInfo
-    from accelcal.methods import tumble
     from accelcal.model import ErrorModel
+    from accelcal.rigs.tumble import simulate as tumble_simulate
 
     shift = dict(shift or {})
     if not (isinstance(positions, int) and 8 <= positions <= 3600):
@@ -139,19 +123,7 @@ def simulate_environment(shift=None, *, model=None, positions: int = ENV_POSITIO
               dataclasses.replace(base, sigma=noise, **changed))
     rng = generator(seed)
     angles = np.radians(np.arange(positions) * 360.0 / positions)
-    first = dt.datetime.fromisoformat(date).replace(tzinfo=dt.UTC)
-    told = ", ".join(f"{k}={v:.6g}" for k, v in sorted(shift.items())) or "none"
-    out = []
-    for i, (m, when) in enumerate(zip(models, ("before", "after"), strict=True)):
-        data = tumble.simulate(angles, m, repeats=repeats, seed=rng)
-        red = tumble.reduce(data, priors="none")
-        day = (first + dt.timedelta(days=i)).isoformat()
-        info = LabInfo(serials=(serial,), date=day, simulated=True)
-        rec = red.to_records(info, date=day)[0]
-        out.append(dataclasses.replace(rec, notes=(
-            *rec.notes, (f"simulated calibration {when} a {environment}; true shift "
-                         f"(g/g^n, K1 relative): {told}"))))
-    return tuple(out)
+    return tuple(tumble_simulate(angles, m, repeats=repeats, seed=rng) for m in models)
 
 
 def simulate_magnetic(sensitivity=(20e-6, 5e-6, 8e-6), *, fields=MAGNETIC_FIELDS_MT,

@@ -8,7 +8,8 @@ import pytest
 
 from accelcal.errors import AccelcalError
 from accelcal.methods.acceptance import compare
-from accelcal.rigs.acceptance_env import parse_shift, simulate_environment
+from accelcal.methods.acceptance.environment import simulate_pair as simulate_environment
+from accelcal.rigs.acceptance_env import parse_shift
 from helpers.cli import refused, run_cli
 
 LEVEL = 0.05

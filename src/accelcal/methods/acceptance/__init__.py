@@ -18,6 +18,9 @@ The tests of a specification that are not calibration coefficients (IEEE
 :mod:`~accelcal.methods.acceptance.turnon`
     :func:`reduce_turn_on`: bias and scale-factor repeatability from
     turn-on to turn-on, in-run drift.
+:mod:`~accelcal.methods.acceptance.environment`
+    :func:`~accelcal.methods.acceptance.environment.simulate_pair`: two
+    simulated calibration records of a serial around an environment.
 :mod:`~accelcal.methods.acceptance.magnetic`
     :func:`reduce_magnetic`: the output change per mT of a field along
     each axis (Helmholtz coils), a least-squares slope per axis.
