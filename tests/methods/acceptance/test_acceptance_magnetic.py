@@ -31,7 +31,7 @@ def test_least_squares_slope_and_its_sd_against_closed_form():
     assert red.dof == 16 * 99  # 16 dwells of 100 samples, pooled
     rows = acceptance.quantity_rows(red)
     assert [r["unit"] for r in rows] == ["ug/mT"] * 3
-    assert rows[0]["quantity"] == "magnetic sensitivity x (IA)"
+    assert rows[0]["quantity"] == "magnetic sensitivity (x, IA)"
     assert rows[1]["estimate"] == pytest.approx(-5.0, abs=5 * rows[1]["std"])
 
 
@@ -52,7 +52,7 @@ def test_record_round_trip_and_bad_records(tmp_path):
     flat = steps_format.StepRecord(t=one_axis.t, input=one_axis.input, output=one_axis.output,
                                    test="magnetic", output_unit="V", scale_factor=1.25,
                                    field=field)
-    with pytest.raises(AccelcalError, match="no field along z"):
+    with pytest.raises(AccelcalError, match="no field along axis z, OA"):
         acceptance.reduce(flat)
 
 
@@ -89,3 +89,17 @@ def test_coverage_of_the_stated_uncertainty():
     ratio = err.std(axis=0, ddof=1) / np.sqrt(np.mean(std**2, axis=0))
     assert np.all((covered >= 0.93) & (covered <= 0.97)), covered
     assert np.all(np.abs(ratio - 1.0) < 0.12), ratio
+
+
+def test_cli_specification_limits_the_sensitivity_in_ug_per_gauss(tmp_path, capsys):
+    out, spec = tmp_path / "mag.csv", tmp_path / "spec.toml"
+    spec.write_text('title = "magnetic"\n[[limit]]\nquantity = "magnetic sensitivity"\n'
+                    'lower = -1.0\nupper = 1.0\nunit = "ug/G"\n')
+    assert run_cli(["acceptance", "simulate", "--test", "magnetic", "--out", out,
+                    "--sensitivity", "20,-5,1", "--seed", "4"], capsys)[0] == 0
+    code, text, err = run_cli(["acceptance", "reduce", out, "--spec", spec, "--format",
+                               "json"], capsys)
+    assert code == 0, err
+    rows = json.loads(text)
+    # 1 ug/G = 10 ug/mT: 20 ug/mT is outside, -5 and 1 ug/mT inside
+    assert [r["decision"] for r in rows] == ["reject", "accept", "accept"]

@@ -33,7 +33,8 @@ from accelcal.results import Assumption, Estimate, Reduction
 METHOD = f"{FAMILY}/magnetic"
 NAMES = ("m_x", "m_y", "m_z")
 """The sensitivity along the IA, PA, OA (g/mT)."""
-AXIS_LABELS = {"m_x": "x (IA)", "m_y": "y (PA)", "m_z": "z (OA)"}
+AXIS_LABELS = {"m_x": "(x, IA)", "m_y": "(y, PA)", "m_z": "(z, OA)"}
+"""Each sensitivity's axis, as the rows label it."""
 
 
 def reduce_magnetic(record, *, settle: float = 0.0) -> Reduction:
@@ -59,8 +60,9 @@ def reduce_magnetic(record, *, settle: float = 0.0) -> Reduction:
     field = record.field[edges]
     for j, name in enumerate(NAMES):
         if np.unique(field[:, j]).size < 2:
-            raise AccelcalError(f"the record applies no field along {AXIS_LABELS[name]}: a "
-                                "magnetic test steps the field along each of the three axes")
+            axis = AXIS_LABELS[name][1:-1]
+            raise AccelcalError(f"the record applies no field along axis {axis}: a magnetic "
+                                "test steps the field along each of the three axes")
     k1 = record.scale_factor
     x = np.column_stack([np.ones(len(field)), field])
     w = 1.0 / dw.se**2
