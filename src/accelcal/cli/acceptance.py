@@ -92,6 +92,11 @@ def simulate(
     from accelcal.rigs.acceptance import simulate as simulate_steps
 
     _check_test(test, _SIMULATED)
+    _finite({"--set-point": set_point, "--cycle-step": cycle_step, "--dwell": dwell,
+             "--rate": rate, "--noise": noise, "--breakaway": breakaway,
+             "--friction": friction, "--hysteresis": hysteresis, "--full-scale": full_scale,
+             "--rail": rail, "--overload-shift": overload_shift, "--bias-sd": bias_sd,
+             "--scale-sd": scale_sd, "--drift": drift})
     check_writable(out)
     if test == "environment":
         _simulate_environment(out, shift=shift, noise=noise, serial=serial, seed=seed)
@@ -128,6 +133,15 @@ def simulate(
                                 seed=seed)
     steps_format.write(out, record)
     typer.echo(f"wrote {out}")
+
+
+def _finite(values: dict) -> None:
+    """Refuse an option that is not a finite number (whichever test it is for)."""
+    import math
+
+    for option, value in values.items():
+        if value is not None and not math.isfinite(value):
+            raise AccelcalError(f"{option} {value:g} must be a finite number")
 
 
 def _numbers(text: str, option: str, unit: str) -> tuple:
@@ -176,12 +190,17 @@ def reduce(
     plot: Path | None = typer.Option(None, "--plot", help="Directory for the figures."),
 ) -> None:
     """Reduce a step test: rows quantity, estimate, std, unit (ug for accelerations)."""
+    import math
+
     from accelcal.io.formats import acceptance as steps_format
     from accelcal.methods import acceptance
 
     check_format(fmt)
     if test is not None:
         _check_test(test)
+    for option, value in (("--limit", limit), ("--linear-span", linear_span)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise AccelcalError(f"{option} {value:g} must be a finite number above 0")
     specification = _load_spec(spec, decision_rule)
     record = steps_format.read(file)
     red = acceptance.reduce(record, test=test, settle=settle, max_error=max_error,
