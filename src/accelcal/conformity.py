@@ -87,6 +87,7 @@ QUANTITY_DIMENSIONS: dict[str, tuple[str, ...]] = {
     "overload bias shift": ("acceleration",),
     "bias repeatability": ("acceleration",), "scale-factor repeatability": ("ratio",),
     "bias drift": ("acceleration/time",),
+    "magnetic sensitivity": ("acceleration/field",),
 }
 """Dimensions (keys of :data:`accelcal.units.UNIT_SIZES`, with ``/degC^k``) a
 limit's unit may have, per quantity: the model's coefficients (a scale

@@ -66,6 +66,7 @@ UNIT_SIZES: dict[str, dict[str, float]] = {
     "fourth-order": {"g/g^4": 1.0, "ug/g^4": 1e-6},
     "time": {"s": 1.0, "min": 60.0, "h": 3600.0},
     "acceleration/time": {"g/s": 1.0, "ug/s": 1e-6, "ug/h": 1e-6 / 3600.0},
+    "acceleration/field": {"g/mT": 1.0, "ug/mT": 1e-6, "ug/G": 1e-5},
 }
 """Units of the quantities that specifications, reports and records state, by
 dimension: each unit's size in the first unit of its dimension (``g`` for an

@@ -16,12 +16,13 @@ app = typer.Typer(
     no_args_is_help=True,
 )
 
-_TESTS = ("threshold", "resolution", "hysteresis", "range", "turn-on")
+_TESTS = ("threshold", "resolution", "hysteresis", "range", "turn-on", "magnetic")
+_SIMULATED = (*_TESTS, "environment")
 
 
-def _check_test(test: str) -> None:
-    if test not in _TESTS:
-        raise AccelcalError(f"--test {test[:20]!r} is not one of {', '.join(_TESTS)}")
+def _check_test(test: str, tests=_TESTS) -> None:
+    if test not in tests:
+        raise AccelcalError(f"--test {test[:20]!r} is not one of {', '.join(tests)}")
 
 
 _SPEC_HELP = ("Specification file (TOML: [[limit]] quantity, lower, upper, unit): adds the "
@@ -33,9 +34,12 @@ _RULE_HELP = ("Decision rule with --spec: simple or guarded (guard band w = U un
 @app.command("simulate")
 def simulate(
     *,
-    out: Path = typer.Option(..., "--out", help="Step record to write (CSV or .parquet)."),
+    out: Path = typer.Option(..., "--out", help="Step record to write (CSV or .parquet); "
+                                                "environment: OUT-before and OUT-after, "
+                                                "calibration records (JSON)."),
     test: str = typer.Option("threshold", "--test",
-                             help="threshold, resolution, hysteresis, range or turn-on."),
+                             help="threshold, resolution, hysteresis, range, turn-on, "
+                                  "magnetic or environment."),
     set_point: float | None = typer.Option(
         None, "--set-point", help="Set-point angle, deg (default 0 for the threshold, 30 for "
                                   "the resolution)."),
@@ -70,14 +74,33 @@ def simulate(
     scale_sd: float = typer.Option(30.0, "--scale-sd",
                                    help="Turn-on test: scale-factor SD between turn-ons, ppm."),
     drift: float = typer.Option(10.0, "--drift", help="Turn-on test: in-run bias drift, ug/h."),
+    shift: str = typer.Option("", "--shift", help="Environment: the coefficients' true shift, "
+                                                  "e.g. K0=30ug,K1=50ppm (K1 in ppm, the "
+                                                  "others in ug, mg, g or urad); none: no "
+                                                  "shift."),
+    serial: str = typer.Option("SN-ENV", "--serial",
+                               help="Environment: serial number of the records."),
+    sensitivity: str = typer.Option("20,5,8", "--sensitivity",
+                                    help="Magnetic test: sensitivity along the IA, PA, OA, "
+                                         "ug/mT."),
+    fields: str = typer.Option("-1,-0.5,0.5,1", "--fields",
+                               help="Magnetic test: field steps along each axis, mT."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the random generator."),
 ) -> None:
     """Write a simulated step test (its metadata: the true threshold, resolution or hysteresis)."""
     from accelcal.io.formats import acceptance as steps_format
     from accelcal.rigs.acceptance import simulate as simulate_steps
 
-    _check_test(test)
+    _check_test(test, _SIMULATED)
+    _finite({"--set-point": set_point, "--cycle-step": cycle_step, "--dwell": dwell,
+             "--rate": rate, "--noise": noise, "--breakaway": breakaway,
+             "--friction": friction, "--hysteresis": hysteresis, "--full-scale": full_scale,
+             "--rail": rail, "--overload-shift": overload_shift, "--bias-sd": bias_sd,
+             "--scale-sd": scale_sd, "--drift": drift})
     check_writable(out)
+    if test == "environment":
+        _simulate_environment(out, shift=shift, noise=noise, serial=serial, seed=seed)
+        return
     try:
         ladder = tuple(float(v) for v in increments.split(","))
     except ValueError:
@@ -89,6 +112,13 @@ def simulate(
         record = simulate_range(full_scale=full_scale, rail=rail or None,
                                 overload_shift=overload_shift * 1e-6, dwell=dwell, rate=rate,
                                 noise=noise * 1e-6 * 0.2, seed=seed)
+    elif test == "magnetic":
+        from accelcal.rigs.acceptance_env import simulate_magnetic
+
+        record = simulate_magnetic(
+            tuple(v * 1e-6 for v in _numbers(sensitivity, "--sensitivity", "ug/mT")),
+            fields=_numbers(fields, "--fields", "mT"), dwell=dwell, rate=rate,
+            noise=noise * 1e-6, seed=seed)
     elif test == "turn-on":
         from accelcal.rigs.acceptance_runs import simulate_turn_on
 
@@ -105,13 +135,45 @@ def simulate(
     typer.echo(f"wrote {out}")
 
 
+def _finite(values: dict) -> None:
+    """Refuse an option that is not a finite number (whichever test it is for)."""
+    import math
+
+    for option, value in values.items():
+        if value is not None and not math.isfinite(value):
+            raise AccelcalError(f"{option} {value:g} must be a finite number")
+
+
+def _numbers(text: str, option: str, unit: str) -> tuple:
+    try:
+        return tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise AccelcalError(f"{option} {text[:40]!r} is not a list of numbers ({unit})") from None
+
+
+def _simulate_environment(out: Path, *, shift: str, noise: float, serial: str,
+                          seed: int) -> None:
+    """Write the before/after calibration records of :func:`simulate_pair`."""
+    from accelcal.methods.acceptance.environment import simulate_pair
+    from accelcal.rigs.acceptance_env import parse_shift
+
+    paths = [out.with_name(f"{out.stem}-{when}{out.suffix or '.json'}")
+             for when in ("before", "after")]
+    for path in paths:
+        check_writable(path)
+    pair = simulate_pair(parse_shift(shift), noise=noise * 1e-6, serial=serial, seed=seed)
+    for path, record in zip(paths, pair, strict=True):
+        record.save(path)
+        typer.echo(f"wrote {path}")
+
+
 @app.command("reduce")
 def reduce(
     file: Path = typer.Argument(..., help="Step record (CSV or Parquet, kind steps)."),
     *,
     test: str | None = typer.Option(None, "--test", help="threshold, resolution, hysteresis, "
-                                                         "range or turn-on (default: the "
-                                                         "record's)."),
+                                                         "range, turn-on or magnetic (default: "
+                                                         "the record's)."),
     settle: float = typer.Option(0.0, "--settle", help="Seconds dropped at the start of each "
                                                        "dwell."),
     max_error: float = typer.Option(
@@ -128,12 +190,17 @@ def reduce(
     plot: Path | None = typer.Option(None, "--plot", help="Directory for the figures."),
 ) -> None:
     """Reduce a step test: rows quantity, estimate, std, unit (ug for accelerations)."""
+    import math
+
     from accelcal.io.formats import acceptance as steps_format
     from accelcal.methods import acceptance
 
     check_format(fmt)
     if test is not None:
         _check_test(test)
+    for option, value in (("--limit", limit), ("--linear-span", linear_span)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise AccelcalError(f"{option} {value:g} must be a finite number above 0")
     specification = _load_spec(spec, decision_rule)
     record = steps_format.read(file)
     red = acceptance.reduce(record, test=test, settle=settle, max_error=max_error,

@@ -46,9 +46,11 @@ from accelcal.validation import one_line, shown, shown_name
 MARKER = "# accelcal record"
 FORMAT_VERSION = 1
 
-UNITS = ("s", "Hz", "deg", "rad", "arcsec", "g", "m/s^2", "V", "mV", "mA", "1", "-", "degC")
+UNITS = ("s", "Hz", "deg", "rad", "arcsec", "g", "m/s^2", "V", "mV", "mA", "1", "-", "degC",
+         "mT")
 """Units a record column may have: time, frequency, angles, specific force,
-the output units, ``1``/``-`` for counts and indices, and temperature (degC)."""
+the output units, ``1``/``-`` for counts and indices, temperature (degC)
+and magnetic field (mT)."""
 
 MAX_RECORD_BYTES = 2**30
 """Largest record file read (1 GiB): about 50 million CSV values, which as

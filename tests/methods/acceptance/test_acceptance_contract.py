@@ -6,13 +6,15 @@ level -> the indexing-head rig (:mod:`accelcal.rigs.acceptance`) ->
 rule decides and the response to every increment (1 for a step beyond the
 break-away level, 0 below it). Hysteresis: a random Duhem hysteresis ->
 the cycle 0 -> +1 g -> 0 -> -1 g -> 0 -> :func:`reduce_hysteresis` -> the
-decreasing-minus-increasing sensed input at every point.
+decreasing-minus-increasing sensed input at every point. Magnetic: a random
+sensitivity vector -> Helmholtz coils -> :func:`reduce_magnetic` -> m.
 """
 
 import numpy as np
 
-from accelcal.methods.acceptance import reduce_hysteresis, reduce_steps
+from accelcal.methods.acceptance import reduce_hysteresis, reduce_magnetic, reduce_steps
 from accelcal.rigs.acceptance import LADDER_ARCSEC, programme, sensed, simulate
+from accelcal.rigs.acceptance_env import simulate_magnetic
 from helpers.contract import ReductionContract
 
 NOISE = 5e-6
@@ -89,3 +91,24 @@ class TestHysteresisContract(ReductionContract):
     def noise_free_tolerance(self, name, value):
         # Output differences near |K0 + K1| <= 3 (rounding ~1e-15) over K1 >= 0.5.
         return 1e-13
+
+
+class TestMagneticContract(ReductionContract):
+    """A random sensitivity vector in Helmholtz coils -> :func:`reduce_magnetic` -> m."""
+
+    def truth(self, rng):
+        return _setup(rng) | {"m": rng.uniform(-50e-6, 50e-6, 3)}
+
+    def simulate(self, truth, rng, noisy):
+        return simulate_magnetic(truth["m"], scale_factor=truth["K1"], bias=truth["K0"],
+                                 dwell=2.0, noise=NOISE if noisy else 0.0, seed=rng)
+
+    def reduce(self, data):
+        return reduce_magnetic(data)
+
+    def expected(self, truth):
+        return [dict(zip(("m_x", "m_y", "m_z"), map(float, truth["m"]), strict=True))]
+
+    def noise_free_tolerance(self, name, value):
+        # Dwell means near |K1 K0| <= 6e-3 (rounding ~1e-18) over K1 >= 0.5 and sum B^2 = 2.5.
+        return 1e-12

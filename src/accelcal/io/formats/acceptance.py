@@ -22,9 +22,12 @@ Columns:
 ``turn_on`` (``1`` or ``-``: an index; turn-on tests only, required there)
     The turn-on (power cycle) the sample belongs to, 1, 2, ...; a dwell
     ends where it changes.
+``field_x``, ``field_y``, ``field_z`` (mT; magnetic tests only, required there)
+    The magnetic field the Helmholtz coils apply along the sensor's IA (x),
+    PA (y) and OA (z); a dwell ends where one of them changes.
 
 Metadata fields: ``test`` (``"threshold"``, ``"resolution"``,
-``"hysteresis"``, ``"range"`` or ``"turn-on"``), ``output_unit`` and
+``"hysteresis"``, ``"range"``, ``"turn-on"`` or ``"magnetic"``), ``output_unit`` and
 ``scale_factor`` (output unit per g, the nominal scale factor the 50 % rule
 predicts the output change with) are required; ``rail`` (output unit,
 optional, range tests) is the output's clipping level (amplifier or DAQ
@@ -43,7 +46,8 @@ References
 .. [DOMAIN] accelcal domain notes, section 12.
 """
 
-from dataclasses import dataclass, field
+import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -60,11 +64,17 @@ KIND = "steps"
 IMPORT = ImportLayout(time=True)
 """How ``accelcal import`` makes this kind from a recording (a time column ``t``)."""
 
-TESTS = ("threshold", "resolution", "hysteresis", "range", "turn-on")
+TESTS = ("threshold", "resolution", "hysteresis", "range", "turn-on", "magnetic")
 """The tests a step record holds (metadata ``test``)."""
 
 MAX_INPUT_G = 100.0
 """Largest magnitude of an input read, g."""
+
+MAX_FIELD_MT = 1e3
+"""Largest magnitude of an applied magnetic field read, mT."""
+
+FIELD_COLUMNS = ("field_x", "field_y", "field_z")
+"""The magnetic field's columns (mT), along the IA, PA and OA."""
 
 MAX_OUTPUT = 1e9
 """Largest magnitude of an output read."""
@@ -89,6 +99,8 @@ class StepRecord:
         The indexing head's angle, deg, where the record has it.
     turn_on : numpy.ndarray or None
         The turn-on of each sample (1, 2, ...): turn-on tests only.
+    field : numpy.ndarray or None, shape (n, 3)
+        The applied magnetic field along the IA, PA, OA, mT: magnetic tests only.
     metadata : dict
         The file's other metadata (JSON-ready).
     """
@@ -101,7 +113,8 @@ class StepRecord:
     scale_factor: float
     angle: np.ndarray | None = None
     turn_on: np.ndarray | None = None
-    metadata: dict = field(default_factory=dict)
+    field: np.ndarray | None = None
+    metadata: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
         cols = {n: np.array(getattr(self, n), dtype=float).reshape(-1)
@@ -110,9 +123,16 @@ class StepRecord:
             cols["angle"] = np.array(self.angle, dtype=float).reshape(-1)
         if self.turn_on is not None:
             cols["turn_on"] = np.array(self.turn_on, dtype=float).reshape(-1)
+        if self.field is not None:
+            field = np.array(self.field, dtype=float).reshape(-1, 3)
+            cols |= {name: field[:, j] for j, name in enumerate(FIELD_COLUMNS)}
         if len({c.size for c in cols.values()}) != 1:
             raise AccelcalError("a step record's columns must have equal lengths")
         _check(cols, "step record", self.test, self.output_unit, self.scale_factor)
+        if self.field is not None:
+            field = np.column_stack([cols.pop(name) for name in FIELD_COLUMNS])
+            field.setflags(write=False)
+            object.__setattr__(self, "field", field)
         for name, arr in cols.items():
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
@@ -124,10 +144,12 @@ class StepRecord:
         return check_lab_metadata(self.metadata, "step record")
 
     def dwells(self) -> np.ndarray:
-        """Start index of each dwell (a run of rows with one input and turn-on), then ``n``."""
+        """Start index of each dwell (a run of rows with one input, turn-on, field), then ``n``."""
         moved = np.diff(self.input) != 0.0
         if self.turn_on is not None:
             moved |= np.diff(self.turn_on) != 0.0
+        if self.field is not None:
+            moved |= np.any(np.diff(self.field, axis=0) != 0.0, axis=1)
         change = np.flatnonzero(moved) + 1
         return np.r_[0, change, self.input.size]
 
@@ -144,13 +166,18 @@ def _check(cols: dict, where, test, output_unit, scale_factor) -> None:
             or not np.isfinite(scale_factor) or scale_factor == 0.0):
         raise AccelcalError(f"{where}: metadata scale_factor {shown(scale_factor)} must be a "
                             "finite non-zero number (output unit per g)")
-    for name, limit in (("input", MAX_INPUT_G), ("output", MAX_OUTPUT), ("t", 1e9)):
+    limits = {"input": MAX_INPUT_G, "output": MAX_OUTPUT, "t": 1e9,
+              **{name: MAX_FIELD_MT for name in FIELD_COLUMNS if name in cols}}
+    for name, limit in limits.items():
         c = cols[name]
         if c.size and not np.abs(c).max() <= limit:
             raise AccelcalError(f"{where}: column {name} has a value beyond {limit:g} or not "
                                 "a number; is the file corrupt?")
     if not np.all(np.diff(cols["t"]) > 0):
         raise AccelcalError(f"{where}: column t must increase strictly from row to row")
+    if (test == "magnetic") != all(name in cols for name in FIELD_COLUMNS):
+        raise AccelcalError(f"{where}: a magnetic test, and only it, needs the columns "
+                            f"{', '.join(FIELD_COLUMNS)} (the applied field, mT)")
     turn_on = cols.get("turn_on")
     if (test == "turn-on") != (turn_on is not None):
         raise AccelcalError(f"{where}: a turn-on test, and only it, needs a column turn_on "
@@ -172,6 +199,10 @@ def write(path, data: StepRecord) -> None:
     if data.turn_on is not None:
         units["turn_on"] = "1"
         columns["turn_on"] = data.turn_on
+    if data.field is not None:
+        for j, name in enumerate(FIELD_COLUMNS):
+            units[name] = "mT"
+            columns[name] = data.field[:, j]
     meta = {"units": units, "test": data.test, "output_unit": data.output_unit,
             "scale_factor": data.scale_factor,
             **{k: v for k, v in data.metadata.items() if k not in _RESERVED}}
@@ -196,7 +227,8 @@ def read(path) -> StepRecord:
     if units["output"] != meta["output_unit"]:
         raise AccelcalError(f"{path}: the output column's unit {shown(units['output'])} is not "
                             f"metadata output_unit {shown(meta['output_unit'])}")
-    for name, unit in (("input", "g"), ("angle", "deg"), ("t", "s"), ("turn_on", "1")):
+    for name, unit in (("input", "g"), ("angle", "deg"), ("t", "s"), ("turn_on", "1"),
+                       *((name, "mT") for name in FIELD_COLUMNS)):
         if name in cols and units[name] != unit and not (name == "turn_on" and units[name] == "-"):
             raise AccelcalError(f"{path}: column {name} must be in {unit}, not "
                                 f"{shown(units[name])}")
@@ -209,10 +241,15 @@ def read(path) -> StepRecord:
         raise AccelcalError(f"{path}: a step record needs an input column (g) or an angle "
                             "column (deg)")
     check_lab_metadata(meta, path)
+    field = (np.column_stack([cols[name] for name in FIELD_COLUMNS])
+             if all(name in cols for name in FIELD_COLUMNS) else None)
+    if field is None and any(name in cols for name in FIELD_COLUMNS):
+        raise AccelcalError(f"{path}: a magnetic test needs all three columns "
+                            f"{', '.join(FIELD_COLUMNS)} (mT)")
     try:
         return StepRecord(t=cols["t"], input=applied, output=cols["output"], test=meta["test"],
                           output_unit=meta["output_unit"], scale_factor=meta["scale_factor"],
-                          angle=angle, turn_on=cols.get("turn_on"),
+                          angle=angle, turn_on=cols.get("turn_on"), field=field,
                           metadata={k: v for k, v in meta.items() if k not in _RESERVED})
     except AccelcalError as exc:
         raise AccelcalError(f"{path}: {exc.message.removeprefix('step record: ')}") from None

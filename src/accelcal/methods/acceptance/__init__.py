@@ -1,4 +1,4 @@
-"""Acceptance tests of pendulous accelerometers: threshold, resolution, hysteresis, range, turn-on.
+"""Acceptance tests of pendulous accelerometers: threshold, resolution, hysteresis, range, etc.
 
 The tests of a specification that are not calibration coefficients (IEEE
 1293, IEEE 337), on the indexing head. The package:
@@ -18,6 +18,12 @@ The tests of a specification that are not calibration coefficients (IEEE
 :mod:`~accelcal.methods.acceptance.turnon`
     :func:`reduce_turn_on`: bias and scale-factor repeatability from
     turn-on to turn-on, in-run drift.
+:mod:`~accelcal.methods.acceptance.environment`
+    :func:`~accelcal.methods.acceptance.environment.simulate_pair`: two
+    simulated calibration records of a serial around an environment.
+:mod:`~accelcal.methods.acceptance.magnetic`
+    :func:`reduce_magnetic`: the output change per mT of a field along
+    each axis (Helmholtz coils), a least-squares slope per axis.
 :mod:`~accelcal.methods.acceptance.records`
     :func:`repeatability` over several calibration records of a serial,
     :func:`compare` of two (the shift, E_n, z or Welch t).
@@ -26,7 +32,9 @@ The tests of a specification that are not calibration coefficients (IEEE
     loop, the range curve with clipping marked, the repeatability chart.
 
 The rig simulators are :mod:`accelcal.rigs.acceptance` (indexing head) and
-:mod:`accelcal.rigs.acceptance_runs` (centrifuge, turn-ons), the record format
+and :mod:`accelcal.rigs.acceptance_runs` (centrifuge, turn-ons),
+:mod:`accelcal.rigs.acceptance_env` (before/after an environment, Helmholtz
+coils), the record format
 :mod:`accelcal.io.formats.acceptance` (kind ``steps``). The verbs:
 :func:`simulate` (the rig) and :func:`reduce` (a record, or its file, to a
 Reduction: what ``accelcal acceptance reduce`` does); :func:`quantity_rows`
@@ -43,6 +51,7 @@ from accelcal.methods import ReportText
 from accelcal.methods.acceptance.dwells import Dwells, dwell_means
 from accelcal.methods.acceptance.figures import figures
 from accelcal.methods.acceptance.hysteresis import reduce_hysteresis
+from accelcal.methods.acceptance.magnetic import AXIS_LABELS, reduce_magnetic
 from accelcal.methods.acceptance.range import reduce_range
 from accelcal.methods.acceptance.records import compare, repeatability
 from accelcal.methods.acceptance.steps import FAMILY, MAX_ERROR, RULE, TARGET, reduce_steps
@@ -50,7 +59,8 @@ from accelcal.methods.acceptance.turnon import reduce_turn_on
 
 __all__ = [
     "ERRATA", "FAMILY", "MAX_ERROR", "RULE", "TARGET", "Dwells", "compare", "dwell_means",
-    "figures", "from_inputs", "quantity_rows", "reduce", "reduce_hysteresis", "reduce_range",
+    "figures", "from_inputs", "quantity_rows", "reduce", "reduce_hysteresis", "reduce_magnetic",
+    "reduce_range",
     "reduce_steps", "reduce_turn_on", "repeatability", "report_text", "simulate",
 ]
 
@@ -71,6 +81,10 @@ def report_text(reduction) -> ReportText:
         summary = (f"{prov.get('turn_ons', 0)} turn-ons, each with dwells at +1 g and -1 g: "
                    "bias, scale factor and in-run drift per turn-on; their spread from turn-on "
                    "to turn-on with 95 % chi-square intervals.")
+    elif test == "magnetic":
+        summary = ("Helmholtz coils step a uniform field along the IA, PA and OA in turn: the "
+                   "magnetic sensitivity per axis is the least-squares slope of the dwell means "
+                   "against the field over the scale factor, in ug/mT.")
     elif test == "hysteresis":
         summary = (f"Input cycle 0 → +1 g → 0 → −1 g → 0 on the indexing head; the hysteresis at "
                    f"each of {len(prov.get('points_g', []))} input points is the decreasing-leg "
@@ -90,11 +104,16 @@ def simulate(test: str = "threshold", *, seed=None, **settings):
 
     :func:`accelcal.rigs.acceptance.simulate` for a threshold, resolution or
     hysteresis test, :func:`~accelcal.rigs.acceptance_runs.simulate_range`
-    and :func:`~accelcal.rigs.acceptance_runs.simulate_turn_on` for the others.
+    and :func:`~accelcal.rigs.acceptance_runs.simulate_turn_on`,
+    :func:`~accelcal.rigs.acceptance_env.simulate_magnetic` for the others.
     """
     from accelcal.rigs import acceptance_runs
     from accelcal.rigs.acceptance import simulate as rig_simulate
 
+    if test == "magnetic":
+        from accelcal.rigs.acceptance_env import simulate_magnetic
+
+        return simulate_magnetic(seed=seed, **settings)
     if test == "range":
         return acceptance_runs.simulate_range(seed=seed, **settings)
     if test == "turn-on":
@@ -145,15 +164,18 @@ def reduce(records, *, test: str | None = None, settle: float = 0.0,
                             linear_span=linear_span)
     if record.test == "turn-on":
         return reduce_turn_on(record, settle=settle)
+    if record.test == "magnetic":
+        return reduce_magnetic(record, settle=settle)
     return reduce_steps(record, settle=settle, max_error=max_error, target=target)
 
 
 def quantity_rows(reduction) -> list[dict]:
     """Rows ``quantity, estimate, std, unit``: accelerations in ug, responses as fractions.
 
-    A resolution also gets ``resolution / input`` (ppm of the set point's input);
-    a range test states the input range in g; a turn-on test's rows also
-    have ``low`` and ``high``, the 95 % interval of a standard deviation.
+    A magnetic test's sensitivities are in ug/mT. A resolution also gets
+    ``resolution / input`` (ppm of the set point's input); a range test
+    states the input range in g; a turn-on test's rows also have ``low``
+    and ``high``, the 95 % interval of a standard deviation.
     """
     est, prov = reduction.estimate, reduction.provenance
     if prov.get("test") in _LABELS:
@@ -166,9 +188,11 @@ def quantity_rows(reduction) -> list[dict]:
             label = f"response to {prov['sizes_g'][int(name[9:]) - 1] * 1e6:.4g} ug"
         elif name.startswith("hysteresis_"):
             label = f"hysteresis at {prov['points_g'][int(name[11:]) - 1]:+.4g} g"
-        factor = 1e6 if unit == "g" else 1.0
+        elif name in AXIS_LABELS:
+            label = f"magnetic sensitivity {AXIS_LABELS[name]}"
+        factor = 1e6 if unit in ("g", "g/mT") else 1.0
         rows.append({"quantity": label, "estimate": float(value) * factor,
-                     "std": float(std) * factor, "unit": "ug" if unit == "g" else unit})
+                     "std": float(std) * factor, "unit": "u" + unit if factor != 1.0 else unit})
     a0 = abs(prov.get("set_point_g", 0.0))
     if prov.get("test") == "resolution" and a0 > 0:
         rows.insert(1, {"quantity": "resolution / input", "unit": "ppm",

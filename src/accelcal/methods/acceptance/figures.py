@@ -28,7 +28,9 @@ def figures(reduction, **context) -> list:
         ``acceptance-range`` (the nonlinearity against the input, the limit
         and the range, clipped dwells marked) for a range test;
         ``acceptance-turn-on`` (bias and scale factor per turn-on with 95 %
-        intervals and the mean +- one repeatability) for a turn-on test.
+        intervals and the mean +- one repeatability) for a turn-on test;
+        ``acceptance-magnetic`` (the output against the field along each
+        axis with the fitted slopes) for a magnetic test.
     """
     test = reduction.provenance.get("test")
     if test == "hysteresis":
@@ -37,6 +39,8 @@ def figures(reduction, **context) -> list:
         return [_range(reduction)]
     if test == "turn-on":
         return [_turn_on(reduction)]
+    if test == "magnetic":
+        return [_magnetic(reduction)]
     return [_steps(reduction)]
 
 
@@ -83,6 +87,32 @@ def _loop(reduction):
                "0 → +1 g → 0 → −1 g → 0 (95 % intervals); the hysteresis at a point is the "
                "decreasing leg minus the increasing one.")
     return ("acceptance-hysteresis", "Hysteresis loop", fig, caption)
+
+
+def _magnetic(reduction):
+    from accelcal.methods.acceptance.magnetic import AXIS_LABELS, NAMES
+    from accelcal.plotting import new_figure
+
+    obs, k1 = reduction.observations, reduction.provenance["scale_factor"]
+    field, mean = obs["dwell_field"], obs["dwell_mean"]
+    dev = (mean - obs["intercept"]) / k1 * 1e6
+    fig = new_figure(figsize=(6.4, 4.0))
+    ax = fig.subplots()
+    for j, name in enumerate(NAMES):
+        sel = np.all(np.delete(field, j, axis=1) == 0.0, axis=1) & (field[:, j] != 0.0)
+        sel |= np.all(field == 0.0, axis=1)
+        b = field[sel, j]
+        ax.errorbar(b, dev[sel], yerr=1.96e6 * obs["dwell_se"][sel] / abs(k1), fmt="o",
+                    color=f"C{j}", capsize=2, label=f"{AXIS_LABELS[name]}: "
+                    f"{reduction.value(name) * 1e6:.3g} ± {reduction.std(name) * 1e6:.2g} µg/mT")
+        line = np.array([b.min(), b.max()])
+        ax.plot(line, reduction.value(name) * 1e6 * line, color=f"C{j}", lw=0.8)
+    ax.set_xlabel("field along the axis (mT)")
+    ax.set_ylabel("output / K1 − zero-field output (µg)")
+    ax.legend(loc="best")
+    caption = ("The dwell means (95 % intervals) against the field applied along each axis, "
+               "with the least-squares slopes: the magnetic sensitivity per axis.")
+    return ("acceptance-magnetic", "Magnetic sensitivity", fig, caption)
 
 
 def _range(reduction):

@@ -65,7 +65,8 @@ def coefficients(record) -> dict:
     """Coefficient name -> ``(value, std, unit)`` in engineering units (module docs).
 
     A scale factor stays in its own unit (compared relatively by the
-    callers); a coefficient with no engineering unit stays as recorded;
+    callers); a combination (``K0+Kpp``) is converted as its plain
+    coefficient (``K0``); a coefficient with no engineering unit stays as recorded;
     complex coefficients are left out.
     """
     if record.is_complex:
@@ -78,7 +79,8 @@ def coefficients(record) -> dict:
         if name in _SCALE:
             out[name] = (float(value), float(s), unit)
             continue
-        eng = engineering(name, float(value), float(s), unit, scale_factor=k1)
+        eng = engineering(record.plain.get(name, name), float(value), float(s), unit,
+                          scale_factor=k1)
         out[name] = ((eng[0].estimate, eng[0].std, eng[0].unit) if eng
                      else (float(value), float(s), unit))
     return out
