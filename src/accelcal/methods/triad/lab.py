@@ -209,7 +209,7 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
                     sweep)
 
 
-def _bounded(again, means, gravity, up, labels, priors):
+def _bounded(again, means, gravity, up, labels, priors):  # noqa: PLR0917
     """The reduction of ``means`` with each axis's pendulous terms as ``priors`` say."""
     from accelcal.methods.triad.unestimated import with_type_b
 

@@ -190,6 +190,7 @@ def parse_priors(text: str):
     from pathlib import Path
 
     from accelcal.aliasing import Prior
+    from accelcal.validation import one_line, shown_path
 
     text = text.strip()
     if text in PRIOR_CHOICES:
@@ -199,21 +200,23 @@ def parse_priors(text: str):
         try:
             doc = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, ValueError) as exc:
-            raise AccelcalError(f"cannot read {text[:60]!r} as a JSON priors file: "
-                                f"{str(exc)[:80]}", parameter="priors") from None
+            raise AccelcalError(f"cannot read {shown_path(path)} as a JSON priors file: "
+                                f"{one_line(exc, 80)}", parameter="priors") from None
         if not isinstance(doc, dict):
-            raise AccelcalError(f"{text[:60]!r}: a priors file holds an object of term: prior",
+            raise AccelcalError(f"{shown_path(path)}: a priors file holds an object of term: "
+                                "prior",
                                 parameter="priors")
         out = {}
-        for name, p in doc.items():
-            if isinstance(p, dict):
+        for name, item in doc.items():
+            p = item
+            if isinstance(item, dict):
                 term = str(name).partition("[")[0]
                 try:
-                    p = Prior(str(name), float(p["value"]), term_unit(term, "g"),
-                              str(p.get("distribution", "rectangular")))
+                    p = Prior(str(name), float(item["value"]), term_unit(term, "g"),
+                              str(item.get("distribution", "rectangular")))
                 except (KeyError, TypeError, ValueError) as exc:
-                    raise AccelcalError(f"{text[:60]!r}: prior of {str(name)[:40]!r}: "
-                                        f"{str(exc)[:80]}", parameter="priors") from None
+                    raise AccelcalError(f"{shown_path(path)}: prior of {str(name)[:40]!r}: "
+                                        f"{one_line(exc, 80)}", parameter="priors") from None
             out[str(name)] = p
         check_priors(out)
         return out
