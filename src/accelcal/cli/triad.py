@@ -146,6 +146,15 @@ def calibrate(
     uncertainty: str = uncertainty_options.UNCERTAINTY,
     trials: int = uncertainty_options.TRIALS,
     seed: int = uncertainty_options.SEED,
+    priors: str = typer.Option(
+        "none", "--priors",
+        help="Each axis's pendulous error terms the triad model leaves out (K2, K3, Koo, Kpp, "
+             "Kio, Kip, Kop, K0', K1'), when the axes are pendulous accelerometers: none (the "
+             "default, a MEMS triad: state only how much each would move each row, per unit "
+             "term), default (twice the embedded default accelerometer's magnitude, "
+             "rectangular), a JSON file {TERM: U or {\"value\": a, \"distribution\": ...}} "
+             "or TERM=U,... (standard uncertainties in g/g^n; K2[x] for one axis), propagated "
+             "as Type B."),
 ) -> None:
     """Calibrate a triad: bias, scale factor and non-orthogonality with their uncertainty.
 
@@ -155,8 +164,10 @@ def calibrate(
     """
     from accelcal.methods.triad.common import calibration_of
     from accelcal.methods.triad.lab import run
+    from accelcal.methods.triad.unestimated import parse_priors
 
     check_format(fmt)
+    bounds = parse_priors(priors)
     if fmt == "csv":
         raise AccelcalError("--format csv: calibrate prints two tables (coefficients and "
                             "positions); use table or json")
@@ -174,7 +185,7 @@ def calibrate(
     lab = run(file, options=opts, orientations=orientations, positions=positions,
               gravity=gravity, latitude=latitude, height=height, quadratic=quadratic,
               init_static=init_static, window=window, factor=factor, min_length=min_length,
-              estimator=estimator, fixture_tilt=tilt)
+              estimator=estimator, fixture_tilt=tilt, priors=bounds)
     red, rec, found = lab.reduction, lab.recording, lab.intervals
     files = [file] if rec.provenance.get("input_format") == "record" else []
     info = record_options.lab_info_for(record_out, files, serial=serial, operator=operator)
@@ -318,6 +329,11 @@ def simulate(
     noise: float = typer.Option(0.01, "--noise", help="Noise SD per sample and axis, input unit."),
     gravity: float = typer.Option(9.80665, "--gravity", help="Local gravity, m/s^2."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random generator (integer >= 0)."),
+    axis_model: str | None = typer.Option(
+        None, "--axis-model",
+        help="Simulate each axis as a pendulous accelerometer: default (the embedded default "
+             "accelerometer's K2, K3, cross-coupling, odd-input and asymmetry terms on every "
+             "axis) or a model file; default: the triad model alone."),
 ) -> None:
     """Write a simulated triad recording (true calibration, positions and noise in its metadata)."""
     from accelcal.io.formats import triad as triad_format
@@ -335,8 +351,14 @@ def simulate(
     check_writable(out)
     cal = (TriadCalibration([0.05, -0.08, 0.12], [1.01, 0.995, 1.02], [1e-3, -2e-3, 1.5e-3])
            if truth is None else read_calibration(truth))
+    models = None
+    if axis_model is not None:
+        from accelcal.cli.common import load_model
+
+        models = "default" if axis_model.strip() == "default" else \
+            (load_model(Path(axis_model)),) * 3
     record = simulate_triad(cal, up, rate=rate, dwell=dwell, motion=motion, still=still,
-                            noise_sd=noise, seed=seed, gravity=gravity)
+                            noise_sd=noise, seed=seed, gravity=gravity, axis_models=models)
     triad_format.write(out, record)
     typer.echo(f"wrote {out}")
 

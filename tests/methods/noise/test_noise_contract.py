@@ -14,6 +14,7 @@ docs/noise.md).
 import math
 
 import numpy as np
+import pytest
 
 from accelcal.methods.noise.fit import fit, fit_deviation, model_avar
 from accelcal.rigs.noise import simulate_blocks
@@ -62,3 +63,21 @@ class TestContract(ReductionContract):
     def noise_free_tolerance(self, name, value):
         # the re-weighting stops at 1e-10 relative change of C = value^2: 1e-9 of the value
         return 1e-9 * abs(value) + 1e-15
+
+
+@pytest.mark.slow
+def test_white_noise_sd_ratio_is_honest_over_more_seeds():
+    # The coverage table's N (seeds 0-399) reads SD ratio 0.869 +- 0.034: those seeds'
+    # fluctuation plus the Birge widening, not a covariance that is wrong. Measured: seeds
+    # 400-1199 give 1.007 +- 0.025 (coverage 0.953), the 1200 pooled 0.961 +- 0.020 (0.959),
+    # 0.988 without the widening of the 5.7 % of fits whose chi^2 rejects the model; and a
+    # fixed truth with weights at the truth 1.02 +- 0.02 over 1200 series (docs/coverage.md).
+    from helpers import coverage as harness
+
+    res = harness.coverage(TestContract(), seeds=range(400, 1200))
+    assert not res.failures, res.failures[:3]
+    for c in res.coefficients.values():
+        lo, hi = harness.sd_ratio_band(c)
+        assert lo <= c.sd_ratio <= hi, (c.coefficient, c.sd_ratio, c.sd_ratio_se)
+        lo, hi = harness.coverage_band(c.experiments)
+        assert lo <= c.coverage <= hi, (c.coefficient, c.coverage)

@@ -85,7 +85,8 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         gravity: float | None = None, latitude: float | None = None,
         height: float | None = None, quadratic: bool = False, init_static: float = 30.0,
         window: float = 1.0, factor: float | None = None, min_length: float = 2.0,
-        estimator: str | None = None, fixture_tilt: float | None = None) -> TriadRun:
+        estimator: str | None = None, fixture_tilt: float | None = None,
+        priors="none") -> TriadRun:
     """Calibrate a triad from a recording, as ``accelcal triad calibrate`` does.
 
     Parameters
@@ -128,6 +129,13 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         orientation about each horizontal axis, rad (Type B). The noise of
         each interval mean is then its samples' SD over the square root of
         their number (white noise), and the tilt's covariance is added.
+    priors : {"none", "default"} or dict
+        Each axis's pendulous error terms the triad model leaves out
+        (:func:`accelcal.methods.triad.unestimated.with_type_b`): ``"none"``
+        (the default: a triad is often a MEMS IMU, whose axes are not
+        pendulous) lists the rows each term would move per unit term and
+        propagates nothing; ``"default"`` bounds them by the embedded default
+        accelerometer's priors, a dict by the user's, as Type B.
 
     Returns
     -------
@@ -152,6 +160,9 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
                                 "use them)", parameter=name)
     check_settings(init_static=init_static, window=window, min_length=min_length,
                    factor=2.0 if factor is None else factor)
+    from accelcal.methods.triad.unestimated import check_priors
+
+    check_priors(priors)
     rec = read(source, options)
     g = local_gravity(rec, gravity=gravity, latitude=latitude, height=height)
     check_magnitude(rec, g)
@@ -166,9 +177,12 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
 
         noise = (None if fixture_tilt is None
                  else known.noise_sd / np.sqrt(known.counts)[:, None])
-        red = calibrate_known(known.means, known.up, g, input_unit=rec.unit, quadratic=quadratic,
-                              labels=known.labels, counts=known.counts, noise_sd=noise,
-                              estimator=estimator, fixture_tilt=fixture_tilt)
+        def again(means):
+            return calibrate_known(means, known.up, g, input_unit=rec.unit, quadratic=quadratic,
+                                   labels=known.labels, counts=known.counts, noise_sd=noise,
+                                   estimator=estimator, fixture_tilt=fixture_tilt)
+
+        red = _bounded(again, known.means, g, known.up, known.labels, priors)
         return TriadRun(red, rec, found)
     if estimator is not None or fixture_tilt is not None:
         raise AccelcalError("applies to known orientations; the recording gives none (imucal "
@@ -182,11 +196,25 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         choice = choose_factor(rec.values, rec.rate, g, init_static=init_static, window=window,
                                min_length=min_length, input_unit=rec.unit, quadratic=quadratic,
                                time=rec.time)
-        return TriadRun(choice.reduction, rec, choice.intervals, choice.rows)
-    found = detect_intervals(rec, *detect)
-    red = calibrate_unknown(found.means, g, input_unit=rec.unit, quadratic=quadratic,
-                            labels=[f"I{k + 1}" for k in range(len(found))], counts=found.counts)
-    return TriadRun(red, rec, found)
+        found, sweep, labels = choice.intervals, choice.rows, None  # the sweep's P1..Pn
+    else:
+        found, sweep = detect_intervals(rec, *detect), None
+        labels = [f"I{k + 1}" for k in range(len(found))]
+
+    def again_unknown(means):
+        return calibrate_unknown(means, g, input_unit=rec.unit, quadratic=quadratic,
+                                 labels=labels, counts=found.counts)
+
+    return TriadRun(_bounded(again_unknown, found.means, g, None, labels, priors), rec, found,
+                    sweep)
+
+
+def _bounded(again, means, gravity, up, labels, priors):  # noqa: PLR0917
+    """The reduction of ``means`` with each axis's pendulous terms as ``priors`` say."""
+    from accelcal.methods.triad.unestimated import with_type_b
+
+    return with_type_b(again(means), means, again, gravity=gravity, up=up, priors=priors,
+                       labels=labels)
 
 
 def read(source, options=None):

@@ -68,8 +68,13 @@ def with_type_b(red, means, reduce_again, *, gravity: float, up=None, priors="de
     up : array_like, shape (n, 3), optional
         Known orientations (fixture frame); None: the calibrated means give
         each position's specific force.
-    priors : {"default", "none"}
-        ``"none"``: nothing propagated, every term's aliases listed.
+    priors : {"default", "none"} or dict
+        ``"default"``: the embedded default priors; ``"none"``: nothing
+        propagated, every term's aliases listed; a dict maps a term
+        (``"K2"``: every axis) or an axis's term (``"K2[x]"``) to a
+        :class:`~accelcal.aliasing.Prior` or a number (a standard
+        uncertainty, normal, in the term's unit g/g^n); the terms it leaves
+        out are listed as aliases.
     labels : sequence of str, optional
         Position labels, for the ``K0_asym@`` terms (default P1...).
 
@@ -77,13 +82,12 @@ def with_type_b(red, means, reduce_again, *, gravity: float, up=None, priors="de
     -------
     Reduction
     """
-    if priors not in ("default", "none"):
-        raise AccelcalError(f"priors {str(priors)[:40]!r} is not one of default, none",
-                            parameter="priors")
+    given = check_priors(priors)
     means = np.asarray(means, dtype=float)
-    use = priors == "default"
     names, columns, pri = term_columns(red, means, gravity=gravity, up=up, labels=labels,
-                                       bound=use)
+                                       bound=priors == "default")
+    if given:
+        pri = given
     est = red.sensors[0]
     a = np.column_stack([
         (reduce_again(means + STEP * c).sensors[0].values
@@ -104,16 +108,126 @@ def with_type_b(red, means, reduce_again, *, gravity: float, up=None, priors="de
             covariance.shape[0] >= cov.shape[0]:
         covariance = np.array(covariance, dtype=float)
         covariance[:cov.shape[0], :cov.shape[0]] += cov
-    bounds = ", ".join(f"{p.name} +-{p.value:.3g} {p.unit}"
-                       for p in default_priors(TERMS, "g").values())
-    note = (f"each axis's pendulous terms the triad model leaves out ({', '.join(TERMS)}) "
-            f"bounded by the embedded default priors ({bounds}; K0'/2 of unknown sign where "
-            "an axis's a_i = 0) and propagated as Type B to the rows they move") if use else \
-        "priors none: the pendulous terms' aliases listed, no Type B propagated"
+    note = _note(priors, given)
     return dataclasses.replace(red, sensors=(sensor, *red.sensors[1:]), covariance=covariance,
                                type_b=(*red.type_b, *parts), aliases=(*red.aliases, *entries),
                                priors=(*red.priors, *used.values()),
                                notes=(*red.notes, note))
+
+
+def _note(priors, given) -> str:
+    """What ``with_type_b`` did with the pendulous terms, in words."""
+    if priors == "none":
+        return ("priors none: the pendulous terms' aliases listed (the rows each would move, "
+                "per unit term, if the axes are pendulous accelerometers), no Type B propagated")
+    which = given or default_priors(TERMS, "g")
+    source = "given" if given else "embedded default"
+    bounds = ", ".join(f"{p.name} {'+-' if p.distribution == 'rectangular' else 'u '}"
+                       f"{p.value:.3g} {p.unit}" for p in which.values())
+    return (f"each axis's pendulous terms the triad model leaves out ({', '.join(TERMS)}) "
+            f"bounded by the {source} priors ({bounds}; K0'/2 of unknown sign where an axis's "
+            "a_i = 0) and propagated as Type B to the rows they move"
+            + ("; the terms without a prior listed as aliases" if given else ""))
+
+
+PRIOR_CHOICES = ("default", "none")
+"""The named ``priors`` of :func:`with_type_b`; a mapping (or, on the command line, a
+JSON file or ``TERM=U,...``) gives the user's own."""
+
+
+def check_priors(priors) -> dict:
+    """Name -> Prior of a ``priors`` mapping; ``{}`` for ``"default"`` or ``"none"``.
+
+    A name is a term of :data:`TERMS` (every axis) or an axis's term
+    (``"K2[x]"``); a number is a standard uncertainty (normal) in the term's
+    unit (g/g^n), from the user.
+
+    Raises
+    ------
+    AccelcalError
+        For another string, an unknown term or a value that is not a
+        finite non-negative number.
+    """
+    from accelcal.aliasing import Prior
+
+    if isinstance(priors, str):
+        if priors not in PRIOR_CHOICES:
+            raise AccelcalError(f"priors {priors[:40]!r} is not one of default, none or a "
+                                "mapping of term to prior", parameter="priors")
+        return {}
+    try:
+        items = dict(priors).items()
+    except (TypeError, ValueError):
+        raise AccelcalError(f"priors {str(priors)[:40]!r} is not one of default, none or a "
+                            "mapping of term to prior", parameter="priors") from None
+    out = {}
+    for name, p in items:
+        term, _, axis = str(name).partition("[")
+        if term not in TERMS or axis not in ("", "x]", "y]", "z]"):
+            raise AccelcalError(f"prior of {str(name)[:40]!r}: not a pendulous term the triad "
+                                f"leaves out ({', '.join(TERMS)}, or e.g. K2[x] for one axis)",
+                                parameter="priors")
+        try:
+            out[name] = p if isinstance(p, Prior) else \
+                Prior(name, float(p), term_unit(term, "g"), "normal")
+        except (TypeError, ValueError) as exc:
+            raise AccelcalError(f"prior of {name}: {exc}", parameter="priors") from None
+    if not out:
+        raise AccelcalError("priors: an empty mapping; give default, none or term priors",
+                            parameter="priors")
+    return out
+
+
+def parse_priors(text: str):
+    """``--priors`` text: ``default``, ``none``, a JSON file or ``TERM=U,...``.
+
+    The file holds an object mapping a term (or an axis's term, ``K2[x]``)
+    to a standard uncertainty (normal, g/g^n) or to ``{"value": a,
+    "distribution": "rectangular"|"normal"|"two-point"}``; ``TERM=U`` items
+    are standard uncertainties, as the tumble's.
+    """
+    import json
+    from pathlib import Path
+
+    from accelcal.aliasing import Prior
+    from accelcal.validation import one_line, shown_path
+
+    text = text.strip()
+    if text in PRIOR_CHOICES:
+        return text
+    path = Path(text)
+    if path.suffix.lower() == ".json" or path.is_file():
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            raise AccelcalError(f"cannot read {shown_path(path)} as a JSON priors file: "
+                                f"{one_line(exc, 80)}", parameter="priors") from None
+        if not isinstance(doc, dict):
+            raise AccelcalError(f"{shown_path(path)}: a priors file holds an object of term: "
+                                "prior",
+                                parameter="priors")
+        out = {}
+        for name, item in doc.items():
+            p = item
+            if isinstance(item, dict):
+                term = str(name).partition("[")[0]
+                try:
+                    p = Prior(str(name), float(item["value"]), term_unit(term, "g"),
+                              str(item.get("distribution", "rectangular")))
+                except (KeyError, TypeError, ValueError) as exc:
+                    raise AccelcalError(f"{shown_path(path)}: prior of {str(name)[:40]!r}: "
+                                        f"{one_line(exc, 80)}", parameter="priors") from None
+            out[str(name)] = p
+        check_priors(out)
+        return out
+    if "=" not in text:
+        raise AccelcalError(f"{text[:40]!r} is not default, none, a JSON priors file or "
+                            "TERM=U,... (standard uncertainties in g/g^n)", parameter="priors")
+    from accelcal.methods.tumble.unestimated import parse_priors as parse_items
+
+    out = parse_items(text)
+    check_priors(out)
+    return out
 
 
 def term_columns(red, means, *, gravity: float, up=None, labels=None, bound: bool = True):
