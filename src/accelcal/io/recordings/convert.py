@@ -39,6 +39,7 @@ from accelcal.errors import AccelcalError
 from accelcal.io.recordings.kinds import Layout, declared, layout, validator
 from accelcal.io.recordings.options import TEMPERATURE_UNITS, InputOptions
 from accelcal.io.recordings.read import DEFAULT_BLOCK_ROWS, describe, iter_blocks
+from accelcal.io.recordings.repairs import Repairs
 from accelcal.validation import check_label, shown, shown_name, shown_path
 
 RESERVED = ("format_version", "kind", "units", "provenance")
@@ -112,9 +113,17 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
               "provenance": prov}
     with tempfile.TemporaryDirectory(dir=out.parent, prefix=".accelcal-import-") as stage:
         staged = Path(stage) / out.name
+        repairs = Repairs()
         samples, stats = _write(staged, header, plan,
-                                iter_blocks(path, opts, rows=rows, need_rate=timed),
+                                iter_blocks(path, opts, rows=rows, need_rate=timed,
+                                            repairs=repairs),
                                 rate=rate, progress=progress, infos=prov.get("channels", {}))
+        if repairs:  # known at the end: written again with them in the provenance
+            prov["repairs"] = repairs.to_dict()
+            samples, stats = _write(staged, header, plan,
+                                    iter_blocks(path, opts, rows=rows, need_rate=timed),
+                                    rate=rate, progress=progress,
+                                    infos=prov.get("channels", {}))
         _validate(staged, out, plan, samples, rows)
         from accelcal.io.atomic import atomic_path
 

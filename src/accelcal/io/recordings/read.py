@@ -290,6 +290,9 @@ def _blocks(plan: Plan, rows: int, options: InputOptions | None = None,
     fixer = TimeRepair(options or InputOptions(), plan.rate, name, plan.time,
                        Repairs() if repairs is None else repairs)
     strict = fixer.gaps == "refuse"  # NaN cells refused here, not dropped by the repair
+    stated = ((plan.source.metadata or {}).get("provenance") or {}).get("repairs", {})
+    if len(stated.get("segments", ())) > 1:
+        fixer.stated(stated["segments"])
     numeric = list(plan.channels) + ([plan.time] if plan.time else [])
     text = [plan.label] if plan.label else []
     scale = (None if all(s is None for s in plan.scales)

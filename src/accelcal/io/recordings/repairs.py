@@ -155,6 +155,7 @@ class TimeRepair:
         self.out = 0          # samples yielded so far
         self.segment = 0      # first sample of the current segment
         self.grid = 0         # next grid index (resample)
+        self.preset = None    # the segments a record states
 
     def block(self, time, values, labels, start: int):
         """The block's ``(time, values, labels)`` repaired; ``time`` None for a rate-only file."""
@@ -199,8 +200,7 @@ class TimeRepair:
                         f"{self.name}: time column {self.column} steps {steps[~gap][k]:.9g} s "
                         f"at data row {after[~gap][k]} ({rel[k]:.3g} of the interval "
                         f"{self.interval:.9g} s off, over --jitter-tol {self.jitter_tol:g}); "
-                        "give --resample to interpolate onto a uniform grid",
-                        parameter="jitter_tol")
+                        "give --resample to interpolate onto a uniform grid")
                 self.repairs.add("jittered intervals", f"resampled onto the {1 / self.interval:.6g}"
                                  " Hz grid by linear interpolation", after[~gap][over])
         if self.resample and timed:
@@ -212,8 +212,23 @@ class TimeRepair:
                 self._cut(self.out + pos + (0 if self.last_t is not None else 1))
         return self._emit(timed, t, values, labels)
 
+    def stated(self, segments) -> None:
+        """Take the segments an accelcal record states (split on import); refused unless split."""
+        if self.gaps != "split":
+            raise AccelcalError(
+                f"{self.name}: the record holds {len(segments)} segments (its recording was "
+                "split at gaps on import); give --gaps split (deviations are pooled over "
+                "segments)")
+        self.preset = [(int(a), int(b)) for a, b in segments]
+
     def finish(self) -> None:
-        """Close the last segment."""
+        """Close the last segment (or take the record's own)."""
+        if self.preset:
+            if self.preset[-1][1] != self.out:
+                raise AccelcalError(f"{self.name}: its segments end at sample "
+                                    f"{self.preset[-1][1]}, but it holds {self.out} samples")
+            self.repairs.segments = list(self.preset)
+            return
         self._cut(self.out)
 
     def _order(self, t, values, labels, rows):
@@ -227,11 +242,11 @@ class TimeRepair:
                 raise AccelcalError(
                     f"{self.name}: time column {self.column} goes backwards at data row {row} "
                     f"({full[k + 1]:.9g} s after {full[k]:.9g} s); give --sort to sort the "
-                    "rows by time", parameter="sort")
+                    "rows by time")
             if self.last_t is not None and t.min() < self.last_t:
                 raise AccelcalError(
                     f"{self.name}: time column {self.column} goes back at data row {row} "
-                    "before the rows already read; sort the file by time", parameter="sort")
+                    "before the rows already read; sort the file by time")
             order = np.argsort(t, kind="stable")
             self.repairs.add("rows out of time order", "sorted by time",
                              rows[np.flatnonzero(back) + (0 if self.last_t is not None else 1)])
@@ -249,7 +264,7 @@ class TimeRepair:
                 raise AccelcalError(
                     f"{self.name}: time column {self.column} repeats {full[k + 1]:.9g} s at "
                     f"data row {rows[k + 1 - (1 - offset)]} with different values; remove one "
-                    "of the two rows", parameter="time")
+                    "of the two rows")
             drop = same + 1 - (1 - offset)
             self.repairs.add("duplicated rows (same time, same values)", "dropped", rows[drop])
             keep = np.ones(t.size, dtype=bool)
@@ -264,7 +279,7 @@ class TimeRepair:
             raise AccelcalError(
                 f"{self.name}: a gap of {missing[over][0]} missing samples before data row "
                 f"{rows[over][0]} is longer than --max-fill {self.max_fill}; give --gaps split "
-                "or a larger --max-fill", parameter="max_fill")
+                "or a larger --max-fill")
 
     def _fill(self, t, values, labels, gap, steps):
         full_t = t if self.last_t is None else np.r_[self.last_t, t]
