@@ -86,7 +86,7 @@ def test_fill_interpolates_short_gaps_linearly_and_flags_them(tmp_path):
     np.testing.assert_allclose(rec.values[:, 0], [1, 2, 4, 6, 8, 10, 11])
     np.testing.assert_allclose(rec.time, np.arange(7) / RATE, atol=1e-12)
     found = {f["found"]: f for f in rec.provenance["repairs"]["found"]}
-    assert found["samples filled"]["count"] == 2
+    assert found["samples filled in the gaps before"]["count"] == 2
     assert found["gaps"]["first_rows"] == [4]
     with pytest.raises(AccelcalError, match="gap of 2 missing samples before data row 4 is "
                                             "longer than --max-fill 1"):
@@ -190,7 +190,7 @@ def test_triad_refuses_a_split_and_reports_a_fill(tmp_path, capsys):
     refused([*base, "--gaps", "split"], capsys, "static intervals need consecutive samples")
     code, _, err = run_cli([*base, "--gaps", "fill", "--init-static", "1"], capsys)
     assert code == 0, err
-    assert "note: 2 samples filled (data rows 301, ...): linear interpolation" in err, err
+    assert "note: 2 samples filled in the gaps before (data rows 301): linear" in err, err
 
 
 @pytest.mark.parametrize(("args", "words"), [

@@ -71,7 +71,7 @@ class Finding:
     def note(self) -> str:
         """One line: what, how many, where first, what was done."""
         where = ", ".join(str(r) for r in self.rows)
-        more = ", ..." if self.count > len(self.rows) else ""
+        more = ", ..." if len(self.rows) == FIRST and self.count > FIRST else ""
         return f"{self.count} {self.what} (data rows {where}{more}): {self.action}"
 
 
@@ -159,8 +159,14 @@ class TimeRepair:
 
     def block(self, time, values, labels, start: int):
         """The block's ``(time, values, labels)`` repaired; ``time`` None for a rate-only file."""
-        rows = start + 1 + np.arange(values.shape[0])
         timed = time is not None
+        plain = self.gaps == "refuse" and self.jitter_tol is None and self.preset is None
+        if plain and not timed:
+            return None, values, labels  # nothing to look at: the block checks do the rest
+        if plain and time.size and (self.last_t is None or time[0] > self.last_t) and (
+                np.diff(time) > 0).all():
+            return self._emit(timed, time, values, labels)  # in order, no duplicate
+        rows = start + 1 + np.arange(values.shape[0])
         t = time if timed else (start + np.arange(values.shape[0])) * (self.interval or 1.0)
         if self.gaps != "refuse":
             bad = ~np.isfinite(values).all(axis=1)
@@ -174,6 +180,8 @@ class TimeRepair:
             t, values, labels, rows = self._order(t, values, labels, rows)
         if t.size == 0:
             return _out(timed, t, values, labels)
+        if plain:  # duplicates and order only
+            return self._emit(timed, t, values, labels)
         if self.interval is None:
             full = t if self.last_t is None else np.r_[self.last_t, t]
             if full.size < 2:
@@ -188,8 +196,9 @@ class TimeRepair:
                              "filled by linear interpolation", after[gap])
             if self.gaps == "fill":
                 self._check_fill(missing, after[gap])
-                self.repairs.add("samples filled", "linear interpolation between the "
-                                 "samples either side (flagged)", after[gap], missing.sum())
+                self.repairs.add("samples filled in the gaps before",
+                                 "linear interpolation between the samples either side "
+                                 "(flagged)", after[gap], missing.sum())
         if timed and self.jitter_tol is not None:
             rel = np.abs(steps[~gap] / self.interval - 1.0)
             over = rel > self.jitter_tol
