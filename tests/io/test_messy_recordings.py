@@ -201,3 +201,17 @@ def test_bad_repair_options_are_one_line(tmp_path, capsys, args, words):
     path = _csv(tmp_path / "ok.csv", np.arange(10) / RATE, np.arange(10.0))
     refused(["noise", "adev", path, "--column", "c0", "--time", "t", "--unit", "g", *args],
             capsys, *words)
+
+
+def test_resampling_across_a_gap_fills_or_splits_as_told(tmp_path):
+    t = np.array([0.0, 1.2, 2.0, 3.0, 7.0, 8.0, 9.0]) / RATE  # jitter at row 2, gap before row 5
+    y = np.array([0.0, 1.0, 2.0, 3.0, 7.5, 8.0, 9.0])
+    path = _csv(tmp_path / "jg.csv", t, y)
+    grid = np.arange(10) / RATE
+    filled = _read(path, gaps="fill", max_fill=3, jitter_tol=0.1, resample=True)
+    np.testing.assert_allclose(filled.values[:, 0], np.interp(grid, t, y))
+    split = _read(path, gaps="split", jitter_tol=0.1, resample=True)
+    kept = np.r_[0:4, 7:10]  # no grid point inside the gap
+    np.testing.assert_allclose(split.time, grid[kept], atol=1e-12)
+    np.testing.assert_allclose(split.values[:, 0], np.interp(grid[kept], t, y))
+    assert split.repairs.segments == [(0, 4), (4, 7)]

@@ -325,8 +325,10 @@ class TimeRepair:
             return grid, values[:0], None if labels is None else labels[:0]
         at = np.clip(np.searchsorted(full_t, grid, side="right") - 1, 0, full_t.size - 2)
         inside = np.ones(grid.size, dtype=bool)
-        if gap.any() and full_t.size > 1:
-            inside = ~gap[at] | np.isclose(grid, full_t[at], rtol=0, atol=1e-9 * self.interval)
+        if gap.any() and full_t.size > 1 and self.gaps != "fill":  # fill: the grid spans gaps
+            near = 1e-9 * self.interval  # a grid point on a sample either side of a gap is kept
+            inside = (~gap[at] | np.isclose(grid, full_t[at], rtol=0, atol=near)
+                      | np.isclose(grid, full_t[at + 1], rtol=0, atol=near))
             if self.gaps == "split":
                 for pos in np.flatnonzero(np.diff(inside.astype(int)) == 1):
                     self._cut(self.out + int(inside[:pos + 1].sum()))
