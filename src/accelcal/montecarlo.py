@@ -42,9 +42,9 @@ References
 """
 
 import functools
-import itertools
 import os
 import re
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -228,6 +228,7 @@ def run(
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
     timeout: float = SCHEDULER_TIMEOUT_S,
+    max_seconds: float | None = None,
 ) -> MonteCarloResult:
     """Run a Monte Carlo study.
 
@@ -273,6 +274,10 @@ def run(
         ``progress(done, total)`` called as trials complete.
     timeout : float
         Seconds to wait for ``scheduler`` to answer.
+    max_seconds : float, optional
+        Refuse a run (not on a ``scheduler``) estimated to take longer: the
+        first task is timed here, in this process, and the estimate is its
+        time times the tasks left, shared by the ``workers``. None: no bound.
 
     Returns
     -------
@@ -304,13 +309,21 @@ def run(
         simulate, int(seed), trials, block_size, len(names), stride, covariance, blas_threads
     )
     merger = _InOrder(len(tasks), progress, trials)
+    first = 0
+    if max_seconds is not None and scheduler is None:
+        start = time.monotonic()
+        merger.add(0, spec(tasks[0]))
+        first = 1
+        _check_time((time.monotonic() - start) * (len(tasks) - 1) / (workers or 1),
+                    trials, min(trials, block_size * blocks_per_task), max_seconds)
     if workers is None and scheduler is None:
-        for index, blocks in enumerate(tasks):
-            merger.add(index, spec(blocks))
-    else:
-        _run_dask(
-            spec, tasks, merger, workers=workers, scheduler=scheduler, timeout=timeout
-        )
+        for index in range(first, len(tasks)):
+            merger.add(index, spec(tasks[index]))
+    elif first < len(tasks):
+        from accelcal.parallel import run_dask
+
+        run_dask(spec, tasks, merger, workers=workers, scheduler=scheduler, timeout=timeout,
+                 first=first)
     total = merger.total
     diag = np.diag(total.m2) if total.m2.ndim == 2 else total.m2
     var = diag / total.n
@@ -425,9 +438,7 @@ class _InOrder:
             self.progress(self.done, self.trials)
 
 
-DASK_WINDOW = 64
-"""Tasks in flight at once on Dask workers (a few per worker on any cluster accelcal
-targets; it bounds the memory of futures and of results merged in order)."""
+
 
 
 class _Tasks(Sequence):
@@ -448,50 +459,12 @@ class _Tasks(Sequence):
         return range(start, min(start + self.per_task, self.n_blocks))
 
 
-def _run_dask(spec, tasks, merger, *, workers, scheduler, timeout):
-    try:
-        from distributed import Client, LocalCluster, as_completed
-    except ImportError:
+def _check_time(seconds: float, trials: int, timed: int, bound: float) -> None:
+    if seconds > bound:
         raise AccelcalError(
-            "running on several workers needs Dask: pip install 'accelcal[dask]'"
-        ) from None
-    cluster = None
-    try:
-        if scheduler is not None:
-            try:
-                client = Client(scheduler, timeout=f"{timeout}s")
-            except (OSError, TimeoutError) as exc:
-                raise AccelcalError(
-                    f"the Dask scheduler at {scheduler} did not answer within "
-                    f"{timeout:g} s ({type(exc).__name__}); check the address "
-                    "and that 'dask scheduler' is running there"
-                ) from None
-        else:
-            cluster = LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
-            )
-            client = Client(cluster)
-        with client:
-            # A bounded window of tasks in flight: memory (futures, and results
-            # waiting for their predecessors) stays constant for any trial count.
-            queue = iter(enumerate(tasks))
-            index = {}
-            running = as_completed()
-            for i, blocks in itertools.islice(queue, DASK_WINDOW):
-                future = client.submit(spec, blocks, pure=False)
-                index[future.key] = i
-                running.add(future)
-            for future in running:
-                merger.add(index.pop(future.key), future.result())
-                future.release()
-                following = next(queue, None)
-                if following is not None:
-                    nxt = client.submit(spec, following[1], pure=False)
-                    index[nxt.key] = following[0]
-                    running.add(nxt)
-    finally:
-        if cluster is not None:
-            cluster.close()
+            f"{trials:,} trials would take about {seconds:,.0f} s more (from the first "
+            f"{timed:,}, timed); the bound is {bound:g} s: give fewer trials or more workers, "
+            "or --force (force=True) to run it anyway", parameter="trials")
 
 
 def check_trials(trials) -> None:

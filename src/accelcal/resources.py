@@ -5,7 +5,8 @@ computing it takes a few such arrays at once. :func:`check_memory` estimates
 the bytes a computation will hold (samples x channels x 8 bytes x a factor
 the caller states from its temporaries) *before* allocating anything, and
 refuses, with one line saying how much it would need, what exceeds half of
-the memory available on this machine (:func:`available_memory`). So a
+the memory this process can still take (:func:`available_memory`: its
+address-space limit, its cgroup's limit, the machine's free memory). So a
 sample rate of 1e12 Hz or a duration of 1e9 s ends at once with a message
 instead of a numpy allocation error or a machine that swaps.
 
@@ -15,7 +16,6 @@ non-integer seeds with a message that names the parameter.
 """
 
 import math
-import os
 
 import numpy as np
 
@@ -32,23 +32,13 @@ FLOAT_BYTES = 8
 def available_memory() -> int:
     """Memory available to a new computation, bytes.
 
-    ``MemAvailable`` of ``/proc/meminfo`` (Linux: free memory plus what the
-    kernel can reclaim), else the free physical pages of ``os.sysconf``,
-    else the physical memory; 2**40 bytes when none of these can be read.
+    The process's real limit (:func:`accelcal.io.limits.memory_limit`): the
+    least of the headroom of its address-space limit (``RLIMIT_AS``), of its
+    memory cgroup, and of the machine's ``MemAvailable``.
     """
-    try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    for pages in ("SC_AVPHYS_PAGES", "SC_PHYS_PAGES"):
-        try:
-            return int(os.sysconf(pages)) * int(os.sysconf("SC_PAGE_SIZE"))
-        except (OSError, ValueError, AttributeError):
-            continue
-    return 2**40
+    from accelcal.io.limits import memory_limit
+
+    return memory_limit()
 
 
 def shown_bytes(n: float) -> str:
@@ -100,7 +90,7 @@ def check_memory(samples: float, channels: float, factor: float, what: str, *,
         raise AccelcalError(
             f"{what} would need about {shown_bytes(need)} of memory "
             f"({float(samples):.3g} x {float(channels):.3g} values x 8 bytes x "
-            f"{factor:g}); this machine has {shown_bytes(limit)} to spare"
+            f"{factor:g}); this process can take {shown_bytes(limit)}"
             + (f"; {hint}" if hint else ""),
             parameter=parameter,
         )

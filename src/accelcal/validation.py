@@ -146,9 +146,12 @@ def is_finite_number(value) -> bool:
 
 
 def check_rate(rate) -> float:
-    """Check a sample rate in Hz (finite, :data:`MIN_RATE_HZ` to :data:`MAX_RATE_HZ`)."""
+    """Check a sample rate in Hz (finite, :data:`MIN_RATE_HZ` to :data:`MAX_RATE_HZ`).
+
+    A boolean is not a number here (``rate = true`` in a mapping file is not 1 Hz).
+    """
     try:
-        value = float(rate)
+        value = math.nan if isinstance(rate, bool) else float(rate)
     except (TypeError, ValueError, OverflowError):
         value = math.nan
     if not (math.isfinite(value) and MIN_RATE_HZ <= value <= MAX_RATE_HZ):

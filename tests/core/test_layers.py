@@ -38,7 +38,7 @@ FLOORS = (
     ("domain model", ("accelcal.model", "accelcal.defaults", "accelcal.engineering",
                       "accelcal.aliasing", "accelcal.outputs", "accelcal.results",
                       "accelcal.polar", "accelcal.fitting",
-                      "accelcal.uncertainty", "accelcal.montecarlo")),
+                      "accelcal.uncertainty", "accelcal.montecarlo", "accelcal.parallel")),
     ("io", ("accelcal.io",)),
     ("signal", ("accelcal.signal", "accelcal.plotting")),
     ("rigs and methods", ("accelcal.rigs", "accelcal.methods", "accelcal.calibration",
@@ -52,6 +52,8 @@ LAZY_UP = {
     ("accelcal.model", "accelcal.io.model_file"):
         "ErrorModel.to_dict/from_dict/to_json/from_json/save/load: the model file is io's",
     ("accelcal.results", "accelcal.io.limits"): "Reduction.from_json: io's bounded JSON reader",
+    ("accelcal.resources", "accelcal.io.limits"):
+        "available_memory: the process's memory limit is io's limits (memory_limit)",
     ("accelcal.results", "accelcal.calibration"): "Reduction.to_records",
     ("accelcal.results", "accelcal.methods"): "Reduction.figures: the method's figures",
     ("accelcal.results", "accelcal.plotting"): "Reduction.plot",

@@ -290,5 +290,7 @@ def test_the_demo_sections_render_in_field_units_with_readable_dates(demo_sectio
     assert not re.search(r"\d{4}-\d\d-\d\dT\d\d:\d\d", html)  # no raw time stamps
     assert not re.search(r"(?<![A-Za-z])(ug|degC)(?![A-Za-z])|\+-", html)  # notes as tables
     main = html[:html.index('<section id="appendix">')]
-    assert main.count('<table class="coef">') == 10  # one per one-sensor test, none repeated
+    # one per one-sensor test (the frequency response's comparison and fit are two), none
+    # repeated
+    assert main.count('<table class="coef">') == 12
     assert main.count('<table class="wide">') == 1  # the head's overview

@@ -3,8 +3,12 @@
 :func:`main` runs the typer application with accelcal's error policy: bad
 input (an :class:`~accelcal.errors.AccelcalError` or a usage error) prints
 one line, ``accelcal: error: ...``, on standard error and exits with
-status 2, with no traceback. Command modules import numpy-heavy code inside
-their functions so that ``accelcal --help`` starts quickly.
+status 2, with no traceback; so does any failure of the system to read or
+write a file (an :class:`OSError`: the line names the file). SIGINT, SIGTERM
+and SIGHUP end a run with one line and the status ``128 + signal``
+(:mod:`accelcal.cli.signals`), at any moment from start-up on. Command
+modules import numpy-heavy code inside their functions so that
+``accelcal --help`` starts quickly.
 """
 
 import sys
@@ -22,39 +26,88 @@ parameter's name with ``-`` for ``_`` (see :meth:`accelcal.errors.AccelcalError.
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``accelcal`` console script."""
-    import typer
+    from accelcal.cli import signals
 
-    from accelcal.cli.app import app
-    from accelcal.errors import AccelcalError
-
-    command = typer.main.get_command(app)
     try:
-        code = command.main(args=argv, prog_name="accelcal", standalone_mode=False)
-    except AccelcalError as exc:
-        _die(exc.message_for(OPTION_NAMES))
-    except (KeyboardInterrupt, typer.Abort):
-        print("accelcal: aborted", file=sys.stderr)
-        sys.exit(130)
+        signals.install()
+        code = _run(argv)
+    except KeyboardInterrupt as exc:
+        _interrupted(getattr(exc, "signum", None) or signals.received() or 2)
     except BrokenPipeError:
         sys.exit(0)
-    except MemoryError:  # a net behind the size estimates made before allocating
+    except Exception:
+        if signals.received() is None:
+            raise
+        _interrupted(signals.received())  # an interrupt an import wrapped in its own error
+    if signals.received():  # a signal a library took for its own and did not raise
+        _interrupted(signals.received())
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+def _run(argv: list[str] | None):
+    """Run the command; every failure but an interrupt becomes one line and exit status 2."""
+    import typer
+
+    from accelcal.cli import signals
+    from accelcal.cli.app import app
+
+    try:
+        command = typer.main.get_command(app)
+        return command.main(args=argv, prog_name="accelcal", standalone_mode=False)
+    except typer.Abort as exc:  # click's wrapping of KeyboardInterrupt (our Interrupted)
+        cause = exc.__context__
+        raise cause if isinstance(cause, KeyboardInterrupt) else KeyboardInterrupt() from None
+    except Exception as exc:
+        if signals.received() is not None:  # an interrupt a library wrapped in its own error
+            raise KeyboardInterrupt from None
+        _fail(exc)
+    return None
+
+
+def _fail(exc: Exception) -> None:
+    """One line and exit status 2 for a failure of the command (re-raise what is a bug)."""
+    from accelcal.errors import AccelcalError
+
+    if isinstance(exc, AccelcalError):
+        _die(exc.message_for(OPTION_NAMES))
+    if isinstance(exc, BrokenPipeError):
+        raise exc
+    if isinstance(exc, OSError):  # a net behind the checks made before writing or reading
+        _die(_os_error(exc))
+    if isinstance(exc, MemoryError):  # a net behind the size estimates made before allocating
         _die("not enough memory for this input on this machine; give fewer samples, "
              "positions or points")
-    except Exception as exc:
-        if type(exc).__name__ == "LinAlgError":  # numpy.linalg: a net behind the validation
-            _die(f"the computation failed ({exc}); the input's values are probably far out of "
-                 "range: check their magnitudes and units")
-        # Usage and parameter errors of the (possibly vendored) click layer
-        # under typer: recognised by their interface, not their class.
-        if not (hasattr(exc, "format_message") and hasattr(exc, "exit_code")):
-            raise
-        if not exc.format_message().strip():
-            # A group called without a command: its help was printed already.
-            sys.exit(exc.exit_code)
-        ctx = getattr(exc, "ctx", None)
-        hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
-        _die(exc.format_message() + hint)
-    sys.exit(code if isinstance(code, int) else 0)
+    if isinstance(exc, RecursionError):  # a net behind the depth checks of nested input
+        _die("the input nests too deeply to be read; is it the right file?")
+    if type(exc).__name__ == "LinAlgError":  # numpy.linalg: a net behind the validation
+        _die(f"the computation failed ({exc}); the input's values are probably far out of "
+             "range: check their magnitudes and units")
+    # Usage and parameter errors of the (possibly vendored) click layer
+    # under typer: recognised by their interface, not their class.
+    if not (hasattr(exc, "format_message") and hasattr(exc, "exit_code")):
+        raise exc
+    if not exc.format_message().strip():
+        # A group called without a command: its help was printed already.
+        sys.exit(exc.exit_code)
+    ctx = getattr(exc, "ctx", None)
+    hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
+    _die(exc.format_message() + hint)
+
+
+def _os_error(exc: OSError) -> str:
+    """One line of a failed file operation: the file (when known) and what to do."""
+    from accelcal.io.atomic import write_error
+
+    if exc.filename is not None:
+        return write_error(exc.filename, exc).args[0].replace("cannot write", "cannot use", 1)
+    return f"a file operation failed: {exc.strerror or exc}"
+
+
+def _interrupted(signum: int) -> None:
+    from accelcal.cli import signals
+
+    signals.finish(signum)
+    sys.exit(signals.exit_status(signum))
 
 
 def _die(message: str) -> None:

@@ -97,17 +97,16 @@ def load_model(path: Path | None):
 
 
 def check_writable(path: Path | None) -> None:
-    """Refuse an output in a missing directory or over a non-file before any work is done."""
-    from accelcal.validation import shown_path
+    """Refuse an output that cannot be written before any work is done.
 
-    if path is None:
-        return
-    if not path.parent.is_dir():
-        raise AccelcalError(f"cannot write {shown_path(path)}: directory "
-                            f"{shown_path(path.parent)} does not exist; create it first")
-    if path.exists() and not path.is_file():
-        raise AccelcalError(f"cannot write {shown_path(path)}: it exists and is not a regular "
-                            "file; give a file name")
+    The writer's own check (:func:`accelcal.io.atomic.check_output`): a
+    missing directory, a path that is not a regular file, a name the
+    system refuses (too long, a loop of links, no permission).
+    """
+    from accelcal.io.atomic import check_output
+
+    if path is not None:
+        check_output(path)
 
 
 def check_format(fmt: str) -> str:

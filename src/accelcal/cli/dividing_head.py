@@ -381,6 +381,9 @@ def study_cmd(
     timeout: float = typer.Option(
         10.0, "--timeout", help="Seconds to wait for --scheduler to answer before giving up, s."
     ),
+    force: bool = typer.Option(
+        False, "--force", help="Run a study estimated to take more than an hour (its first "
+        "task is timed; refused otherwise, with the estimate)."),
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
 ) -> None:
     """Monte Carlo: RMS actual error and mean formal SD per method and coefficient (volts).
@@ -410,7 +413,8 @@ def study_cmd(
     else:
         with DelayedProgress("Monte Carlo trials") as progress:
             result = run_study(rig, trials, seed, h1_sd=h1_sd, chunk=chunk, workers=workers,
-                               scheduler=scheduler, timeout=timeout, progress=progress)
+                               scheduler=scheduler, timeout=timeout, progress=progress,
+                               force=force)
         what = f"{trials} trials"
     for note in result.notes:
         typer.echo(f"accelcal: note: {note}", err=True)

@@ -40,7 +40,9 @@ _OPTIONS = {"columns": "channels", "units": "mapping", "scales": "mapping"}
 
 
 def import_(
-    file: Path = typer.Argument(..., help="The recording (TDMS, HDF5, MAT, CSV, Parquet ...)."),
+    files: list[Path] = typer.Argument(
+        ..., help="The recording (TDMS, HDF5, MAT, CSV, Parquet ...); kind response: one or "
+        "more, one step per file (or the steps detected in each, --steps detect)."),
     *,
     out: Path = typer.Option(..., "--out", help="The record file to write (.parquet for "
                              "Parquet, streamed; else CSV)."),
@@ -73,6 +75,25 @@ def import_(
                                    "block: the memory bound (about 40 bytes per sample and "
                                    "channel)."),
     fmt: str = typer.Option("table", "--format", help="Output: table, csv or json."),
+    frequencies: str | None = typer.Option(
+        None, "--frequencies", help="Kind response: each file's step frequency, Hz, comma "
+        "separated (default: detected, the strongest spectral line of drive, else ref)."),
+    steps: str | None = typer.Option(
+        None, "--steps", help="Kind response: files (one step per file, the default) or detect "
+        "(the plateaus of constant frequency in each file)."),
+    step_window: float | None = typer.Option(
+        None, "--step-window", help="Kind response, --steps detect: the detection window, s "
+        "(default 0.5)."),
+    min_periods: int | None = typer.Option(
+        None, "--min-periods", help="Kind response: fewest whole periods of a step (default 3; "
+        "a shorter step is refused)."),
+    min_coherence: float | None = typer.Option(
+        None, "--min-coherence", help="Kind response: least coherence of a step (default 0.9; "
+        "a step below it is flagged, the rest goes on)."),
+    reference: Path | None = typer.Option(
+        None, "--reference", help="Kind response: the reference's certificate, a CSV table "
+        "frequency_hz,magnitude,phase_deg[,magnitude_U,phase_U], written into the record (it "
+        "must cover the steps)."),
 ) -> None:
     """Convert a recording into an accelcal record file of a kind, validated before it appears."""
     import dataclasses
@@ -110,6 +131,22 @@ def import_(
     metadata |= {k: v for k, v in (("serial", serial), ("operator", operator)) if v is not None}
     opts = InputOptions(**{k: v for k, v in options.items()
                            if k in {f.name for f in dataclasses.fields(InputOptions)}})
+    response = {"--frequencies": frequencies, "--steps": steps, "--step-window": step_window,
+                "--min-periods": min_periods, "--min-coherence": min_coherence,
+                "--reference": reference}
+    if kind == "response":
+        if temps:
+            raise AccelcalError("--temperature does not apply to --kind response",
+                                parameter="temperature")
+        _import_response(files, opts, record_map, out=out, metadata=metadata, fmt=fmt,
+                         given={k: v for k, v in response.items() if v is not None})
+        return
+    given = [k for k, v in response.items() if v is not None]
+    if given:
+        raise AccelcalError(f"{given[0]} applies to --kind response only", parameter="kind")
+    if len(files) != 1:
+        raise AccelcalError(f"--kind {kind} imports one recording, not {len(files)}")
+    file = files[0]
     try:
         with DelayedProgress(f"importing {file.name}") as progress:
             done = import_recording(file, opts, kind=kind, channels=record_map, out=out,
@@ -135,6 +172,42 @@ def import_(
     for c, v in stats.items():  # one row: the whole-period statistics as columns
         row |= {f"mean_{c}": v["mean"], f"sd_{c}": v["sd"]}
     emit([row], fmt)
+
+
+def _import_response(files, opts, record_map, *, out, metadata, fmt, given) -> None:
+    """``--kind response``: two-channel recordings made into a response record."""
+    from accelcal.cli.common import parse_grid
+    from accelcal.io.recordings.response import import_response
+
+    settings = {"steps": given.get("--steps", "files")}
+    if "--frequencies" in given:
+        settings["frequencies"] = parse_grid(given["--frequencies"], "--frequencies")
+    for option, name in (("--step-window", "window_s"), ("--min-periods", "min_periods"),
+                         ("--min-coherence", "min_coherence")):
+        if option in given:
+            settings[name] = given[option]
+    if "--reference" in given:
+        from accelcal.methods.response import read_reference
+
+        settings["reference"] = read_reference(given["--reference"]).to_dict()
+    try:
+        done = import_response(files, opts, channels=record_map, out=out, metadata=metadata,
+                               **settings)
+    except AccelcalError as exc:
+        raise AccelcalError(exc.message, parameter={
+            "window_s": "step_window"}.get(exc.parameter, exc.parameter)) from None
+    rows = [{"step": k, "file": s["file"], "start_s": s["start_s"],
+             "frequency_hz": s["frequency_hz"], "periods": s["periods"],
+             "coherence": s["coherence"], "flagged": "yes" if s["flagged"] else ""}
+            for k, s in enumerate(done["steps"])]
+    if fmt == "table":
+        typer.echo(f"wrote {done['record']} (kind response, {len(rows)} steps, "
+                   f"{done['samples']} samples)")
+    emit(rows, fmt)
+    flagged = [r for r in rows if r["flagged"]]
+    if flagged:
+        typer.echo(f"{len(flagged)} step(s) flagged: coherence below the limit (kept; see the "
+                   "record's flagged metadata)", err=True)
 
 
 def _pairs(text: str, option: str) -> dict:

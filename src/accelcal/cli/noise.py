@@ -15,7 +15,7 @@ import typer
 
 from accelcal.cli import input_options as io_opts
 from accelcal.cli import record_options
-from accelcal.cli.common import check_format, emit, parse_grid
+from accelcal.cli.common import check_format, check_writable, emit, parse_grid
 from accelcal.errors import AccelcalError
 from accelcal.formatting import unit_squared
 
@@ -28,6 +28,8 @@ app = typer.Typer(
 _TAUS_HELP = ("Tau set: octave (tau0 x 2^k), decade (1, 2, 4, 10, 20, 40 ... x tau0), all "
               "(every m), or averaging times in seconds (0.1,1,10 or start:stop:step).")
 _TERMS_HELP = "IEEE 952 terms to fit, comma separated, from Q,N,B,K,R."
+_FORCE_HELP = ("Run a tau set estimated to take longer than 60 s (refused otherwise, with the "
+               "estimate; --taus all is O(N^2)).")
 
 
 def _taus(text: str):
@@ -60,6 +62,7 @@ def adev(
     kind: str = typer.Option("oadev", "--kind",
                              help="adev, oadev, mdev, hdev, ohdev or totdev (NIST SP 1065)."),
     taus: str = typer.Option("octave", "--taus", help=_TAUS_HELP),
+    force: bool = typer.Option(False, "--force", help=_FORCE_HELP),
     confidence: float = typer.Option(0.683, "--confidence",
                                      help="Confidence of the intervals (0.683: one sigma)."),
     fmt: str = typer.Option("table", "--format", help="table, csv or json."),
@@ -81,10 +84,12 @@ def adev(
     if kind in STREAM_KINDS:
         with _progress(f"{kind} of {file.name}") as progress:
             dev, _, _ = stream_deviation(file, opts, kind=kind, taus=_taus(taus),
-                                         confidence=confidence, progress=progress,
+                                         confidence=confidence, progress=progress, force=force,
                                          repairs=repairs)
     else:
-        dev = _in_memory(file, opts, kind, _taus(taus), confidence, repairs)
+        with _progress(f"{kind} of {file.name}") as progress:
+            dev = _in_memory(file, opts, kind, _taus(taus), confidence, repairs,
+                             force=force, progress=progress)
     io_opts.print_repairs(repairs)
     emit(dev.rows(), fmt, title=f"{kind} of {file.name} ({dev.unit}; {confidence:.1%} intervals)")
     if plot is not None:  # before the notes: a figure that cannot be written is the one line
@@ -129,7 +134,8 @@ def interval_notes(dev) -> list[str]:
     return notes
 
 
-def _in_memory(file, opts, kind, taus, confidence, repairs):  # noqa: PLR0917
+def _in_memory(file, opts, kind, taus, confidence, repairs, *, force=False,  # noqa: PLR0917
+               progress=None):
     from accelcal.io.formats.noise import check_values
     from accelcal.io.recordings import read_recording
     from accelcal.signal.allan.deviations import deviation
@@ -147,7 +153,7 @@ def _in_memory(file, opts, kind, taus, confidence, repairs):  # noqa: PLR0917
                             f"{int(gaps[0]) + 1}; deviations need evenly spaced samples: split "
                             "the record at the gap", parameter="values")
     return deviation(rec.values[:, 0], rec.rate, kind=kind, taus=taus, confidence=confidence,
-                     unit=rec.unit)
+                     unit=rec.unit, force=force, progress=progress)
 
 
 @app.command("fit")
@@ -164,6 +170,7 @@ def fit(
                               "where Q, B and R are absent; the fit's chi^2 says when more "
                               "terms are needed."),
     taus: str = typer.Option("octave", "--taus", help=_TAUS_HELP),
+    force: bool = typer.Option(False, "--force", help=_FORCE_HELP),
     fmt: str = typer.Option("table", "--format", help="table or json."),
     plot: Path | None = typer.Option(None, "--plot", help="Directory for the figures."),
     record_out: Path | None = typer.Option(
@@ -196,7 +203,7 @@ def fit(
     info = _lab(record_out, file, serial, operator)
     with _progress(f"fit of {file.name}") as progress:
         red = noise.reduce(file, options=opts, terms=names, taus=_taus(taus),
-                           progress=progress)
+                           progress=progress, force=force)
     if info is not None:
         from accelcal.calibration import save_records
 
@@ -206,9 +213,10 @@ def fit(
         for p in red.plot(plot):
             print(f"wrote {p}", file=sys.stderr)
     if export is not None:
+        from accelcal.io.atomic import write_text_atomic
         from accelcal.methods.noise.export import noise_yaml
 
-        export_out.write_text(noise_yaml(red, export), encoding="utf-8")
+        write_text_atomic(export_out, noise_yaml(red, export))
         print(f"wrote {export_out}", file=sys.stderr)
     if fmt == "json":
         sys.stdout.write(json.dumps(coefficients(red), indent=2, allow_nan=False) + "\n")
@@ -252,6 +260,7 @@ def _check_export(export, export_out, names) -> None:
         raise AccelcalError("give the YAML file --export writes", parameter="export_out")
     if not {"N", "K"} <= set(names):
         raise AccelcalError("--export needs N and K among the terms fitted", parameter="terms")
+    check_writable(export_out)
 
 
 def _lab(record_out, file, serial, operator):

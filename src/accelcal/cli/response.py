@@ -45,7 +45,9 @@ def simulate(
         help="Step frequencies, Hz (list or range start:stop:step); default "
              "10,20,40,80,160,315,500,630,800,1000,1250 (laser: 100,200,400,800,1600; "
              "gravity, the rotation rates: 0.25,0.5,1,2,4)."),
-    amplitude: float = typer.Option(1.0, "--amplitude", help="Acceleration amplitude, g."),
+    amplitude: float | None = typer.Option(
+        None, "--amplitude", help="Acceleration amplitude, g (default 1; stepped, random and "
+                                  "swept)."),
     sample_rate: float | None = typer.Option(
         None, "--sample-rate", help="Sample rate, Hz (default 20000; random and swept 10000, "
                                     "laser 1e6, gravity 1000)."),
@@ -56,12 +58,15 @@ def simulate(
     zeta: float = typer.Option(0.6, "--zeta", help="DUT damping ratio."),
     pole: float | None = typer.Option(None, "--pole", help="DUT extra pole, Hz (none)."),
     delay: float = typer.Option(0.0, "--delay", help="DUT pure delay, s."),
-    gain_ratio: float = typer.Option(1.0, "--gain-ratio",
-                                     help="DAQ: DUT channel gain over the reference's."),
-    daq_delay: float = typer.Option(0.0, "--daq-delay",
-                                    help="DAQ: DUT channel delay behind the reference's, s."),
-    distortion: str = typer.Option("0,0", "--distortion",
-                                   help="Shaker's 2nd and 3rd harmonics, fractions (d2,d3)."),
+    gain_ratio: float | None = typer.Option(
+        None, "--gain-ratio", help="DAQ: DUT channel gain over the reference's (default 1; "
+                                   "not gravity)."),
+    daq_delay: float | None = typer.Option(
+        None, "--daq-delay", help="DAQ: DUT channel delay behind the reference's, s (default "
+                                  "0; not gravity)."),
+    distortion: str | None = typer.Option(
+        None, "--distortion", help="Shaker's 2nd and 3rd harmonics, fractions d2,d3 (default "
+                                   "0,0; stepped and laser)."),
     noise: float = typer.Option(1e-4, "--noise", help="White noise of each channel, V rms "
                                                       "(0: an exact record)."),
     unit: str = typer.Option("V", "--unit", help="DUT output unit: V, mV or mA."),
@@ -71,8 +76,8 @@ def simulate(
         help="stepped, random or swept (broadband: --band, --duration, --amplitude the "
              "level in g), laser (ISO 16063-11: --displacement; --frequencies, --periods) or "
              "gravity (ISO 16063-16: --frequencies the rotation rates). Options of another "
-             "excitation without a default are refused; --amplitude, --gain-ratio, --daq-delay and "
-        "--distortion serve the comparisons and the laser (--amplitude: not the laser)."),
+             "excitation are refused (--amplitude: stepped, random, swept; --gain-ratio, "
+             "--daq-delay: not gravity; --distortion: stepped and laser)."),
     band: str | None = typer.Option(None, "--band", help="Broadband: lo,hi, Hz (default "
                                                          "5,2000)."),
     duration: float | None = typer.Option(None, "--duration",
@@ -87,20 +92,27 @@ def simulate(
     from accelcal.rigs.shaker_response import DutResponse, ResponseRig
 
     check_writable(out)
-    dist = parse_grid(distortion, "--distortion")
-    if len(dist) != 2:
-        raise AccelcalError("--distortion: give two fractions, d2,d3")
     dut = DutResponse(S0=s0, fn_hz=fn, zeta=zeta, pole_hz=pole, delay_s=delay)
     own = {"--band": (band, ("random", "swept")), "--duration": (duration, ("random", "swept")),
            "--displacement": (displacement, ("laser",)),
            "--frequencies": (frequencies, ("stepped", "laser", "gravity")),
-           "--periods": (periods, ("stepped", "laser", "gravity"))}
+           "--periods": (periods, ("stepped", "laser", "gravity")),
+           "--amplitude": (amplitude, ("stepped", "random", "swept")),
+           "--gain-ratio": (gain_ratio, ("stepped", "random", "swept", "laser")),
+           "--daq-delay": (daq_delay, ("stepped", "random", "swept", "laser")),
+           "--distortion": (distortion, ("stepped", "laser"))}
     for option, (value, kinds) in own.items():
         if value is not None and excitation not in kinds:
             raise AccelcalError(f"{option} does not apply to --excitation {excitation}")
     given = {k: v for k, v in (("sample_rate", sample_rate), ("periods", periods)) if v is not None}
     if frequencies is not None:
         given["frequencies"] = tuple(parse_grid(frequencies, "--frequencies"))
+    dist = parse_grid(distortion, "--distortion") if distortion is not None else (0.0, 0.0)
+    if len(dist) != 2:
+        raise AccelcalError("--distortion: give two fractions, d2,d3")
+    amplitude = 1.0 if amplitude is None else amplitude
+    gain_ratio = 1.0 if gain_ratio is None else gain_ratio
+    daq_delay = 0.0 if daq_delay is None else daq_delay
     if excitation == "stepped":
         rig = ResponseRig(**given, amplitudes=(amplitude,), gain_ratio=gain_ratio,
                           delay_s=daq_delay, distortion=tuple(dist), noise=noise)
@@ -195,6 +207,10 @@ def reduce(
         dev, u, f_low = red.assumed("static_tie")
         title += (f"; |S({f_low:g} Hz)| / static scale factor - 1 = {1e6 * dev:.3g} ± "
                   f"{1e6 * u:.2g} ppm")
+    if any(a.name == "flagged" for a in red.assumptions):
+        steps = red.assumed("flagged")
+        title += (f"; {len(steps)} step(s) flagged at import, coherence below the limit: "
+                  + ", ".join(f"{f:g} Hz" for f in steps))
     flagged = red.observations.get("flagged_hz")
     if flagged is not None and len(flagged):
         title += f"; {len(flagged)} bin(s) below the coherence limit left out"

@@ -14,12 +14,23 @@ removes the temporary file.
 A new file gets the permissions ``0o666`` less the process umask, like any
 file a program creates (``-rw-r--r--`` under the usual umask 022); a file
 that is replaced keeps its permissions.
+
+Temporary files and directories carry the writer's process id
+(``.NAME.accelcal-<pid>-<hex>.tmp``, :func:`temp_name`; a name that would
+pass the file system's limit is shortened to a hash), so that a run killed
+where it cannot clean up (SIGKILL, a power cut) leaves nothing for good: the
+next run that writes in the same directory removes those whose process is
+gone (:func:`sweep`). Those of the running process are listed
+(:data:`LIVE`), so that an exit forced by a signal removes them too.
 """
 
 import contextlib
 import errno
+import hashlib
 import os
+import re
 import secrets
+import shutil
 import stat
 from pathlib import Path
 
@@ -36,7 +47,138 @@ _ADVICE = {
     errno.EISDIR: "it is a directory; give a file name",
     errno.ENAMETOOLONG: "the file name is too long; choose a shorter name",
     errno.ENOENT: "no file can be created there; choose another location",
+    errno.EFBIG: "the file is larger than this process may write (a file-size limit); "
+                 "raise the limit or write less",
+    errno.ENOTDIR: "a part of the path is not a directory; choose another location",
+    errno.ELOOP: "the path has too many symbolic links (a loop?); choose another location",
+    errno.EXDEV: "it cannot be moved there from the staging directory; write elsewhere",
 }
+
+NAME_MAX = 255
+"""Longest file name (bytes) most file systems take; the directory's own limit is asked."""
+
+LIVE: set[Path] = set()
+"""Temporary files and directories of this process not yet moved into place or removed."""
+
+_OURS = re.compile(r"^\..+\.accelcal-(\d+)-[0-9a-f]{12}(?:\.tmp|\.f64)?$")
+"""A temporary of accelcal's (:func:`temp_name`): ``.NAME.accelcal-<pid>-<12 hex digits>``,
+then ``.tmp`` (a file being written), ``.f64`` (a noise phase file) or nothing (a directory)."""
+
+_SWEPT: set[str] = set()
+"""Directories already swept by this process."""
+
+
+def write_error(path, exc: OSError) -> AccelcalError:
+    """The one-line error of a write to ``path`` that failed with ``exc``: the path and advice."""
+    advice = _ADVICE.get(exc.errno, f"{exc.strerror or exc}; choose another location")
+    return AccelcalError(f"cannot write {shown_path(path)}: {advice}")
+
+
+def temp_name(name: str, suffix: str = ".tmp", *, directory=".", prefix: str = ".") -> str:
+    """A new temporary name for ``name``: ``<prefix>NAME.accelcal-<pid>-<hex><suffix>``.
+
+    When that would be longer than the directory's file-name limit (a valid
+    name of 238-255 bytes), ``NAME`` is replaced by a 16-digit hash of it.
+    """
+    tag = f"accelcal-{os.getpid()}-{secrets.token_hex(6)}{suffix}"
+    full = f"{prefix}{name}.{tag}"
+    if len(os.fsencode(full)) <= _name_max(directory):
+        return full
+    return f"{prefix}{hashlib.sha256(os.fsencode(name)).hexdigest()[:16]}.{tag}"
+
+
+def _name_max(directory) -> int:
+    try:
+        return min(int(os.pathconf(directory, "PC_NAME_MAX")), NAME_MAX)
+    except (OSError, ValueError):
+        return NAME_MAX
+
+
+def sweep(directory) -> int:
+    """Remove accelcal's temporaries in ``directory`` whose process is gone; how many.
+
+    Once per directory and process; only entries named as :func:`temp_name`
+    names them and owned by this user; a process id that is alive (even reused by
+    another program) keeps its entry.
+    """
+    key = os.fspath(directory)
+    if key in _SWEPT:
+        return 0
+    _SWEPT.add(key)
+    removed = 0
+    try:
+        entries = list(os.scandir(directory))
+    except OSError:
+        return 0
+    for entry in entries:
+        match = _OURS.match(entry.name)
+        if not match or int(match.group(1)) == os.getpid() or _alive(int(match.group(1))):
+            continue
+        try:
+            if entry.stat(follow_symlinks=False).st_uid != os.getuid():
+                continue
+            if entry.is_dir(follow_symlinks=False):
+                shutil.rmtree(entry.path)
+            else:
+                os.unlink(entry.path)
+            removed += 1
+        except OSError:
+            continue
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True  # another user's process, or a number no process can have
+    return True
+
+
+def remove_live() -> None:
+    """Remove every temporary of this process (an exit forced by a signal)."""
+    for path in list(LIVE):
+        _remove(path)
+
+
+def check_output(path) -> Path:
+    """The one check of an output path before any work: refuse what cannot be written.
+
+    A missing directory, a path that exists and is not a regular file (a
+    directory, a FIFO, a device, or a link to one), or one the system
+    refuses to look at (a name too long, a loop of links, no permission to
+    search the directory) is refused with one line naming the path.
+
+    Raises
+    ------
+    AccelcalError
+    """
+    target = Path(path)
+    try:
+        _check_target(target)
+    except OSError as exc:
+        raise write_error(target, exc) from None
+    return target
+
+
+@contextlib.contextmanager
+def temp_directory(parent, name: str):
+    """A new directory in ``parent`` named by :func:`temp_name`, removed at the end.
+
+    Made with mode 0o777, so it has the permissions the umask gives any new
+    directory; listed in :data:`LIVE` while it exists.
+    """
+    sweep(parent)
+    path = Path(parent) / temp_name(name, "", directory=parent)
+    os.mkdir(path, 0o777)
+    LIVE.add(path)
+    try:
+        yield path
+    finally:
+        shutil.rmtree(path, ignore_errors=True)
+        LIVE.discard(path)
 
 
 @contextlib.contextmanager
@@ -64,14 +206,15 @@ def atomic_path(path):
     tmp = None
     try:
         _check_target(target)
+        sweep(target.parent)
         tmp = _create_beside(target)
         yield tmp
         _flush_to_disk(tmp)
         os.replace(tmp, target)
+        LIVE.discard(tmp)
     except OSError as exc:
         _remove(tmp)
-        advice = _ADVICE.get(exc.errno, f"{exc.strerror or exc}; choose another location")
-        raise AccelcalError(f"cannot write {shown_path(target)}: {advice}") from None
+        raise write_error(target, exc) from None
     except BaseException:
         _remove(tmp)
         raise
@@ -116,11 +259,12 @@ def _create_beside(target: Path) -> Path:
     permissions of ``target`` when it exists, so a replaced file keeps them.
     """
     while True:
-        tmp = target.with_name(f".{target.name[:200]}.{secrets.token_hex(6)}.tmp")
+        tmp = target.with_name(temp_name(target.name, directory=target.parent))
         try:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
         except FileExistsError:
             continue
+        LIVE.add(tmp)
         try:
             with contextlib.suppress(FileNotFoundError):
                 info = os.stat(target)
@@ -146,4 +290,8 @@ def _flush_to_disk(tmp: Path) -> None:
 def _remove(tmp: Path | None) -> None:
     if tmp is not None:
         with contextlib.suppress(OSError):
-            os.unlink(tmp)
+            if os.path.isdir(tmp) and not os.path.islink(tmp):
+                shutil.rmtree(tmp)
+            else:
+                os.unlink(tmp)
+        LIVE.discard(tmp)

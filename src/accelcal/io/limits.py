@@ -9,6 +9,11 @@ exhaust the stack, the memory or the time of a run:
 - :func:`check_regular_file` refuses, before any reader opens a path,
   anything that is not a regular file: opening a FIFO blocks for ever, a
   device never ends, a directory cannot be read;
+- :func:`memory_limit` is the memory the process can still take: the
+  least of its address-space limit's headroom (``RLIMIT_AS``), its
+  cgroup's limit less its usage, and the machine's ``MemAvailable``;
+  readers weigh what a file declares (shapes, chunk sizes) against it
+  before reading;
 - :func:`load_json` refuses text over :data:`MAX_JSON_BYTES`, nesting
   deeper than :data:`MAX_JSON_DEPTH` (the standard decoder recurses once
   per level and would raise ``RecursionError``), ``NaN``/``Infinity``,
@@ -26,6 +31,7 @@ import os
 import re
 import stat
 from itertools import accumulate
+from pathlib import Path
 
 from accelcal.errors import AccelcalError
 from accelcal.validation import shown, shown_name, shown_path
@@ -47,6 +53,126 @@ decoded as a float (numpy cannot hold it as an integer; ``np.isfinite``
 would raise ``TypeError`` on it)."""
 
 _STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"', re.DOTALL)
+
+
+NO_LIMIT = 2**40
+"""Memory assumed when no limit can be read at all (1 TiB: nothing is refused for it)."""
+
+_CGROUP = Path("/sys/fs/cgroup")
+
+
+def memory_limit() -> int:
+    """Bytes of memory this process can still take, from its real limits.
+
+    The least of:
+
+    - the headroom of the address-space limit (``RLIMIT_AS``, ``ulimit -v``):
+      the soft limit less the process's present virtual size (``VmSize`` of
+      ``/proc/self/status``); an allocation past it fails however much the
+      machine has free;
+    - the headroom of the memory cgroup (a container's or a systemd unit's
+      limit): cgroup v2 ``memory.max`` less ``memory.current`` of the
+      process's cgroup and each of its parents, or cgroup v1
+      ``memory.limit_in_bytes`` less ``memory.usage_in_bytes``; past it the
+      kernel kills the process;
+    - ``MemAvailable`` of ``/proc/meminfo`` (free memory plus what the
+      kernel can reclaim), else the free physical pages of ``os.sysconf``.
+
+    A limit that cannot be read (another system, no such file) is left
+    out; :data:`NO_LIMIT` when none can be read.
+
+    References
+    ----------
+    .. [rlimit] Linux man-pages, getrlimit(2): ``RLIMIT_AS``; proc(5):
+       ``/proc/self/status`` ``VmSize``, ``/proc/meminfo`` ``MemAvailable``.
+    .. [cgroup] Linux kernel documentation, "Control Group v2" (``memory.max``,
+       ``memory.current``) and "Memory Resource Controller" (cgroup v1).
+    """
+    found = [v for v in (_address_space_headroom(), _cgroup_headroom(), _machine_available())
+             if v is not None]
+    return max(min(found), 0) if found else NO_LIMIT
+
+
+def _address_space_headroom() -> int | None:
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    except (ImportError, OSError, ValueError, AttributeError):
+        return None
+    if soft == resource.RLIM_INFINITY or soft < 0:
+        return None
+    return soft - (_status_kib("VmSize") or 0) * 1024
+
+
+def _status_kib(field: str) -> int | None:
+    try:
+        with open("/proc/self/status", encoding="ascii", errors="replace") as fh:
+            for line in fh:
+                if line.startswith(field + ":"):
+                    return int(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _cgroup_headroom() -> int | None:
+    try:
+        lines = Path("/proc/self/cgroup").read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return None
+    best = None
+    for line in lines.splitlines():
+        parts = line.split(":", 2)
+        if len(parts) != 3:
+            continue
+        if parts[0] == "0" and parts[1] == "":
+            pairs = [("memory.max", "memory.current")]
+            root = _CGROUP
+        elif "memory" in parts[1].split(","):
+            pairs = [("memory.limit_in_bytes", "memory.usage_in_bytes")]
+            root = _CGROUP / "memory"
+        else:
+            continue
+        for directory in _cgroup_dirs(root, parts[2]):
+            for limit_name, usage_name in pairs:
+                room = _cgroup_room(directory / limit_name, directory / usage_name)
+                if room is not None:
+                    best = room if best is None else min(best, room)
+    return best
+
+
+def _cgroup_dirs(root: Path, group: str) -> list[Path]:
+    """The cgroup's directory and its parents' (a namespaced mount shows only the root)."""
+    parts = [p for p in group.split("/") if p and p != ".."]
+    return [root.joinpath(*parts[:k]) for k in range(len(parts), -1, -1)]
+
+
+def _cgroup_room(limit_file: Path, usage_file: Path) -> int | None:
+    try:
+        limit = limit_file.read_text(encoding="ascii").strip()
+        usage = int(usage_file.read_text(encoding="ascii").strip())
+    except (OSError, ValueError):
+        return None
+    if limit == "max" or not limit.isdigit() or int(limit) >= 2**62:
+        return None
+    return int(limit) - usage
+
+
+def _machine_available() -> int | None:
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    for pages in ("SC_AVPHYS_PAGES", "SC_PHYS_PAGES"):
+        try:
+            return int(os.sysconf(pages)) * int(os.sysconf("SC_PAGE_SIZE"))
+        except (OSError, ValueError, AttributeError):
+            continue
+    return None
 
 
 def check_regular_file(path, what: str) -> None:

@@ -137,6 +137,18 @@ def test_route_refusals_in_one_line(record, tmp_path, capsys):
     refused(["response", "plan", "--snr", "-100"], capsys, "snr")
 
 
+@pytest.mark.parametrize(("excitation", "option", "value"), [
+    ("gravity", "--amplitude", "2"), ("gravity", "--gain-ratio", "1.01"),
+    ("gravity", "--daq-delay", "1e-5"), ("gravity", "--distortion", "0.01,0"),
+    ("laser", "--amplitude", "2"), ("random", "--distortion", "0.01,0")])
+def test_simulate_refuses_an_option_its_route_ignores(excitation, option, value, tmp_path,
+                                                      capsys):
+    out = tmp_path / "x.csv"
+    refused(["response", "simulate", "--excitation", excitation, option, value, "--out", out],
+            capsys, f"{option} does not apply to --excitation {excitation}")
+    assert not out.exists()
+
+
 def test_gravity_tie_in_the_title(tmp_path, capsys):
     path = tmp_path / "g.csv"
     run_cli(["response", "simulate", "--excitation", "gravity", "--frequencies", "0.5,1",

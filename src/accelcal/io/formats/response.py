@@ -59,8 +59,10 @@ KIND = "response"
 
 IMPORT = ImportLayout(time=True, restart="step", outputs="input", fixed_names=False,
                       states=("output_unit", "sample_rate_hz"))
-"""How ``accelcal import`` makes this kind from a recording (``step``, ``frequency``,
-``ref`` and ``dut`` columns mapped from the recording's channels)."""
+"""How a recording that holds the record's columns (``step``, ``frequency``, ``ref``,
+``dut``) is read. A lab's two-channel recording, which holds no step or frequency,
+is imported by :mod:`accelcal.io.recordings.response` (``accelcal import --kind
+response``), which finds the steps and their frequencies."""
 
 OUTPUT_UNITS = ("V", "mV", "mA")
 """Units of the DUT's channel."""

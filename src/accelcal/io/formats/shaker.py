@@ -24,7 +24,6 @@ References
 
 import os
 import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -218,18 +217,25 @@ def write_records(records_list, out, *, extra: dict | None = None, suffix: str =
         for name, (_, _, meta, cols) in zip(names, tables, strict=True):
             write_record(out / name, KIND, meta, cols)
         return [out / n for n in names]
-    if not out.parent.is_dir():
-        raise AccelcalError(f"cannot write {out}: directory {out.parent} does not exist")
+    from accelcal.io.atomic import LIVE, check_output, sweep, temp_name, write_error
+
+    check_output(out)
+    sweep(out.parent)
+    tmp = out.parent / temp_name(out.name, "", directory=out.parent)
     try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    except OSError as exc:
-        raise AccelcalError(f"cannot write {out}: {exc.strerror or exc}", parameter="out") from None
-    try:
+        os.mkdir(tmp, 0o777)  # the umask applies, as to any new directory
+        LIVE.add(tmp)
         for name, (_, _, meta, cols) in zip(names, tables, strict=True):
             write_record(tmp / name, KIND, meta, cols)
         os.replace(tmp, out)
+        LIVE.discard(tmp)
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        LIVE.discard(tmp)
+        raise write_error(out, exc) from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
+        LIVE.discard(tmp)
         raise
     return [out / n for n in names]
 

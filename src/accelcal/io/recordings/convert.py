@@ -30,7 +30,6 @@ import contextlib
 import dataclasses
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -111,24 +110,29 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
     meta = _merge(plan.metadata, metadata)
     header = {"format_version": 1, "kind": kind, **meta, "units": plan.units,
               "provenance": prov}
-    with tempfile.TemporaryDirectory(dir=out.parent, prefix=".accelcal-import-") as stage:
-        staged = Path(stage) / out.name
-        repairs = Repairs()
-        samples, stats = _write(staged, header, plan,
-                                iter_blocks(path, opts, rows=rows, need_rate=timed,
-                                            repairs=repairs),
-                                rate=rate, progress=progress, infos=prov.get("channels", {}))
-        if repairs:  # known at the end: written again with them in the provenance
-            prov["repairs"] = repairs.to_dict()
+    from accelcal.io.atomic import atomic_path, check_output, temp_directory, write_error
+
+    check_output(out)
+    try:
+        with temp_directory(out.parent, "import") as stage:
+            staged = stage / out.name
+            repairs = Repairs()
             samples, stats = _write(staged, header, plan,
-                                    iter_blocks(path, opts, rows=rows, need_rate=timed),
+                                    iter_blocks(path, opts, rows=rows, need_rate=timed,
+                                                repairs=repairs),
                                     rate=rate, progress=progress,
                                     infos=prov.get("channels", {}))
-        _validate(staged, out, plan, samples, rows)
-        from accelcal.io.atomic import atomic_path
-
-        with atomic_path(out) as tmp:
-            os.replace(staged, tmp)
+            if repairs:  # known at the end: written again with them in the provenance
+                prov["repairs"] = repairs.to_dict()
+                samples, stats = _write(staged, header, plan,
+                                        iter_blocks(path, opts, rows=rows, need_rate=timed),
+                                        rate=rate, progress=progress,
+                                        infos=prov.get("channels", {}))
+            _validate(staged, out, plan, samples, rows)
+            with atomic_path(out) as tmp:
+                os.replace(staged, tmp)
+    except OSError as exc:
+        raise write_error(out, exc) from None
     return {"record": str(out), "kind": kind, "samples": samples, "columns": list(plan.columns),
             "statistics": stats,
             "provenance": prov}

@@ -3,7 +3,15 @@ r"""HDF5 recordings (and MATLAB v7.3 MAT-files, which are HDF5), read with h5py.
 A channel is a dataset named by its path (``Accel/X``, without the leading
 ``/``): a 1-D dataset, or column ``k`` of a 2-D dataset of shape
 ``(samples, columns)``, named ``path[k]``. Batches read hyperslabs
-(``dataset[start:stop, k]``), so memory is bounded by a batch. A dataset's
+(``dataset[start:stop, k]``), so memory is bounded by a batch and by the
+dataset's chunks: a compressed chunk is decompressed whole, so before
+anything is read the chunks one step needs (their declared shape times the
+item size) are weighed against the process's memory limit
+(:func:`accelcal.io.limits.memory_limit`) and refused with the figure if
+they do not fit; otherwise HDF5's chunk cache is made large enough to hold
+them, and the reads step along the chunks, so each chunk is decompressed
+once (a small file of one 3 GB gzip chunk would otherwise be decompressed
+again for every batch). A dataset's
 ``unit`` (or ``units``) attribute gives its unit; its other attributes, and
 the root's, go into the provenance. A dataset whose storage does not cover
 its shape (unwritten chunks: HDF5 would return fill values for them) is
@@ -139,7 +147,15 @@ def _unwritten(name: str, file_name: str):
 
 
 def hdf5_batches(source, names: list[str], rows: int) -> Iterator[dict[str, np.ndarray]]:
-    """The channels ``names`` in hyperslabs of at most ``rows`` samples."""
+    """The channels ``names`` in hyperslabs of at most ``rows`` samples.
+
+    Raises
+    ------
+    AccelcalError
+        When the decompressed chunks one step reads (every wanted dataset's
+        chunks across a chunk's length of samples) would not fit in the
+        memory the process may take; the message gives the figure.
+    """
     import h5py
 
     for name in names:
@@ -147,9 +163,48 @@ def hdf5_batches(source, names: list[str], rows: int) -> Iterator[dict[str, np.n
     length = source.channels[names[0]].length
     what = "MATLAB v7.3" if source.input_format == "mat" else "HDF5"
     with library_errors(source.path.name, what), h5py.File(source.path, "r") as h5:
+        cache = _chunk_cache(h5, source, names, rows)
+    with library_errors(source.path.name, what), h5py.File(
+            source.path, "r", rdcc_nbytes=cache, rdcc_w0=1.0, rdcc_nslots=_SLOTS) as h5:
         for start in range(0, length, rows):
             stop = min(start + rows, length)
             yield {name: _slab(h5, source.locations[name], start, stop) for name in names}
+
+
+_SLOTS = 10_007
+"""Hash slots of HDF5's chunk cache (a prime, as the HDF5 guide advises)."""
+
+_CACHE_BYTES = 2**20
+"""HDF5's own chunk cache (1 MiB), kept when the chunks are smaller."""
+
+
+def _chunk_cache(h5, source, names: list[str], rows: int) -> int:
+    """The chunk cache (bytes) that holds every chunk a batch touches, so each decompresses once.
+
+    Refused when those chunks, plus a batch's values, exceed the share of
+    the process's memory limit a computation may take.
+    """
+    from accelcal.io.limits import memory_limit
+    from accelcal.resources import MEMORY_SHARE, shown_bytes
+
+    chunk_bytes = 0
+    for path in sorted({source.locations[n][0] for n in names}):
+        ds = h5[path]
+        if ds.chunks is None:
+            continue
+        transposed = next(loc[2] for loc in source.locations.values() if loc[0] == path)
+        axis = 1 if transposed and ds.ndim == 2 else 0
+        across = [math.ceil(s / c) for s, c in zip(ds.shape, ds.chunks, strict=True)]
+        across[axis] = 1
+        chunk_bytes += math.prod(ds.chunks) * ds.dtype.itemsize * math.prod(across)
+    need = chunk_bytes + 2 * rows * len(names) * 8
+    limit = MEMORY_SHARE * memory_limit()
+    if need > limit:
+        raise AccelcalError(
+            f"{shown_name(source.path.name)}: reading it needs about {shown_bytes(need)} of "
+            f"memory (its chunks decompress to {shown_bytes(chunk_bytes)}); this process can "
+            f"take {shown_bytes(limit)}; rewrite the file with smaller chunks")
+    return max(_CACHE_BYTES, chunk_bytes + chunk_bytes // 8)
 
 
 def _slab(h5, location, start: int, stop: int) -> np.ndarray:

@@ -36,8 +36,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from accelcal.errors import AccelcalError
-from accelcal.io.limits import MAX_JSON_BYTES, load_json, read_bounded
-from accelcal.validation import shown, shown_name
+from accelcal.io.limits import MAX_JSON_BYTES, MAX_JSON_DEPTH, json_depth, load_json, read_bounded
+from accelcal.validation import is_finite_number, shown, shown_name
 
 OPTION_FIELDS = ("input_format", "rate", "time", "time_unit", "unit", "scale", "delimiter")
 """Fields that are :class:`~accelcal.io.recordings.InputOptions` parameters."""
@@ -94,8 +94,14 @@ def load_mapping(path) -> Mapping:
         raise AccelcalError(f"mapping file {name} is empty; write the DAQ layout in it "
                             "(docs/daq.md)", parameter="mapping")
     if path.suffix.lower() == ".toml" or not text.lstrip().startswith("{"):
+        if json_depth(text) > MAX_JSON_DEPTH:  # tomllib recurses once per level
+            raise AccelcalError(f"mapping file {name} nests deeper than {MAX_JSON_DEPTH} "
+                                "levels; a mapping nests 2", parameter="mapping")
         try:
             doc = tomllib.loads(text)
+        except RecursionError:
+            raise AccelcalError(f"mapping file {name} nests too deeply", parameter="mapping"
+                                ) from None
         except tomllib.TOMLDecodeError as exc:
             raise AccelcalError(f"mapping file {name} is not TOML: {exc}", parameter="mapping"
                                 ) from None
@@ -116,6 +122,10 @@ def parse_mapping(doc, where: str) -> Mapping:
     for key in ("input_format", "time", "time_unit", "unit", "delimiter"):
         if key in options and not isinstance(options[key], str):
             raise AccelcalError(f"{where}: {key} must be text, got {shown(options[key])}",
+                                parameter="mapping")
+    for key in ("rate", "scale"):
+        if key in options and not is_finite_number(options[key]):
+            raise AccelcalError(f"{where}: {key} must be a number, got {shown(options[key])}",
                                 parameter="mapping")
     kind = doc.get("kind")
     if kind is not None and not isinstance(kind, str):
@@ -152,5 +162,8 @@ def _channels(table, where: str, what: str) -> tuple[dict, dict, dict]:
         if "unit" in spec:
             units[spec["channel"]] = spec["unit"]
         if "scale" in spec:
+            if not is_finite_number(spec["scale"]):
+                raise AccelcalError(f"{where}: {what}.{shown_name(col)}.scale must be a number, "
+                                    f"got {shown(spec['scale'])}", parameter="mapping")
             scales[spec["channel"]] = spec["scale"]
     return channels, units, scales

@@ -90,7 +90,7 @@ def _open_v5(path: Path):
                                                     and 0 < numel <= MAX_PROPERTY_ELEMENTS):
                 small.append(name)
             elif cls in _NUMERIC and len(shape) == 2 and numel:
-                _add(name, shape, cls, channels, where)
+                _add(name, shape, cls, (channels, where, skipped))
             else:
                 skipped[name] = f"{cls} of shape {list(shape)}"
         props = _small(path, small)
@@ -139,8 +139,14 @@ def _check_elements(path: Path, size: int) -> None:
                             f"the file at byte {size}; is it truncated or damaged?")
 
 
-def _add(name: str, shape, cls: str, channels: dict, where: dict) -> None:
+def _add(name: str, shape, cls: str, found: tuple[dict, dict, dict]) -> None:
+    channels, where, skipped = found
+    from accelcal.io.recordings.hdf5 import MAX_COLUMNS
+
     rows, cols = shape
+    if 1 not in shape and cols > MAX_COLUMNS:
+        skipped[name] = f"{cols} columns of {rows} samples (more than {MAX_COLUMNS})"
+        return
     dtype = "float64" if cls == "double" else ("float32" if cls == "single" else cls)
     if 1 in shape:
         channels[name] = ChannelInfo(length=max(shape), dtype=dtype)
@@ -171,7 +177,7 @@ def mat_batches(source, names: list[str], rows: int) -> Iterator[dict[str, np.nd
     length = source.channels[names[0]].length
     variables = sorted({source.locations[n][0] for n in names})
     cells = sum(int(np.prod(_shape(source, v))) for v in variables)
-    check_memory(cells, 1, 2, f"reading {shown_name(source.path.name)} (a v5 MAT-file is read "
+    check_memory(cells, 1, 3, f"reading {shown_name(source.path.name)} (a v5 MAT-file is read "
                  "whole)", hint="save it with -v7.3 to stream it")
     with library_errors(source.path.name, "MATLAB v5"):
         data = scipy.io.loadmat(source.path, variable_names=variables, squeeze_me=False)
@@ -179,6 +185,10 @@ def mat_batches(source, names: list[str], rows: int) -> Iterator[dict[str, np.nd
         for name in names:
             var, k = source.locations[name]
             value = np.asarray(data[var])
+            if np.iscomplexobj(value):
+                raise AccelcalError(f"{shown_name(source.path.name)}: variable "
+                                    f"{shown_name(var)} is complex; a channel holds real "
+                                    "samples (save the real and imaginary parts apart)")
             arrays[name] = (value.reshape(-1) if k is None else value[:, k]).astype(float)
             if arrays[name].shape != (length,):
                 raise AccelcalError(f"{shown_name(source.path.name)}: variable "

@@ -150,10 +150,15 @@ def read_recording(path, options: InputOptions | None = None, *, channels: int |
     AccelcalError
         One line naming the file, the column or row, and the fix.
     """
-    from accelcal.resources import MEMORY_SHARE, available_memory
+    from accelcal.resources import MEMORY_SHARE, available_memory, check_memory
 
     options = options or InputOptions()
     plan = make_plan(path, options, channels, need_rate, what)
+    declared = _declared_rows(plan)
+    if declared is not None:
+        check_memory(declared, len(plan.channels) + (plan.time is not None), 3,
+                     f"reading {shown_name(plan.source.path.name)} whole ({declared} rows)",
+                     hint="use a command that streams it, or split the file")
     parts, times, labels = [], [], []
     limit = MEMORY_SHARE * available_memory()
     held = 0
@@ -280,6 +285,23 @@ def sha256(path) -> str:
 
 def _time_unit_name(factor: float) -> str:
     return next(k for k, v in TIME_UNITS.items() if v == factor)
+
+
+def _declared_rows(plan: Plan) -> int | None:
+    """The rows the file declares for the plan's channels, before reading any (None: not known).
+
+    A binary file's channel lengths (TDMS segment metadata, HDF5 and MAT
+    shapes), a Parquet file's row count from its footer; a text table
+    declares nothing.
+    """
+    source = plan.source
+    if source.channels:
+        return max(source.channels[c].length for c in plan.channels if c in source.channels)
+    if source.input_format in ("parquet", "record") and source.skip_rows == 0:
+        from accelcal.io.recordings.sources import parquet_rows
+
+        return parquet_rows(source.path)
+    return None
 
 
 def _blocks(plan: Plan, rows: int, options: InputOptions | None = None,

@@ -248,6 +248,7 @@ def _arrow_batches(source: Source, numeric: list[str], text: list[str], rows: in
 
         # pre_buffer off: on, Arrow caches every column chunk it has read (the whole file)
         with pq.ParquetFile(source.path, pre_buffer=False) as parquet:
+            _check_column_chunks(parquet, numeric + text, source.path)
             yield from parquet.iter_batches(batch_size=rows, columns=numeric + text)
         return
     from pyarrow import csv
@@ -268,6 +269,39 @@ def _arrow_batches(source: Source, numeric: list[str], text: list[str], rows: in
             pending = []
     if pending:
         yield from pa.Table.from_batches(pending).to_batches(max_chunksize=rows)
+
+
+def parquet_rows(path: Path) -> int | None:
+    """The rows a Parquet file's footer declares (None if it cannot be read)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        return pq.read_metadata(path).num_rows
+    except (pa.ArrowException, OSError):
+        return None
+
+
+def _check_column_chunks(parquet, columns: list[str], path: Path) -> None:
+    """Refuse a file whose column chunks decompress to more than the process may take.
+
+    A column chunk's uncompressed size is in the footer [Arrow]; a page is
+    decompressed whole, and a chunk may be one page, so a small file of
+    compressed zeros can declare gigabytes.
+    """
+    from accelcal.io.limits import memory_limit
+    from accelcal.resources import MEMORY_SHARE, shown_bytes
+
+    meta = parquet.metadata
+    wanted = [k for k in range(meta.num_columns)
+              if meta.schema.column(k).path.split(".")[0] in columns]
+    largest = max((sum(meta.row_group(g).column(k).total_uncompressed_size for k in wanted)
+                   for g in range(meta.num_row_groups)), default=0)
+    limit = MEMORY_SHARE * memory_limit()
+    if largest > limit:
+        raise AccelcalError(f"{shown_name(path.name)}: a row group's columns decompress to "
+                            f"{shown_bytes(largest)}; this process can take "
+                            f"{shown_bytes(limit)}; rewrite it with smaller row groups")
 
 
 def _is_parquet(path: Path) -> bool:

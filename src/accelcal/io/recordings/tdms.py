@@ -36,7 +36,7 @@ from accelcal.io.recordings.channels import (
     library_errors,
     numeric,
 )
-from accelcal.validation import one_line, shown_name
+from accelcal.validation import MAX_RATE_HZ, MIN_RATE_HZ, one_line, shown_name
 
 MAGIC = b"TDSm"
 """First bytes of a TDMS file's lead-in (``TDSh`` starts an index file)."""
@@ -82,15 +82,23 @@ def _damage(file_name: str):
     """Refuse a file npTDMS reads with a warning: it logs, then reads what it can [npTDMS].
 
     A TDMS file cut short (a last segment with less data than its lead-in
-    says) or otherwise damaged would be read shorter without a word.
+    says) or otherwise damaged would be read shorter without a word. The
+    warnings npTDMS would print on standard error are silenced meanwhile:
+    the first one is quoted, shortened, in the one-line error.
     """
+    from nptdms.log import log_manager
+
     handler = _Warnings()
     log = logging.getLogger("nptdms")
     log.addHandler(handler)
+    console = log_manager.console_handler  # npTDMS prints its warnings (raw bytes and all)
+    level = console.level
+    console.setLevel(logging.CRITICAL + 1)
     try:
         yield
     finally:
         log.removeHandler(handler)
+        console.setLevel(level)
     if handler.messages:
         raise AccelcalError(f"{shown_name(file_name)} is truncated or damaged (npTDMS: "
                             f"{one_line(handler.messages[0], 160)})")
@@ -109,6 +117,10 @@ def _info(channel, name: str, size: int, file_name: str) -> ChannelInfo:
     if isinstance(increment, int | float | np.number) and not isinstance(increment, bool):
         increment = float(increment)
         rate = 1.0 / increment if np.isfinite(increment) and increment > 0 else None
+        if rate is not None and not MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
+            raise AccelcalError(f"{shown_name(file_name)}: channel {shown_name(name)} has "
+                                f"wf_increment {increment:g} s, a sample rate of {rate:g} Hz; "
+                                f"a rate must be from {MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz")
     unit = props.get("unit_string")
     return ChannelInfo(length=length, unit=unit if isinstance(unit, str) else None, rate=rate,
                        start=iso_time(props["wf_start_time"]) if "wf_start_time" in props

@@ -127,6 +127,10 @@ class StudyResult:
         return rows
 
 
+MAX_SECONDS = 3600.0
+"""Longest estimated local study run without ``force``, s (an hour: progress is shown)."""
+
+
 def run_study(
     rig: DividingHeadRig,
     trials: int,
@@ -140,6 +144,7 @@ def run_study(
     scheduler: str | None = None,
     progress=None,
     timeout: float = montecarlo.SCHEDULER_TIMEOUT_S,
+    force: bool = False,
 ) -> StudyResult:
     """Run the Monte Carlo study on :func:`accelcal.montecarlo.run`.
 
@@ -176,6 +181,9 @@ def run_study(
         ``progress(done, total)`` called as trials complete.
     timeout : float
         Seconds to wait for ``scheduler`` to answer (positive, at most one day).
+    force : bool
+        Run a study estimated (from its first task, timed) to take longer
+        than :data:`MAX_SECONDS` locally; refused otherwise.
 
     Returns
     -------
@@ -217,6 +225,7 @@ def run_study(
         study, int(trials), names=study.names, seed=seed, block_size=block_size,
         blocks_per_task=blocks_per_task, covariance=False,
         workers=workers, scheduler=scheduler, progress=progress, timeout=timeout,
+        max_seconds=None if force else MAX_SECONDS,
     )
     rms_error, mean_sd = study.summarise(result.rms, result.mean)
     unit = rig.models[0].output_unit

@@ -108,7 +108,7 @@ def simulate(*, seed=0, **settings):
 
 
 def reduce(records, *, options=None, terms=None, taus="octave", confidence: float = 0.683,
-           progress=None):
+           progress=None, force: bool = False):
     """The IEEE 952 fit of a still recording, as ``accelcal noise fit`` does [IEEE952]_.
 
     Parameters
@@ -127,6 +127,9 @@ def reduce(records, *, options=None, terms=None, taus="octave", confidence: floa
         Level of the deviation's intervals.
     progress : callable, optional
         Called with the rows read (a file only).
+    force : bool
+        Run a tau set estimated to take longer than
+        :data:`~accelcal.signal.allan.taus.MAX_SECONDS` (a file only; refused otherwise).
 
     Returns
     -------
@@ -139,7 +142,7 @@ def reduce(records, *, options=None, terms=None, taus="octave", confidence: floa
         from accelcal.methods.noise.stream import stream_fit
 
         return stream_fit(records, options, terms=terms, taus=taus, confidence=confidence,
-                          progress=progress)
+                          progress=progress, force=force)
     return fit(records.values[:, 0], records.rate, terms=terms or TERMS, taus=taus,
                confidence=confidence, unit=records.unit)
 

@@ -3,7 +3,8 @@
 A 24 h record at 1 kHz has 8.6e7 samples (690 MB as float64). It is read
 block by block (:func:`accelcal.io.recordings.iter_blocks`, Arrow batches);
 each block extends the phase ``x = cumsum(y - c)`` in a temporary file
-(``numpy.memmap``, float64, in ``tmpdir`` or ``TMPDIR``, removed afterwards);
+(``numpy.memmap``, float64, in ``tmpdir`` or ``TMPDIR``, its name removed as soon
+as it is open, so nothing is left however the run ends);
 ``c`` is the mean of the first :data:`CHUNK` samples, and the cumulative
 sum runs over fixed chunks of :data:`CHUNK` samples at absolute positions,
 so the phase, and every result, is bit-for-bit the same whatever the block
@@ -37,6 +38,7 @@ References
    overlapping kernels on the phase).
 """
 
+import contextlib
 import os
 import tempfile
 from pathlib import Path
@@ -99,12 +101,12 @@ def phase_of(y) -> np.ndarray:
 
 
 def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None,  # noqa: PLR0917
-                          segments=None):
+                          segments=None, force=False):
     from accelcal.signal.allan.deviations import DIVISOR, Deviation
     from accelcal.signal.allan.edf import check_confidence, confidence_interval, edf
     from accelcal.signal.allan.identify import interval_alphas
     from accelcal.signal.allan.kernels import lag_sumsq
-    from accelcal.signal.allan.taus import tau_grid, taus_to_m
+    from accelcal.signal.allan.taus import check_work, tau_grid, taus_to_m
 
     if kind not in STREAM_KINDS:
         raise AccelcalError(f"{kind} needs the record in memory; stream {' or '.join(STREAM_KINDS)}"
@@ -118,10 +120,12 @@ def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None, 
 
         n = max(b - a for a, b in segments)  # the grid and the EDF of the longest segment
         m = tau_grid(n, spec, kind=kind)
+        check_work(len(x) - 1, m, kind, force=force)
         sums, counts = pooled_sums(x, m, segments, order)
         m, sums, counts = m[counts > 0], sums[counts > 0], counts[counts > 0]
     else:
         m = tau_grid(n, spec, kind=kind)
+        check_work(n, m, kind, force=force)
         counts = (n + 1 - order * m).astype(np.int64)
         sums = np.empty(m.size)
         for k, mk in enumerate(int(v) for v in m):
@@ -158,7 +162,8 @@ def deviation_of_samples(y, rate, *, kind="oadev", taus="octave", confidence=0.6
 
 
 def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confidence=0.683,
-                     rows=None, tmpdir=None, progress=None, psd=False, repairs=None):
+                     rows=None, tmpdir=None, progress=None, psd=False, force=False,
+                     repairs=None):
     """Deviation of a one-channel recording file, streamed (bounded memory).
 
     Parameters
@@ -178,6 +183,9 @@ def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confide
         ``progress(done, total)``: rows read (total None when unknown), then taus.
     psd : bool
         Also return the Welch PSD.
+    force : bool
+        Run a tau set estimated to take longer than
+        :data:`~accelcal.signal.allan.taus.MAX_SECONDS` (refused otherwise).
     repairs : accelcal.io.recordings.repairs.Repairs, optional
         Collects what was found in the time column and done about it; with
         ``options.gaps == "split"`` the deviation is pooled over the segments
@@ -205,35 +213,60 @@ def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confide
     repairs = Repairs() if repairs is None else repairs
     split = options.gaps == "split"
     prov, rate = describe(path, options, channels=1, what="still recording")
-    fd, name = tempfile.mkstemp(prefix="accelcal-phase-", suffix=".f64", dir=tmpdir)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            builder = _Phase(lambda a: fh.write(np.ascontiguousarray(a).tobytes()))
-            last_time = None
-            for block in iter_blocks(path, options, rows=rows or DEFAULT_BLOCK_ROWS,
-                                     channels=1, what="still recording", repairs=repairs):
-                if not split:
-                    last_time = _check_gaps(block, rate, last_time, prov["file"])
-                check_values(block.values, block.start, prov["file"])
-                builder.add(block.values[:, 0])
-                if progress:
-                    progress(block.start + block.values.shape[0], None)
-            builder.finish()
+    with _phase_file(tmpdir) as fh:
+        builder = _Phase(lambda a: fh.write(np.ascontiguousarray(a).tobytes()))
+        last_time = None
+        for block in iter_blocks(path, options, rows=rows or DEFAULT_BLOCK_ROWS,
+                                 channels=1, what="still recording", repairs=repairs):
+            if not split:
+                last_time = _check_gaps(block, rate, last_time, prov["file"])
+            check_values(block.values, block.start, prov["file"])
+            builder.add(block.values[:, 0])
+            if progress:
+                progress(block.start + block.values.shape[0], None)
+        builder.finish()
+        fh.flush()
         if builder.samples < 4:
             raise AccelcalError(f"{prov['file']}: {builder.samples} samples are too few for a "
                                 "deviation (at least 4)", parameter="values")
-        x = np.memmap(name, dtype=np.float64, mode="r", shape=(builder.samples + 1,))
+        x = np.memmap(fh, dtype=np.float64, mode="r", shape=(builder.samples + 1,))
         unit = options.unit or prov.get("unit", "")
         dev = _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress,
-                                    repairs.segments if split else None)
+                                    repairs.segments if split else None, force)
         # a spectrum needs consecutive samples: none over split gaps
         spectrum = _psd_from_phase(x, rate) if psd and len(repairs.segments) < 2 else None
         del x
-    finally:
-        Path(name).unlink(missing_ok=True)
     mean = builder.centre + builder.last / builder.samples  # x[n] = sum(y - c)
     extra = {"repairs": repairs.to_dict()} if repairs else {}
     return dev, spectrum, {**prov, "samples": builder.samples, "mean": mean, **extra}
+
+
+@contextlib.contextmanager
+def _phase_file(tmpdir):
+    """An open binary file for the phase, in ``tmpdir`` (or the temp directory), already unlinked.
+
+    The name is removed as soon as the file is open: the open file (and
+    the memory map made of it) keeps the data, and the space returns to the
+    disk when the file is closed, however the run ends (even SIGKILL).
+    Older phase files of processes that are gone are removed first
+    (:func:`accelcal.io.atomic.sweep`). A failed write (a full disk, a
+    file-size limit) is one line naming the directory.
+    """
+    from accelcal.io.atomic import sweep, temp_name, write_error
+
+    directory = Path(tmpdir if tmpdir is not None else tempfile.gettempdir())
+    path = directory / temp_name("accelcal-phase", ".f64", directory=directory)
+    try:
+        sweep(directory)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o600)
+        os.unlink(path)
+    except OSError as exc:
+        raise write_error(path, exc) from None
+    try:
+        with os.fdopen(fd, "w+b") as fh:
+            yield fh
+    except OSError as exc:
+        raise write_error(path, exc) from None
 
 
 def _check_gaps(block, rate, last, file):
@@ -252,7 +285,7 @@ def _check_gaps(block, rate, last, file):
 
 
 def stream_fit(path, options=None, *, terms=None, taus="octave", confidence=0.683, rows=None,
-               tmpdir=None, progress=None):
+               tmpdir=None, progress=None, force=False):
     """The IEEE 952 fit (:func:`~accelcal.methods.noise.fit.fit_deviation`) of a file, streamed.
 
     Returns
@@ -264,6 +297,6 @@ def stream_fit(path, options=None, *, terms=None, taus="octave", confidence=0.68
 
     dev, spectrum, prov = stream_deviation(path, options, kind="oadev", taus=taus,
                                            confidence=confidence, rows=rows, tmpdir=tmpdir,
-                                           progress=progress, psd=True)
+                                           progress=progress, psd=True, force=force)
     return fit_deviation(dev, terms=terms or TERMS, provenance={"input": prov},
                          spectrum=spectrum, mean=prov["mean"])

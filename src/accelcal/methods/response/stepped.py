@@ -215,6 +215,14 @@ def reduce_stepped(records, reference=None, *, reference_frequency: float | None
             amps.append(float(amp_meta[k]) if k < len(amp_meta) else float("nan"))
             dofs.append(dof)
             periods.append(p)
+    flagged = tuple(float(f["frequency_hz"]) for rec in records
+                    for f in rec.metadata.get("flagged", ()) if isinstance(f, dict)
+                    and isinstance(f.get("frequency_hz"), int | float))
+    if flagged:
+        extra_flags = (Assumption("flagged", flagged, "Hz", "steps flagged at import (their "
+                                  "coherence below the limit), kept"),)
+    else:
+        extra_flags = ()
     source = "the records' own" if reference is None else "given"
     points = {"freqs": freqs, "amps": amps, "values": values, "blocks": blocks, "dofs": dofs,
               "periods": periods}
@@ -224,7 +232,7 @@ def reduce_stepped(records, reference=None, *, reference_frequency: float | None
                        f"reference sensitivity from {source} certificate, interpolated "
                        "linearly in frequency (its uncertainty is not included)"),
             Assumption("daq", (gain, delay), "", "DUT channel's gain ratio and delay (s) "
-                       "relative to the reference's, corrected")),
+                       "relative to the reference's, corrected"), *extra_flags),
         note=("Stepped-sine comparison (ISO 16063-21): three-parameter sine fits on whole "
               "periods, covariance of each step's [Re, Im] from the fits' residuals."))
 

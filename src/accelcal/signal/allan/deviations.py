@@ -52,6 +52,7 @@ from accelcal.signal.allan.kernels import phase, variance_sums
 from accelcal.signal.allan.taus import (
     KINDS,
     check_kind,
+    check_work,
     min_samples,
     tau_grid,
     taus_to_m,
@@ -112,8 +113,9 @@ def check_samples(y, kind: str = "oadev") -> np.ndarray:
     return arr
 
 
-def _deviations(x: np.ndarray, m: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray]:
-    sums, counts = variance_sums(x, m, kind)
+def _deviations(x: np.ndarray, m: np.ndarray, kind: str, progress=None
+                ) -> tuple[np.ndarray, np.ndarray]:
+    sums, counts = variance_sums(x, m, kind, progress)
     scale = m.astype(float) ** 2 if kind == "mdev" else m.astype(float)
     return np.sqrt(sums / (DIVISOR[kind] * counts)) / scale, counts
 
@@ -233,7 +235,7 @@ def _given_alpha(alpha, kind: str, count: int) -> np.ndarray:
 
 
 def deviation(y, rate: float, *, kind: str = "oadev", taus="octave", confidence: float = 0.683,
-              unit: str = "", alpha=None) -> Deviation:
+              unit: str = "", alpha=None, force: bool = False, progress=None) -> Deviation:
     """Deviations with identified noise, EDF and chi-square intervals.
 
     Parameters
@@ -257,6 +259,12 @@ def deviation(y, rate: float, *, kind: str = "oadev", taus="octave", confidence:
         ones carry the median alpha of the three longest identified taus
         (:func:`~accelcal.signal.allan.identify.interval_alphas`; the result's
         ``alpha_source`` says which).
+    force : bool
+        Run a tau set estimated to take longer than
+        :data:`~accelcal.signal.allan.taus.MAX_SECONDS` (refused otherwise,
+        :func:`~accelcal.signal.allan.taus.check_work`).
+    progress : callable, optional
+        ``progress(done, total)`` after each tau.
 
     Returns
     -------
@@ -269,9 +277,10 @@ def deviation(y, rate: float, *, kind: str = "oadev", taus="octave", confidence:
     arr = check_samples(y, kind)
     spec = taus if isinstance(taus, str) else taus_to_m(taus, rate)
     m = tau_grid(len(arr), spec, kind=kind)
+    check_work(len(arr), m, kind, force=force)
     given = None if alpha is None else _given_alpha(alpha, kind, len(m))
     x = phase(arr)
-    dev, counts = _deviations(x, m, kind)
+    dev, counts = _deviations(x, m, kind, progress)
     if given is None:
         alphas, sources = interval_alphas(x, m, kind)
     else:

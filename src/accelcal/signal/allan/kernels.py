@@ -202,7 +202,8 @@ def reflected(x: np.ndarray, pad: int) -> np.ndarray:
     return out
 
 
-def variance_sums(x: np.ndarray, m_values: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray]:
+def variance_sums(x: np.ndarray, m_values: np.ndarray, kind: str, progress=None
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Sums of squared terms and numbers of terms of ``kind`` at every averaging factor.
 
     Parameters
@@ -214,6 +215,8 @@ def variance_sums(x: np.ndarray, m_values: np.ndarray, kind: str) -> tuple[np.nd
         (:func:`~accelcal.signal.allan.taus.tau_grid`).
     kind : str
         ``adev``, ``oadev``, ``mdev``, ``hdev``, ``ohdev`` or ``totdev``.
+    progress : callable, optional
+        ``progress(done, total)``, called after each factor.
 
     Returns
     -------
@@ -225,11 +228,12 @@ def variance_sums(x: np.ndarray, m_values: np.ndarray, kind: str) -> tuple[np.nd
     sums = np.empty(len(m_values))
     counts = np.empty(len(m_values), dtype=np.int64)
     with one_blas_thread():
-        _fill(x, np.asarray(m_values), kind, sums, counts)
+        _fill(x, np.asarray(m_values), kind, (sums, counts), progress)
     return sums, counts
 
 
-def _fill(x, m_values, kind, sums, counts) -> None:
+def _fill(x, m_values, kind, out, progress) -> None:
+    sums, counts = out
     npts = len(x)
     work = (np.empty(npts + 1), np.empty(npts + 1)) if kind == "mdev" else None
     pad = int(max(m_values)) if kind == "totdev" else 0
@@ -250,3 +254,5 @@ def _fill(x, m_values, kind, sums, counts) -> None:
         else:  # totdev: centred second differences at the interior points 1..N-2
             counts[k] = npts - 2
             sums[k] = lag_sumsq(ext, pad + 1 - m, counts[k], m, 2)
+        if progress:
+            progress(k + 1, len(m_values))

@@ -92,6 +92,56 @@ def n_terms(n: int, m, kind: str) -> np.ndarray:
     return np.asarray(terms(), dtype=np.int64)
 
 
+SECONDS_PER_TERM = 4e-9
+"""Time of one squared difference of an overlapping deviation, s: measured, about 3-4 s
+per 1e4 taus of 1e5 samples (module :mod:`~accelcal.signal.allan.deviations`) on one core."""
+
+SECONDS_PER_TAU = 2e-4
+"""Time of each tau's own work (noise identification, EDF, interval), s (measured)."""
+
+WORK_FACTOR = {"adev": 1.0, "oadev": 1.0, "mdev": 3.0, "hdev": 1.5, "ohdev": 1.5, "totdev": 1.5}
+"""Cost of a term of each kind relative to OADEV's (MDEV's terms are sums of second
+differences through two work arrays, the Hadamard ones third differences)."""
+
+MAX_SECONDS = 60.0
+"""Longest estimated computation of a tau set run without ``force``, s."""
+
+
+def work_seconds(n: int, m, kind: str) -> float:
+    """Estimated time of the deviation ``kind`` of ``n`` samples at averaging factors ``m``, s.
+
+    The squared differences summed (:func:`n_terms`, O(N) per tau, O(N/m)
+    for the non-overlapping kinds) times :data:`SECONDS_PER_TERM` and the
+    kind's :data:`WORK_FACTOR`, plus :data:`SECONDS_PER_TAU` per tau: the tau
+    set ``all`` is O(N^2). On one unloaded core; a busy machine takes longer.
+    """
+    terms = float(np.clip(n_terms(n, m, kind), 0, None).sum())
+    return (terms * SECONDS_PER_TERM * WORK_FACTOR[check_kind(kind)]
+            + np.size(m) * SECONDS_PER_TAU)
+
+
+def check_work(n: int, m, kind: str, *, force: bool = False) -> float:
+    """Refuse a tau set whose estimated time exceeds :data:`MAX_SECONDS` (unless ``force``).
+
+    Returns
+    -------
+    float
+        The estimate, s.
+
+    Raises
+    ------
+    AccelcalError
+        Naming ``taus`` with the estimate and the bound.
+    """
+    seconds = work_seconds(n, m, kind)
+    if seconds > MAX_SECONDS and not force:
+        raise AccelcalError(
+            f"{kind} at {np.size(m):,} taus of {int(n):,} samples would take about "
+            f"{seconds:,.0f} s (the bound is {MAX_SECONDS:g} s); use the octave or decade tau "
+            "set, fewer taus, or --force (force=True) to run it anyway", parameter="taus")
+    return seconds
+
+
 def max_m(n: int, kind: str) -> int:
     """Largest averaging factor of ``kind`` for ``n`` rate samples (0 when none is allowed)."""
     n = int(n)

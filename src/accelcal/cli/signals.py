@@ -1,0 +1,176 @@
+"""Signals: Ctrl-C, SIGTERM and SIGHUP end a run the same way, with one line, at any moment.
+
+:func:`install` (the first thing :func:`accelcal.cli.main` does) makes
+SIGINT, SIGTERM and SIGHUP raise :class:`Interrupted` (a
+``KeyboardInterrupt``) in the main thread, so the writers' cleanup runs
+(temporary files removed, :mod:`accelcal.io.atomic`) and
+:func:`accelcal.cli.main` prints one line and exits with ``128 + signal``
+(130, 143, 129). Further signals while the run ends are ignored, so a
+second Ctrl-C cannot break the cleanup.
+
+Python runs a signal handler only between bytecodes of the main thread: a
+main thread blocked in C (an SQLite busy wait on a locked store, a library's
+long call) would not see it for a minute. A watcher thread reads the
+signal numbers Python's C-level handler writes to a wake-up pipe; if the
+main thread has not taken the signal within :data:`GRACE` seconds (or has
+not ended :data:`ENDING` seconds after taking it), the watcher removes this
+process's temporaries, prints the line and ends the process itself.
+
+A local Dask cluster's workers are started with SIGINT and SIGHUP blocked
+(:func:`accelcal.parallel.shielded_children`): the terminal sends those to
+the whole process group, and the workers, stopped by the main process as it
+ends, would each print a traceback.
+
+pyarrow's own handler, which turns a signal into a cancelled read and can
+lose it, is switched off when pyarrow is first imported.
+
+References
+----------
+.. [signal] Python documentation, ``signal``: "Python signal handlers are
+   always executed in the main Python thread ... a long-running calculation
+   implemented purely in C ... may run uninterrupted"; ``set_wakeup_fd``.
+.. [exit] The Open Group, Shell Command Language, 2.8.2 (a command ended by a
+   signal: exit status 128 plus the signal number).
+"""
+
+import contextlib
+import os
+import signal
+import sys
+import threading
+
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+"""The signals that end a run cleanly."""
+
+GRACE = 0.8
+"""Seconds the main thread has to take a signal before the watcher ends the run."""
+
+ENDING = 10.0
+"""Seconds the main thread has to end after taking a signal (its cleanup)."""
+
+_taken = threading.Event()
+_printed = threading.Lock()
+_received: list[int] = []
+_installed: list[bool] = []
+
+
+class Interrupted(KeyboardInterrupt):
+    """A run ended by a signal: SIGINT, SIGTERM or SIGHUP (``signum``)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def exit_status(signum: int) -> int:
+    """The exit status of a run ended by ``signum``: 128 plus its number."""
+    return 128 + int(signum)
+
+
+def finish(signum: int) -> None:
+    """Print the one line of a run ended by ``signum`` (once per process)."""
+    if _printed.acquire(blocking=False):
+        name = signal.Signals(signum).name
+        what = "interrupted" if signum == signal.SIGINT else f"stopped by {name}"
+        with contextlib.suppress(OSError, ValueError):
+            sys.stderr.write(f"accelcal: {what}; nothing was left half-written\n")
+            sys.stderr.flush()
+
+
+def received() -> int | None:
+    """The first ending signal received, or None."""
+    return _received[0] if _received else None
+
+
+def install() -> None:
+    """Handle SIGINT, SIGTERM and SIGHUP in the main thread, with the watcher behind.
+
+    Once per process (a program calling :func:`accelcal.cli.main` many times
+    gets one watcher).
+    """
+    if _installed or threading.current_thread() is not threading.main_thread():
+        return
+    _installed.append(True)
+    for sig in SIGNALS:
+        with contextlib.suppress(OSError, ValueError):
+            if signal.getsignal(sig) is not signal.SIG_IGN:  # nohup: stays ignored
+                signal.signal(sig, _handler)
+    read_end, write_end = os.pipe()
+    os.set_blocking(write_end, False)
+    try:
+        signal.set_wakeup_fd(write_end, warn_on_full_buffer=False)
+    except ValueError:
+        os.close(read_end)
+        os.close(write_end)
+        return
+    threading.Thread(target=_watch, args=(read_end,), daemon=True,
+                     name="accelcal-signals").start()
+    _quiet_arrow()
+
+
+def _handler(signum, frame):
+    if _received:
+        return  # the run is ending: its cleanup is not interrupted
+    _received.append(signum)
+    _taken.set()
+    raise Interrupted(signum)
+
+
+def _watch(read_end: int) -> None:
+    while True:
+        try:
+            data = os.read(read_end, 64)
+        except OSError:
+            return
+        ending = [s for s in data if s in SIGNALS]
+        if not ending:
+            continue
+        if not _taken.wait(GRACE):
+            _force(ending[0])
+        threading.Event().wait(ENDING)
+        _force(received() or ending[0])
+
+
+def _force(signum: int) -> None:
+    """End the process from the watcher: remove the temporaries, one line, the exit status."""
+    from accelcal.io.atomic import remove_live
+
+    with contextlib.suppress(Exception):
+        remove_live()
+    with contextlib.suppress(Exception):
+        import multiprocessing
+
+        for child in multiprocessing.active_children():
+            child.terminate()
+    finish(signum)
+    os._exit(exit_status(signum))
+
+
+def _quiet_arrow() -> None:
+    """Switch pyarrow's signal handling off once it is imported (now, or when it is)."""
+    if "pyarrow" in sys.modules:
+        sys.modules["pyarrow"].enable_signal_handlers(False)
+        return
+    sys.meta_path.insert(0, _ArrowFinder())
+
+
+class _ArrowFinder:
+    """A meta-path finder that lets pyarrow load, then switches its signal handling off."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name != "pyarrow":
+            return None
+        import importlib.util
+
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        if spec is None or spec.loader is None:
+            return spec
+        load = spec.loader.exec_module
+
+        def exec_module(module):
+            load(module)
+            module.enable_signal_handlers(False)
+
+        spec.loader.exec_module = exec_module
+        return spec
