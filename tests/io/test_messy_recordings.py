@@ -188,6 +188,7 @@ def test_triad_refuses_a_split_and_reports_a_fill(tmp_path, capsys):
     base = ["triad", "detect", path, "--columns", "c0,c1,c2", "--time", "t", "--unit",
             "m/s^2"]
     refused([*base, "--gaps", "split"], capsys, "static intervals need consecutive samples")
+    refused([*base, "--rails", "-9.8,9.8"], capsys, "samples clipped at the rails")
     code, _, err = run_cli([*base, "--gaps", "fill", "--init-static", "1"], capsys)
     assert code == 0, err
     assert "note: 2 samples filled in the gaps before (data rows 301): linear" in err, err
@@ -215,3 +216,23 @@ def test_resampling_across_a_gap_fills_or_splits_as_told(tmp_path):
     np.testing.assert_allclose(split.time, grid[kept], atol=1e-12)
     np.testing.assert_allclose(split.values[:, 0], np.interp(grid[kept], t, y))
     assert split.repairs.segments == [(0, 4), (4, 7)]
+
+
+def test_clipped_runs_refused_or_left_out_of_the_allan_deviation(tmp_path, capsys):
+    rng = np.random.default_rng(11)
+    y = rng.normal(0, 0.3, 500)
+    y[200:230] = 1.5  # saturated at the high rail for 30 samples
+    y[300] = 1.5      # one sample at the rail: noise, not a clip
+    path = _csv(tmp_path / "clip.csv", np.arange(500) / RATE, y)
+    base = ["noise", "adev", path, "--column", "c0", "--time", "t", "--unit", "g",
+            "--rails", "-1.5,1.5"]
+    refused(base, capsys, "30 samples clipped", "data row 201", "--gaps split")
+    refused([*base, "--gaps", "fill"], capsys, "not filled")
+    code, out, err = run_cli([*base, "--gaps", "split", "--taus", "0.02", "--format", "csv"],
+                             capsys)
+    assert code == 0, err
+    row = next(csv.DictReader(io.StringIO(out)))
+    dev, count = _hand_oadev([y[:200], y[230:]], 2)
+    assert (int(row["n"]), float(row["dev"])) == (count, pytest.approx(dev, rel=1e-9))
+    assert "note: 30 clipped samples (runs of 3 or more at a rail) (data rows 201, 202" in err
+    refused([*base[:-2], "--rails", "2,1"], capsys, "low below high")

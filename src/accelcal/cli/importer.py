@@ -18,12 +18,14 @@ from accelcal.cli.input_options import (
     GAPS,
     JITTER_TOL,
     MAX_FILL,
+    RAILS,
     RATE,
     RESAMPLE,
     SCALE,
     SORT,
     TIME,
     UNIT,
+    parse_rails,
     print_repairs,
 )
 from accelcal.errors import AccelcalError
@@ -60,7 +62,7 @@ def import_(
     scale: float | None = SCALE,
     delimiter: str | None = DELIMITER,
     gaps: str = GAPS, max_fill: int = MAX_FILL, sort: bool = SORT,
-    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE,
+    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE, rails: str | None = RAILS,
     temperature: str | None = typer.Option(
         None, "--temperature", help="Temperature channels summarised in the provenance: "
         "name = channel, comma separated (unit degC or K: the file's, or --temperature-unit)."),
@@ -109,7 +111,7 @@ def import_(
              "unit": unit, "scale": scale,
              "delimiter": "\t" if delimiter == "\\t" else delimiter,
              "gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
-             "resample": resample}
+             "resample": resample, "rails": None if rails is None else parse_rails(rails)}
     options = {**plan.options, **{k: v for k, v in given.items() if v is not None}}
     if rate is not None:
         options.pop("time", None)

@@ -63,6 +63,12 @@ RESAMPLE = typer.Option(False, "--resample",
                         help="With --jitter-tol: interpolate the channels linearly onto the "
                              "uniform grid of the rate.")
 
+RAILS = typer.Option(
+    None, "--rails",
+    help="The clipping levels LOW,HIGH (in --unit, after --scale; e.g. the ADC's range): "
+         "runs of 3 or more samples at or beyond one are clipped: refused, or left out "
+         "with --gaps split.")
+
 
 def input_options(*, input_format: str = "auto", columns: str | None = None,
                   column: str | None = None, time: str | None = None, time_unit: str = "s",
@@ -70,7 +76,7 @@ def input_options(*, input_format: str = "auto", columns: str | None = None,
                   delimiter: str | None = None, regions: Path | None = None,
                   scale: float | None = None, gaps: str = "refuse", max_fill: int = 5,
                   sort: bool = False, jitter_tol: float | None = None,
-                  resample: bool = False):
+                  resample: bool = False, rails: str | None = None):
     """The :class:`~accelcal.io.recordings.InputOptions` of a command's input options.
 
     ``columns`` is a comma-separated list; ``column`` a single name (commands
@@ -92,7 +98,19 @@ def input_options(*, input_format: str = "auto", columns: str | None = None,
     return InputOptions(input_format=input_format, columns=names, time=time,
                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
                         regions=regions, scale=scale, gaps=gaps, max_fill=max_fill, sort=sort,
-                        jitter_tol=jitter_tol, resample=resample)
+                        jitter_tol=jitter_tol, resample=resample,
+                        rails=None if rails is None else parse_rails(rails))
+
+
+def parse_rails(text: str):
+    """``LOW,HIGH`` as two numbers (checked by InputOptions)."""
+    from accelcal.errors import AccelcalError
+
+    try:
+        return tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise AccelcalError(f"--rails {text!r}: give LOW,HIGH, e.g. -2,2",
+                            parameter="rails") from None
 
 
 def print_repairs(repairs) -> None:

@@ -59,6 +59,7 @@ def adev(
     scale: float | None = io_opts.SCALE, delimiter: str | None = io_opts.DELIMITER,
     gaps: str = io_opts.GAPS, max_fill: int = io_opts.MAX_FILL, sort: bool = io_opts.SORT,
     jitter_tol: float | None = io_opts.JITTER_TOL, resample: bool = io_opts.RESAMPLE,
+    rails: str | None = io_opts.RAILS,
     kind: str = typer.Option("oadev", "--kind",
                              help="adev, oadev, mdev, hdev, ohdev or totdev (NIST SP 1065)."),
     taus: str = typer.Option("octave", "--taus", help=_TAUS_HELP),
@@ -77,7 +78,7 @@ def adev(
     check_format(fmt)
     opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter,
                     {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
-                     "resample": resample})
+                     "resample": resample, "rails": rails})
     from accelcal.io.recordings.repairs import Repairs
 
     repairs = Repairs()
@@ -166,6 +167,7 @@ def fit(
     scale: float | None = io_opts.SCALE, delimiter: str | None = io_opts.DELIMITER,
     gaps: str = io_opts.GAPS, max_fill: int = io_opts.MAX_FILL, sort: bool = io_opts.SORT,
     jitter_tol: float | None = io_opts.JITTER_TOL, resample: bool = io_opts.RESAMPLE,
+    rails: str | None = io_opts.RAILS,
     terms: str = typer.Option("N,K", "--terms", help=_TERMS_HELP + " Default N,K: unbiased "
                               "where Q, B and R are absent; the fit's chi^2 says when more "
                               "terms are needed."),
@@ -199,7 +201,7 @@ def fit(
     _check_export(export, export_out, names)
     opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter,
                     {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
-                     "resample": resample})
+                     "resample": resample, "rails": rails})
     info = _lab(record_out, file, serial, operator)
     with _progress(f"fit of {file.name}") as progress:
         red = noise.reduce(file, options=opts, terms=names, taus=_taus(taus),
@@ -292,6 +294,7 @@ def psd(
     scale: float | None = io_opts.SCALE, delimiter: str | None = io_opts.DELIMITER,
     gaps: str = io_opts.GAPS, max_fill: int = io_opts.MAX_FILL, sort: bool = io_opts.SORT,
     jitter_tol: float | None = io_opts.JITTER_TOL, resample: bool = io_opts.RESAMPLE,
+    rails: str | None = io_opts.RAILS,
     terms: str = typer.Option("Q,N,B,K,R", "--terms", help=_TERMS_HELP + " (levels marked)"),
     fmt: str = typer.Option("table", "--format", help="table, csv or json."),
     plot: Path | None = typer.Option(None, "--plot", help="Directory for the figures."),
@@ -306,7 +309,7 @@ def psd(
     check_format(fmt)
     opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter,
                     {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
-                     "resample": resample})
+                     "resample": resample, "rails": rails})
     if gaps == "split":
         raise AccelcalError("a spectrum needs consecutive samples: give --gaps fill, or "
                             "split the file at its gaps", parameter="gaps")

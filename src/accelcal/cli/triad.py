@@ -13,6 +13,7 @@ from accelcal.cli.input_options import (
     INPUT_FORMAT,
     JITTER_TOL,
     MAX_FILL,
+    RAILS,
     RATE,
     REGIONS,
     RESAMPLE,
@@ -60,7 +61,7 @@ def detect(
     time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
     scale: float | None = SCALE, delimiter: str | None = DELIMITER,
     gaps: str = GAPS, max_fill: int = MAX_FILL, sort: bool = SORT,
-    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE,
+    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE, rails: str | None = RAILS,
     init_static: float = INIT_STATIC, window: float = WINDOW,
     factor: float = typer.Option(
         2.0, "--factor", help="Threshold: this many times the initial period's variance "
@@ -85,8 +86,8 @@ def detect(
                    min_length=min_length)
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, scale=scale,
-                         delimiter=delimiter, **_repair_options(gaps, max_fill, sort,
-                                                                jitter_tol, resample))
+                         delimiter=delimiter, rails=rails,
+                         **_repair_options(gaps, max_fill, sort, jitter_tol, resample))
     prov, sample_rate = describe(file, opts, channels=3, what="triad recording", digest=False)
     repairs = Repairs()
     blocks = iter_blocks(file, opts, channels=3, what="triad recording", repairs=repairs)
@@ -124,7 +125,7 @@ def calibrate(
     time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
     scale: float | None = SCALE, delimiter: str | None = DELIMITER, regions: Path | None = REGIONS,
     gaps: str = GAPS, max_fill: int = MAX_FILL, sort: bool = SORT,
-    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE,
+    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE, rails: str | None = RAILS,
     orientations: str | None = typer.Option(
         None, "--orientations",
         help="known (imucal labels or --regions, a triad record's positions, or --positions) "
@@ -192,7 +193,7 @@ def calibrate(
         check_writable(path)
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, scale=scale,
-                         delimiter=delimiter, regions=regions,
+                         delimiter=delimiter, regions=regions, rails=rails,
                          **_repair_options(gaps, max_fill, sort, jitter_tol, resample))
     lab = run(file, options=opts, orientations=orientations, positions=positions,
               gravity=gravity, latitude=latitude, height=height, quadratic=quadratic,

@@ -137,6 +137,10 @@ class InputOptions:
     resample : bool
         Interpolate the channels linearly onto the uniform grid ``k / rate``
         when the jitter exceeds ``jitter_tol``.
+    rails : (float, float), optional
+        The low and high clipping levels (in ``unit``, after ``scale``): runs
+        of 3 or more samples at or beyond one are clipped, refused or (with
+        ``gaps="split"``) left out.
     """
 
     input_format: str = "auto"
@@ -156,12 +160,13 @@ class InputOptions:
     sort: bool = False
     jitter_tol: float | None = None
     resample: bool = False
+    rails: tuple[float, float] | None = None
 
     @property
     def repairing(self) -> bool:
         """Whether an option asks for a repair (any but the defaults)."""
         return (self.gaps != "refuse" or self.sort or self.jitter_tol is not None
-                or self.resample)
+                or self.resample or self.rails is not None)
 
     def __post_init__(self) -> None:
         check_repairs(self)
@@ -223,6 +228,15 @@ def check_repairs(options) -> None:
         raise AccelcalError(f"jitter_tol {shown(tol)} must be a fraction of the sample "
                             "interval above 0 and below 0.5 (a step over 1.5 intervals "
                             "is a gap)", parameter="jitter_tol")
+    if options.rails is not None:
+        try:
+            low, high = (float(v) for v in options.rails)
+        except (TypeError, ValueError):
+            low = high = math.nan
+        if not (math.isfinite(low) and math.isfinite(high) and low < high):
+            raise AccelcalError(f"rails {shown(options.rails)} must be two finite numbers, "
+                                "low below high (e.g. -2,2)", parameter="rails")
+        object.__setattr__(options, "rails", (low, high))
     if options.resample and tol is None:
         raise AccelcalError("resample needs jitter_tol (the jitter that makes a resample)",
                             parameter="resample")

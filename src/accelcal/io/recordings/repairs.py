@@ -21,7 +21,10 @@ looks at each block of a recording as it is read and, following the
   interpolations of the samples either side, and flagged);
 - **jitter** (a step off the nominal interval by more than ``jitter_tol``
   of it): refused, or with ``resample`` every channel is linearly
-  interpolated onto the uniform grid ``k / rate`` from the first sample.
+  interpolated onto the uniform grid ``k / rate`` from the first sample;
+- **clipped samples** (with ``rails``: runs of :data:`MIN_RUN` or more at or
+  beyond a rail, found within a block): refused, or left out with
+  ``gaps="split"`` (never filled).
 
 Nothing is repaired silently: every finding is counted, with its first rows
 (data rows of the file, 1-based after the header), in a :class:`Repairs`
@@ -49,6 +52,9 @@ GAPS = ("refuse", "split", "fill")
 
 MAX_FILL = 5
 """Default largest number of missing samples one gap may have to be filled."""
+
+MIN_RUN = 3
+"""Fewest consecutive samples at a rail that make a clip (as :mod:`accelcal.signal.clipping`)."""
 
 FIRST = 5
 """How many positions of each finding are kept."""
@@ -150,6 +156,7 @@ class TimeRepair:
         self.sort, self.jitter_tol, self.resample = (options.sort, options.jitter_tol,
                                                      options.resample)
         self.interval = None if rate is None else 1.0 / rate
+        self.rails = options.rails
         self.name, self.column, self.repairs = name, shown_name(column or "time"), repairs
         self.last_t = self.last_v = self.last_label = None
         self.out = 0          # samples yielded so far
@@ -160,7 +167,8 @@ class TimeRepair:
     def block(self, time, values, labels, start: int):
         """The block's ``(time, values, labels)`` repaired; ``time`` None for a rate-only file."""
         timed = time is not None
-        plain = self.gaps == "refuse" and self.jitter_tol is None and self.preset is None
+        plain = (self.gaps == "refuse" and self.jitter_tol is None and self.preset is None
+                 and self.rails is None)
         if plain and not timed:
             return None, values, labels  # nothing to look at: the block checks do the rest
         if plain and time.size and (self.last_t is None or time[0] > self.last_t) and (
@@ -168,6 +176,8 @@ class TimeRepair:
             return self._emit(timed, time, values, labels)  # in order, no duplicate
         rows = start + 1 + np.arange(values.shape[0])
         t = time if timed else (start + np.arange(values.shape[0])) * (self.interval or 1.0)
+        if self.rails is not None:
+            t, values, labels, rows = self._clipped(t, values, labels, rows)
         if self.gaps != "refuse":
             bad = ~np.isfinite(values).all(axis=1)
             if bad.any():
@@ -220,6 +230,31 @@ class TimeRepair:
             for pos in np.flatnonzero(gap):
                 self._cut(self.out + pos + (0 if self.last_t is not None else 1))
         return self._emit(timed, t, values, labels)
+
+    def _clipped(self, t, values, labels, rows):
+        """Rows where a channel is in a run of :data:`MIN_RUN` or more at or beyond a rail."""
+        low, high = self.rails
+        with np.errstate(invalid="ignore"):  # a NaN is at no rail
+            at = (values <= low) | (values >= high)
+        clip = np.zeros(values.shape[0], dtype=bool)
+        for j in range(values.shape[1]):
+            edges = np.diff(np.r_[0, at[:, j].astype(np.int8), 0])
+            for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1),
+                            strict=True):
+                if b - a >= MIN_RUN:
+                    clip[a:b] = True
+        if not clip.any():
+            return t, values, labels, rows
+        first = int(np.flatnonzero(clip)[0])
+        if self.gaps != "split":
+            raise AccelcalError(
+                f"{self.name}: {int(clip.sum())} samples clipped at the rails {low:g}, {high:g} "
+                f"from data row {rows[first]}; give --gaps split to leave them out (a clipped "
+                "sample is not filled: the signal beyond the rail is unknown)")
+        self.repairs.add(f"clipped samples (runs of {MIN_RUN} or more at a rail)",
+                         "left out; the hole is a gap (split)", rows[clip])
+        keep = ~clip
+        return t[keep], values[keep], None if labels is None else labels[keep], rows[keep]
 
     def stated(self, segments) -> None:
         """Take the segments an accelcal record states (split on import); refused unless split."""
