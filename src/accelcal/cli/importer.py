@@ -13,7 +13,21 @@ import typer
 
 from accelcal.catalog import kinds, listed
 from accelcal.cli.common import check_format, emit
-from accelcal.cli.input_options import DELIMITER, RATE, SCALE, TIME, UNIT
+from accelcal.cli.input_options import (
+    DELIMITER,
+    GAPS,
+    JITTER_TOL,
+    MAX_FILL,
+    RAILS,
+    RATE,
+    RESAMPLE,
+    SCALE,
+    SORT,
+    TIME,
+    UNIT,
+    parse_rails,
+    print_repairs,
+)
 from accelcal.errors import AccelcalError
 
 _FORMAT_HELP = ("Format of the recording: auto, csv, parquet, tdms, hdf5, mat, imucal, imu_tk "
@@ -47,6 +61,8 @@ def import_(
     unit: str | None = UNIT,
     scale: float | None = SCALE,
     delimiter: str | None = DELIMITER,
+    gaps: str = GAPS, max_fill: int = MAX_FILL, sort: bool = SORT,
+    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE, rails: str | None = RAILS,
     temperature: str | None = typer.Option(
         None, "--temperature", help="Temperature channels summarised in the provenance: "
         "name = channel, comma separated (unit degC or K: the file's, or --temperature-unit)."),
@@ -93,7 +109,9 @@ def import_(
     plan = load_mapping(mapping) if mapping is not None else Mapping()
     given = {"input_format": input_format, "rate": rate, "time": time, "time_unit": time_unit,
              "unit": unit, "scale": scale,
-             "delimiter": "\t" if delimiter == "\\t" else delimiter}
+             "delimiter": "\t" if delimiter == "\\t" else delimiter,
+             "gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
+             "resample": resample, "rails": None if rails is None else parse_rails(rails)}
     options = {**plan.options, **{k: v for k, v in given.items() if v is not None}}
     if rate is not None:
         options.pop("time", None)
@@ -140,6 +158,10 @@ def import_(
         raise AccelcalError(exc.message, parameter=_OPTIONS.get(exc.parameter, exc.parameter)
                             ) from None
     prov = done["provenance"]
+    if "repairs" in prov:
+        from accelcal.io.recordings.repairs import Repairs
+
+        print_repairs(Repairs.from_dict(prov["repairs"]))
     stats = {c: v for c, v in done["statistics"].items() if c != "t"}
     row = {"record": done["record"], "kind": kind, "samples": done["samples"],
            "columns": ",".join(done["columns"]), "rate_hz": prov.get("rate_hz"),

@@ -46,16 +46,42 @@ REGIONS = typer.Option(
     help="An imucal regions JSON ({\"x_p\": {\"start\": i, \"end\": j}, ...}, end exclusive) "
          "labelling sample ranges.")
 
+GAPS = typer.Option(
+    "refuse", "--gaps",
+    help="At a gap in the time column (a step over 1.5 sample intervals) or a row with an "
+         "empty or NaN cell: refuse (default), split (segments, listed in notes) or fill "
+         "(linear interpolation of at most --max-fill samples, flagged).")
+MAX_FILL = typer.Option(5, "--max-fill", help="Most missing samples one gap may have to be "
+                                              "filled with --gaps fill.")
+SORT = typer.Option(False, "--sort", help="Sort rows whose time goes backwards (refused "
+                                          "otherwise, with the row).")
+JITTER_TOL = typer.Option(
+    None, "--jitter-tol",
+    help="Largest step off the nominal sample interval, as a fraction of it (e.g. 0.05); "
+         "a step further off is refused, or resampled with --resample. Default: not checked.")
+RESAMPLE = typer.Option(False, "--resample",
+                        help="With --jitter-tol: interpolate the channels linearly onto the "
+                             "uniform grid of the rate.")
+
+RAILS = typer.Option(
+    None, "--rails",
+    help="The clipping levels LOW,HIGH (in --unit, after --scale; e.g. the ADC's range): "
+         "runs of 3 or more samples at or beyond one are clipped: refused, or left out "
+         "with --gaps split.")
+
 
 def input_options(*, input_format: str = "auto", columns: str | None = None,
                   column: str | None = None, time: str | None = None, time_unit: str = "s",
                   rate: float | None = None, unit: str | None = None,
                   delimiter: str | None = None, regions: Path | None = None,
-                  scale: float | None = None):
+                  scale: float | None = None, gaps: str = "refuse", max_fill: int = 5,
+                  sort: bool = False, jitter_tol: float | None = None,
+                  resample: bool = False, rails: str | None = None):
     """The :class:`~accelcal.io.recordings.InputOptions` of a command's input options.
 
     ``columns`` is a comma-separated list; ``column`` a single name (commands
-    reading one channel); give at most one of them.
+    reading one channel); give at most one of them. ``gaps`` to ``resample``:
+    the repairs of a messy time column (:mod:`accelcal.io.recordings.repairs`).
     """
     from accelcal.errors import AccelcalError
     from accelcal.io.recordings import InputOptions
@@ -71,4 +97,25 @@ def input_options(*, input_format: str = "auto", columns: str | None = None,
         delimiter = "\t"
     return InputOptions(input_format=input_format, columns=names, time=time,
                         time_unit=time_unit, rate=rate, unit=unit, delimiter=delimiter,
-                        regions=regions, scale=scale)
+                        regions=regions, scale=scale, gaps=gaps, max_fill=max_fill, sort=sort,
+                        jitter_tol=jitter_tol, resample=resample,
+                        rails=None if rails is None else parse_rails(rails))
+
+
+def parse_rails(text: str):
+    """``LOW,HIGH`` as two numbers (checked by InputOptions)."""
+    from accelcal.errors import AccelcalError
+
+    try:
+        return tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise AccelcalError(f"--rails {text!r}: give LOW,HIGH, e.g. -2,2",
+                            parameter="rails") from None
+
+
+def print_repairs(repairs) -> None:
+    """Print what was found in a recording and done about it, as ``note:`` lines."""
+    import sys
+
+    for line in repairs.notes():
+        print(line, file=sys.stderr)

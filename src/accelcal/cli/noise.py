@@ -36,10 +36,11 @@ def _taus(text: str):
     return text if text in ("octave", "decade", "all") else parse_grid(text, "--taus")
 
 
-def _options(input_format, column, time, time_unit, rate, unit, scale, delimiter):  # noqa: PLR0917
+def _options(input_format, column, time, time_unit, rate, unit, scale, delimiter,  # noqa: PLR0917
+             repair=None):
     return io_opts.input_options(input_format=input_format, column=column, time=time,
                                  time_unit=time_unit, rate=rate, unit=unit, scale=scale,
-                                 delimiter=delimiter)
+                                 delimiter=delimiter, **(repair or {}))
 
 
 def _progress(what: str):
@@ -56,6 +57,9 @@ def adev(
     time: str | None = io_opts.TIME, time_unit: str = io_opts.TIME_UNIT,
     rate: float | None = io_opts.RATE, unit: str | None = io_opts.UNIT,
     scale: float | None = io_opts.SCALE, delimiter: str | None = io_opts.DELIMITER,
+    gaps: str = io_opts.GAPS, max_fill: int = io_opts.MAX_FILL, sort: bool = io_opts.SORT,
+    jitter_tol: float | None = io_opts.JITTER_TOL, resample: bool = io_opts.RESAMPLE,
+    rails: str | None = io_opts.RAILS,
     kind: str = typer.Option("oadev", "--kind",
                              help="adev, oadev, mdev, hdev, ohdev or totdev (NIST SP 1065)."),
     taus: str = typer.Option("octave", "--taus", help=_TAUS_HELP),
@@ -72,15 +76,22 @@ def adev(
     from accelcal.methods.noise.stream import STREAM_KINDS, stream_deviation
 
     check_format(fmt)
-    opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter)
+    opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter,
+                    {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
+                     "resample": resample, "rails": rails})
+    from accelcal.io.recordings.repairs import Repairs
+
+    repairs = Repairs()
     if kind in STREAM_KINDS:
         with _progress(f"{kind} of {file.name}") as progress:
             dev, _, _ = stream_deviation(file, opts, kind=kind, taus=_taus(taus),
-                                         confidence=confidence, progress=progress, force=force)
+                                         confidence=confidence, progress=progress, force=force,
+                                         repairs=repairs)
     else:
         with _progress(f"{kind} of {file.name}") as progress:
-            dev = _in_memory(file, opts, kind, _taus(taus), confidence,
+            dev = _in_memory(file, opts, kind, _taus(taus), confidence, repairs,
                              force=force, progress=progress)
+    io_opts.print_repairs(repairs)
     emit(dev.rows(), fmt, title=f"{kind} of {file.name} ({dev.unit}; {confidence:.1%} intervals)")
     if plot is not None:  # before the notes: a figure that cannot be written is the one line
         from accelcal.methods.noise.figures import deviation_figure
@@ -124,12 +135,18 @@ def interval_notes(dev) -> list[str]:
     return notes
 
 
-def _in_memory(file, opts, kind, taus, confidence, *, force=False, progress=None):
+def _in_memory(file, opts, kind, taus, confidence, repairs, *, force=False,  # noqa: PLR0917
+               progress=None):
     from accelcal.io.formats.noise import check_values
     from accelcal.io.recordings import read_recording
     from accelcal.signal.allan.deviations import deviation
 
+    if opts.gaps == "split":
+        raise AccelcalError(f"--gaps split pools oadev and ohdev over segments; {kind} needs "
+                            "consecutive samples (give --kind oadev, or --gaps fill)",
+                            parameter="gaps")
     rec = read_recording(file, opts, channels=1, what="still recording")
+    repairs.findings.update(rec.repairs.findings)
     check_values(rec.values, 0, file.name)
     gaps = rec.gaps()
     if gaps.size:
@@ -148,6 +165,9 @@ def fit(
     time: str | None = io_opts.TIME, time_unit: str = io_opts.TIME_UNIT,
     rate: float | None = io_opts.RATE, unit: str | None = io_opts.UNIT,
     scale: float | None = io_opts.SCALE, delimiter: str | None = io_opts.DELIMITER,
+    gaps: str = io_opts.GAPS, max_fill: int = io_opts.MAX_FILL, sort: bool = io_opts.SORT,
+    jitter_tol: float | None = io_opts.JITTER_TOL, resample: bool = io_opts.RESAMPLE,
+    rails: str | None = io_opts.RAILS,
     terms: str = typer.Option("N,K", "--terms", help=_TERMS_HELP + " Default N,K: unbiased "
                               "where Q, B and R are absent; the fit's chi^2 says when more "
                               "terms are needed."),
@@ -179,7 +199,9 @@ def fit(
         raise AccelcalError(f"--format {fmt!r} is not one of table, json")
     names = check_terms(terms)
     _check_export(export, export_out, names)
-    opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter)
+    opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter,
+                    {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
+                     "resample": resample, "rails": rails})
     info = _lab(record_out, file, serial, operator)
     with _progress(f"fit of {file.name}") as progress:
         red = noise.reduce(file, options=opts, terms=names, taus=_taus(taus),
@@ -215,6 +237,16 @@ def fit(
           + (f"; at the bound 0: {', '.join(doc['at_bound'])}" if doc["at_bound"] else ""))
     for note in red.notes:
         print(f"note: {note}")
+    _print_input_repairs(red)
+
+
+def _print_input_repairs(red) -> None:
+    """The ``note:`` lines of what was found in the recording's time column, if anything."""
+    from accelcal.io.recordings.repairs import Repairs
+
+    found = (red.provenance or {}).get("input", {}).get("repairs")
+    if found:
+        io_opts.print_repairs(Repairs.from_dict(found))
 
 
 def _check_export(export, export_out, names) -> None:
@@ -260,6 +292,9 @@ def psd(
     time: str | None = io_opts.TIME, time_unit: str = io_opts.TIME_UNIT,
     rate: float | None = io_opts.RATE, unit: str | None = io_opts.UNIT,
     scale: float | None = io_opts.SCALE, delimiter: str | None = io_opts.DELIMITER,
+    gaps: str = io_opts.GAPS, max_fill: int = io_opts.MAX_FILL, sort: bool = io_opts.SORT,
+    jitter_tol: float | None = io_opts.JITTER_TOL, resample: bool = io_opts.RESAMPLE,
+    rails: str | None = io_opts.RAILS,
     terms: str = typer.Option("Q,N,B,K,R", "--terms", help=_TERMS_HELP + " (levels marked)"),
     fmt: str = typer.Option("table", "--format", help="table, csv or json."),
     plot: Path | None = typer.Option(None, "--plot", help="Directory for the figures."),
@@ -272,7 +307,12 @@ def psd(
     from accelcal.methods.noise.stream import stream_fit
 
     check_format(fmt)
-    opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter)
+    opts = _options(input_format, column, time, time_unit, rate, unit, scale, delimiter,
+                    {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
+                     "resample": resample, "rails": rails})
+    if gaps == "split":
+        raise AccelcalError("a spectrum needs consecutive samples: give --gaps fill, or "
+                            "split the file at its gaps", parameter="gaps")
     with _progress(f"psd of {file.name}") as progress:
         red = stream_fit(file, opts, terms=check_terms(terms), progress=progress)
     f, p = (np.asarray(red.observations[k]) for k in ("psd_frequency", "psd"))
@@ -284,6 +324,7 @@ def psd(
             for i, (fk, pk) in enumerate(zip(f[keep], p[keep], strict=True))]
     emit(rows, fmt,
          title=f"one-sided PSD of {file.name} ({unit_squared(red.provenance['unit'])}/Hz)")
+    _print_input_repairs(red)
     if plot is not None:
         for path in red.plot(plot):
             print(f"wrote {path}", file=sys.stderr)

@@ -9,14 +9,21 @@ from accelcal.cli.common import check_format, check_writable, emit
 from accelcal.cli.input_options import (
     COLUMNS,
     DELIMITER,
+    GAPS,
     INPUT_FORMAT,
+    JITTER_TOL,
+    MAX_FILL,
+    RAILS,
     RATE,
     REGIONS,
+    RESAMPLE,
     SCALE,
+    SORT,
     TIME,
     TIME_UNIT,
     UNIT,
     input_options,
+    print_repairs,
 )
 from accelcal.errors import AccelcalError
 from accelcal.formatting import unit_squared
@@ -53,6 +60,8 @@ def detect(
     input_format: str = INPUT_FORMAT, columns: str | None = COLUMNS, time: str | None = TIME,
     time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
     scale: float | None = SCALE, delimiter: str | None = DELIMITER,
+    gaps: str = GAPS, max_fill: int = MAX_FILL, sort: bool = SORT,
+    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE, rails: str | None = RAILS,
     init_static: float = INIT_STATIC, window: float = WINDOW,
     factor: float = typer.Option(
         2.0, "--factor", help="Threshold: this many times the initial period's variance "
@@ -68,6 +77,7 @@ def detect(
     """
     from accelcal.cli.progress import DelayedProgress
     from accelcal.io.recordings import describe, iter_blocks
+    from accelcal.io.recordings.repairs import Repairs
     from accelcal.signal.static import check_settings
     from accelcal.signal.static_stream import detect_static_stream
 
@@ -76,9 +86,11 @@ def detect(
                    min_length=min_length)
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, scale=scale,
-                         delimiter=delimiter)
+                         delimiter=delimiter, rails=rails,
+                         **_repair_options(gaps, max_fill, sort, jitter_tol, resample))
     prov, sample_rate = describe(file, opts, channels=3, what="triad recording", digest=False)
-    blocks = iter_blocks(file, opts, channels=3, what="triad recording")
+    repairs = Repairs()
+    blocks = iter_blocks(file, opts, channels=3, what="triad recording", repairs=repairs)
     with DelayedProgress(f"static intervals of {file.name}") as progress:
         (found,) = detect_static_stream(
             blocks, sample_rate, init_static=init_static, window=window, factors=(factor,),
@@ -93,6 +105,16 @@ def detect(
     emit(found.rows(), fmt,
          title=f"{file}: {len(found)} static intervals (threshold {found.threshold:.4g} "
                f"{unit_squared(prov['unit'])} = {factor:g} x the first {init_static:g} s)")
+    print_repairs(repairs)
+
+
+def _repair_options(gaps, max_fill, sort, jitter_tol, resample) -> dict:
+    """The repair options of a triad command (a split recording is refused)."""
+    if gaps == "split":
+        raise AccelcalError("--gaps split: static intervals need consecutive samples; give "
+                            "--gaps fill, or split the file at its gaps", parameter="gaps")
+    return {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
+            "resample": resample}
 
 
 @app.command("calibrate")
@@ -102,6 +124,8 @@ def calibrate(
     input_format: str = INPUT_FORMAT, columns: str | None = COLUMNS, time: str | None = TIME,
     time_unit: str = TIME_UNIT, rate: float | None = RATE, unit: str | None = UNIT,
     scale: float | None = SCALE, delimiter: str | None = DELIMITER, regions: Path | None = REGIONS,
+    gaps: str = GAPS, max_fill: int = MAX_FILL, sort: bool = SORT,
+    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE, rails: str | None = RAILS,
     orientations: str | None = typer.Option(
         None, "--orientations",
         help="known (imucal labels or --regions, a triad record's positions, or --positions) "
@@ -180,13 +204,14 @@ def calibrate(
         check_writable(path)
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, scale=scale,
-                         delimiter=delimiter,
-                         regions=regions)
+                         delimiter=delimiter, regions=regions, rails=rails,
+                         **_repair_options(gaps, max_fill, sort, jitter_tol, resample))
     lab = run(file, options=opts, orientations=orientations, positions=positions,
               gravity=gravity, latitude=latitude, height=height, quadratic=quadratic,
               init_static=init_static, window=window, factor=factor, min_length=min_length,
               estimator=estimator, fixture_tilt=tilt, priors=bounds)
     red, rec, found = lab.reduction, lab.recording, lab.intervals
+    print_repairs(rec.repairs)
     files = [file] if rec.provenance.get("input_format") == "record" else []
     info = record_options.lab_info_for(record_out, files, serial=serial, operator=operator)
     rows = red.rows()

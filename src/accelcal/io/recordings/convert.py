@@ -38,6 +38,7 @@ from accelcal.errors import AccelcalError
 from accelcal.io.recordings.kinds import Layout, declared, layout, validator
 from accelcal.io.recordings.options import TEMPERATURE_UNITS, InputOptions
 from accelcal.io.recordings.read import DEFAULT_BLOCK_ROWS, describe, iter_blocks
+from accelcal.io.recordings.repairs import Repairs
 from accelcal.validation import check_label, shown, shown_name, shown_path
 
 RESERVED = ("format_version", "kind", "units", "provenance")
@@ -115,10 +116,18 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
     try:
         with temp_directory(out.parent, "import") as stage:
             staged = stage / out.name
+            repairs = Repairs()
             samples, stats = _write(staged, header, plan,
-                                    iter_blocks(path, opts, rows=rows, need_rate=timed),
+                                    iter_blocks(path, opts, rows=rows, need_rate=timed,
+                                                repairs=repairs),
                                     rate=rate, progress=progress,
                                     infos=prov.get("channels", {}))
+            if repairs:  # known at the end: written again with them in the provenance
+                prov["repairs"] = repairs.to_dict()
+                samples, stats = _write(staged, header, plan,
+                                        iter_blocks(path, opts, rows=rows, need_rate=timed),
+                                        rate=rate, progress=progress,
+                                        infos=prov.get("channels", {}))
             _validate(staged, out, plan, samples, rows)
             with atomic_path(out) as tmp:
                 os.replace(staged, tmp)

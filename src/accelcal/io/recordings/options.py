@@ -123,6 +123,24 @@ class InputOptions:
     refuse_gaps : bool
         Refuse a time column with a gap (a step over 1.5 nominal intervals):
         for records that hold consecutive samples at one rate.
+    gaps : str
+        At a gap or a row with an empty or NaN cell: ``refuse`` (default),
+        ``split`` (segments) or ``fill`` (linear interpolation of at most
+        ``max_fill`` samples, flagged); see :mod:`~accelcal.io.recordings.repairs`.
+    max_fill : int
+        Most missing samples one gap may have to be filled (``gaps="fill"``).
+    sort : bool
+        Sort rows whose time goes backwards (refused otherwise).
+    jitter_tol : float, optional
+        Largest step off the nominal interval, relative to it; a step further
+        off is refused, or resampled with ``resample``. None: not checked.
+    resample : bool
+        Interpolate the channels linearly onto the uniform grid ``k / rate``
+        when the jitter exceeds ``jitter_tol``.
+    rails : (float, float), optional
+        The low and high clipping levels (in ``unit``, after ``scale``): runs
+        of 3 or more samples at or beyond one are clipped, refused or (with
+        ``gaps="split"``) left out.
     """
 
     input_format: str = "auto"
@@ -137,8 +155,21 @@ class InputOptions:
     units: dict | None = None
     scales: dict | None = None
     refuse_gaps: bool = False
+    gaps: str = "refuse"
+    max_fill: int = 5
+    sort: bool = False
+    jitter_tol: float | None = None
+    resample: bool = False
+    rails: tuple[float, float] | None = None
+
+    @property
+    def repairing(self) -> bool:
+        """Whether an option asks for a repair (any but the defaults)."""
+        return (self.gaps != "refuse" or self.sort or self.jitter_tol is not None
+                or self.resample or self.rails is not None)
 
     def __post_init__(self) -> None:
+        check_repairs(self)
         if self.input_format not in INPUT_FORMATS:
             raise AccelcalError(
                 f"input format {shown(self.input_format)} is not known; use one of "
@@ -180,6 +211,35 @@ class InputOptions:
                                     parameter="units")
         object.__setattr__(self, "scales", {col: check_scale(s, "scales")
                                             for col, s in (self.scales or {}).items()} or None)
+
+
+def check_repairs(options) -> None:
+    """Check the repair options of an :class:`InputOptions` (one line each)."""
+    if options.gaps not in ("refuse", "split", "fill"):
+        raise AccelcalError(f"gaps {shown(options.gaps)} is not known; use refuse, split or "
+                            "fill", parameter="gaps")
+    fill = options.max_fill
+    if isinstance(fill, bool) or not isinstance(fill, int) or not 1 <= fill <= 1_000_000:
+        raise AccelcalError(f"max_fill {shown(fill)} must be a whole number of samples, "
+                            "1 to 1000000", parameter="max_fill")
+    tol = options.jitter_tol
+    if tol is not None and (isinstance(tol, bool) or not isinstance(tol, (int, float))
+                            or not 0 < tol < 0.5):
+        raise AccelcalError(f"jitter_tol {shown(tol)} must be a fraction of the sample "
+                            "interval above 0 and below 0.5 (a step over 1.5 intervals "
+                            "is a gap)", parameter="jitter_tol")
+    if options.rails is not None:
+        try:
+            low, high = (float(v) for v in options.rails)
+        except (TypeError, ValueError):
+            low = high = math.nan
+        if not (math.isfinite(low) and math.isfinite(high) and low < high):
+            raise AccelcalError(f"rails {shown(options.rails)} must be two finite numbers, "
+                                "low below high (e.g. -2,2)", parameter="rails")
+        object.__setattr__(options, "rails", (low, high))
+    if options.resample and tol is None:
+        raise AccelcalError("resample needs jitter_tol (the jitter that makes a resample)",
+                            parameter="resample")
 
 
 SCALE_RANGE = (1e-15, 1e15)

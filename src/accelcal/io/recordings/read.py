@@ -42,6 +42,7 @@ from accelcal.io.recordings.checks import (
 )
 from accelcal.io.recordings.options import TIME_UNITS, InputOptions, to_si_factor
 from accelcal.io.recordings.plan import Plan, make_plan
+from accelcal.io.recordings.repairs import Repairs, TimeRepair
 from accelcal.validation import check_rate, shown_name
 
 DEFAULT_BLOCK_ROWS = 1 << 20
@@ -75,6 +76,9 @@ class Recording:
         The file, its SHA-256, its format, its properties and how it was read.
     units : tuple of str
         Each channel's unit (empty: all in :attr:`unit`).
+    repairs : Repairs
+        What was found in the time column and done about it, and the segments
+        (:mod:`~accelcal.io.recordings.repairs`).
     """
 
     values: np.ndarray
@@ -87,6 +91,7 @@ class Recording:
     metadata: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict)
     units: tuple[str, ...] = ()
+    repairs: Repairs = field(default_factory=Repairs)
 
     @property
     def samples(self) -> int:
@@ -157,7 +162,8 @@ def read_recording(path, options: InputOptions | None = None, *, channels: int |
     parts, times, labels = [], [], []
     limit = MEMORY_SHARE * available_memory()
     held = 0
-    for block in _blocks(plan, DEFAULT_BLOCK_ROWS):
+    repairs = Repairs()
+    for block in _blocks(plan, DEFAULT_BLOCK_ROWS, options, repairs):
         parts.append(block.values)
         if block.time is not None:
             times.append(block.time)
@@ -179,23 +185,27 @@ def read_recording(path, options: InputOptions | None = None, *, channels: int |
         rate = _rate_of(time, plan)
     label_array = np.concatenate(labels) if labels else None
     spans = regions(options.regions, values.shape[0]) if options.regions else {}
+    prov = provenance(plan, rate, values.shape[0])
+    if repairs:
+        prov["repairs"] = repairs.to_dict()
     return Recording(values, plan.channels, plan.unit, rate, time, label_array, spans,
-                     plan.source.metadata, provenance(plan, rate, values.shape[0]),
-                     plan.units if plan.unit == "mixed" else ())
+                     plan.source.metadata, prov, plan.units if plan.unit == "mixed" else (),
+                     repairs)
 
 
 def iter_blocks(path, options: InputOptions | None = None, *, rows: int = DEFAULT_BLOCK_ROWS,
                 channels: int | None = None, need_rate: bool = True,
-                what: str = "recording") -> Iterator[Block]:
+                what: str = "recording", repairs: Repairs | None = None) -> Iterator[Block]:
     """Stream a recording in blocks of at most ``rows`` rows.
 
     The checks of :func:`read_recording`, block by block; memory is bounded
     by one block (a v5 MAT-file excepted: it is read whole, see
-    :mod:`~accelcal.io.recordings.matlab`).
+    :mod:`~accelcal.io.recordings.matlab`). ``repairs``, when given, collects
+    what was found and done (complete once the last block is read).
     """
     options = options or InputOptions()
     plan = make_plan(path, options, channels, need_rate, what)
-    yield from _blocks(plan, rows)
+    yield from _blocks(plan, rows, options, repairs)
 
 
 def describe(path, options: InputOptions | None = None, *, channels: int | None = None,
@@ -210,7 +220,7 @@ def describe(path, options: InputOptions | None = None, *, channels: int | None 
     plan = make_plan(path, options, channels, need_rate, what)
     rate = plan.rate
     if rate is None and plan.time is not None:
-        first = next(_blocks(plan, DEFAULT_BLOCK_ROWS), None)
+        first = next(_blocks(plan, DEFAULT_BLOCK_ROWS, options), None)
         if first is None or first.time is None or first.time.size < 2:
             raise AccelcalError(f"{shown_name(plan.source.path.name)}: too few samples to "
                                 "tell the sample rate from the time column", parameter="rate")
@@ -294,32 +304,46 @@ def _declared_rows(plan: Plan) -> int | None:
     return None
 
 
-def _blocks(plan: Plan, rows: int) -> Iterator[Block]:
+def _blocks(plan: Plan, rows: int, options: InputOptions | None = None,
+            repairs: Repairs | None = None) -> Iterator[Block]:
     from accelcal.io.recordings.sources import batches
 
     name = shown_name(plan.source.path.name)
+    fixer = TimeRepair(options or InputOptions(), plan.rate, name, plan.time,
+                       Repairs() if repairs is None else repairs)
+    strict = fixer.gaps == "refuse"  # NaN cells refused here, not dropped by the repair
+    stated = ((plan.source.metadata or {}).get("provenance") or {}).get("repairs", {})
+    if len(stated.get("segments", ())) > 1:
+        fixer.stated(stated["segments"])
     numeric = list(plan.channels) + ([plan.time] if plan.time else [])
     text = [plan.label] if plan.label else []
     scale = (None if all(s is None for s in plan.scales)
              else np.array([1.0 if s is None else s for s in plan.scales]))
-    start, t0, last, interval = 0, None, None, None
+    start, t0, last, interval, read = 0, None, None, None, 0
     for batch in batches(plan.source, numeric, text, rows):
         values = np.column_stack([batch[c] for c in plan.channels])
-        check_values(values, plan.channels, start, name)
+        first, read = read, read + values.shape[0]
+        if strict:
+            check_values(values, plan.channels, first, name)
         if scale is not None:
             with np.errstate(over="ignore"):  # an overflow is caught as a non-finite value
                 values = values * scale
-            check_values(values, plan.channels, start, f"{name} (times the scale)")
+            if strict:
+                check_values(values, plan.channels, first, f"{name} (times the scale)")
         time = None
         if plan.time:
             raw = batch[plan.time]
-            check_finite_time(raw, start, name, plan.time)
+            check_finite_time(raw, first, name, plan.time)
             if t0 is None and raw.size:
                 t0 = raw[0]
             with np.errstate(over="ignore"):  # an overflow is caught as a non-finite time
                 time = (raw - t0) * plan.time_factor
+        labels = batch[plan.label] if plan.label else None
+        if plan.time or plan.rate:
+            time, values, labels = fixer.block(time, values, labels, first)
+        if plan.time:
             check_time(time, last, start, name, plan.time)
-            if plan.refuse_gaps and time.size:
+            if plan.refuse_gaps and strict and time.size:
                 if interval is None:
                     interval = 1.0 / plan.rate if plan.rate else _median_step(time, last)
                 if interval is not None:
@@ -327,9 +351,11 @@ def _blocks(plan: Plan, rows: int) -> Iterator[Block]:
                                column=plan.time)
             if time.size:
                 last = time[-1]
-        labels = batch[plan.label] if plan.label else None
+        if not values.shape[0]:
+            continue
         yield Block(values, start, time, labels)
         start += values.shape[0]
+    fixer.finish()
 
 
 def _median_step(time: np.ndarray, last) -> float | None:

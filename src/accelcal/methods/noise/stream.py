@@ -27,7 +27,9 @@ Kinds streamed: ``oadev`` and ``ohdev`` (lagged differences of the phase);
 (:func:`accelcal.signal.allan.deviations.deviation`).
 
 A time column is checked for gaps (an interval longer than 1.5 sample
-intervals): a gap is refused, never averaged over; so is a sample beyond
+intervals): a gap is refused, never averaged over, unless the options say
+``gaps="split"`` (the deviation pooled within segments,
+:mod:`~accelcal.methods.noise.gapped`) or ``"fill"``; so is a sample beyond
 :data:`accelcal.io.formats.noise.MAX_VALUE` (a corrupt cell).
 
 References
@@ -99,7 +101,7 @@ def phase_of(y) -> np.ndarray:
 
 
 def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None,  # noqa: PLR0917
-                          force=False):
+                          segments=None, force=False):
     from accelcal.signal.allan.deviations import DIVISOR, Deviation
     from accelcal.signal.allan.edf import check_confidence, confidence_interval, edf
     from accelcal.signal.allan.identify import interval_alphas
@@ -112,15 +114,24 @@ def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None, 
     confidence = check_confidence(confidence)
     n = len(x) - 1
     spec = taus if isinstance(taus, str) else taus_to_m(taus, rate)
-    m = tau_grid(n, spec, kind=kind)
-    check_work(n, m, kind, force=force)
     order = 2 if kind == "oadev" else 3
-    counts = (n + 1 - order * m).astype(np.int64)
-    sums = np.empty(m.size)
-    for k, mk in enumerate(int(v) for v in m):
-        sums[k] = lag_sumsq(x, 0, int(counts[k]), mk, order)  # Eqs. (11), (20) [Riley2008]
-        if progress:
-            progress(k + 1, m.size)
+    if segments is not None and len(segments) > 1:  # over gaps: pooled within segments
+        from accelcal.methods.noise.gapped import pooled_sums
+
+        n = max(b - a for a, b in segments)  # the grid and the EDF of the longest segment
+        m = tau_grid(n, spec, kind=kind)
+        check_work(len(x) - 1, m, kind, force=force)
+        sums, counts = pooled_sums(x, m, segments, order)
+        m, sums, counts = m[counts > 0], sums[counts > 0], counts[counts > 0]
+    else:
+        m = tau_grid(n, spec, kind=kind)
+        check_work(n, m, kind, force=force)
+        counts = (n + 1 - order * m).astype(np.int64)
+        sums = np.empty(m.size)
+        for k, mk in enumerate(int(v) for v in m):
+            sums[k] = lag_sumsq(x, 0, int(counts[k]), mk, order)  # Eqs. (11), (20) [Riley2008]
+            if progress:
+                progress(k + 1, m.size)
     dev = np.sqrt(sums / (DIVISOR[kind] * counts)) / m
     if not np.all(dev > 0):
         raise AccelcalError("the signal is constant; a deviation of 0 says nothing",
@@ -132,7 +143,7 @@ def _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress=None, 
     lo, hi = confidence_interval(dev, dof, confidence)
     return Deviation(kind=kind, tau=m / rate, m=m, n=counts, dev=dev, alpha=alphas, edf=dof,
                      lo=lo, hi=hi, confidence=confidence, unit=str(unit), rate=float(rate),
-                     samples=n, alpha_source=sources)
+                     samples=len(x) - 1, alpha_source=sources)
 
 
 def _psd_from_phase(x, rate):
@@ -151,7 +162,8 @@ def deviation_of_samples(y, rate, *, kind="oadev", taus="octave", confidence=0.6
 
 
 def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confidence=0.683,
-                     rows=None, tmpdir=None, progress=None, psd=False, force=False):
+                     rows=None, tmpdir=None, progress=None, psd=False, force=False,
+                     repairs=None):
     """Deviation of a one-channel recording file, streamed (bounded memory).
 
     Parameters
@@ -174,6 +186,10 @@ def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confide
     force : bool
         Run a tau set estimated to take longer than
         :data:`~accelcal.signal.allan.taus.MAX_SECONDS` (refused otherwise).
+    repairs : accelcal.io.recordings.repairs.Repairs, optional
+        Collects what was found in the time column and done about it; with
+        ``options.gaps == "split"`` the deviation is pooled over the segments
+        (:mod:`~accelcal.methods.noise.gapped`).
 
     Returns
     -------
@@ -191,15 +207,19 @@ def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confide
     from accelcal.io.formats.noise import check_values
     from accelcal.io.recordings import InputOptions, describe, iter_blocks
     from accelcal.io.recordings.read import DEFAULT_BLOCK_ROWS
+    from accelcal.io.recordings.repairs import Repairs
 
     options = options or InputOptions(input_format="record")
+    repairs = Repairs() if repairs is None else repairs
+    split = options.gaps == "split"
     prov, rate = describe(path, options, channels=1, what="still recording")
     with _phase_file(tmpdir) as fh:
         builder = _Phase(lambda a: fh.write(np.ascontiguousarray(a).tobytes()))
         last_time = None
         for block in iter_blocks(path, options, rows=rows or DEFAULT_BLOCK_ROWS,
-                                 channels=1, what="still recording"):
-            last_time = _check_gaps(block, rate, last_time, prov["file"])
+                                 channels=1, what="still recording", repairs=repairs):
+            if not split:
+                last_time = _check_gaps(block, rate, last_time, prov["file"])
             check_values(block.values, block.start, prov["file"])
             builder.add(block.values[:, 0])
             if progress:
@@ -211,11 +231,14 @@ def stream_deviation(path, options=None, *, kind="oadev", taus="octave", confide
                                 "deviation (at least 4)", parameter="values")
         x = np.memmap(fh, dtype=np.float64, mode="r", shape=(builder.samples + 1,))
         unit = options.unit or prov.get("unit", "")
-        dev = _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress, force)
-        spectrum = _psd_from_phase(x, rate) if psd else None
+        dev = _deviation_from_phase(x, rate, kind, taus, confidence, unit, progress,
+                                    repairs.segments if split else None, force)
+        # a spectrum needs consecutive samples: none over split gaps
+        spectrum = _psd_from_phase(x, rate) if psd and len(repairs.segments) < 2 else None
         del x
     mean = builder.centre + builder.last / builder.samples  # x[n] = sum(y - c)
-    return dev, spectrum, {**prov, "samples": builder.samples, "mean": mean}
+    extra = {"repairs": repairs.to_dict()} if repairs else {}
+    return dev, spectrum, {**prov, "samples": builder.samples, "mean": mean, **extra}
 
 
 @contextlib.contextmanager
