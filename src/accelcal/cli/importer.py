@@ -179,7 +179,7 @@ def import_(
 def _import_response(files, opts, record_map, *, out, metadata, fmt, given) -> None:
     """``--kind response``: two-channel recordings made into a response record."""
     from accelcal.cli.common import parse_grid
-    from accelcal.io.recordings.response import import_response
+    from accelcal.methods.response.importer import import_response
 
     settings = {"steps": given.get("--steps", "files")}
     if "--frequencies" in given:

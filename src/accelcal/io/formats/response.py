@@ -61,7 +61,7 @@ IMPORT = ImportLayout(time=True, restart="step", outputs="input", fixed_names=Fa
                       states=("output_unit", "sample_rate_hz"))
 """How a recording that holds the record's columns (``step``, ``frequency``, ``ref``,
 ``dut``) is read. A lab's two-channel recording, which holds no step or frequency,
-is imported by :mod:`accelcal.io.recordings.response` (``accelcal import --kind
+is imported by :mod:`accelcal.methods.response.importer` (``accelcal import --kind
 response``), which finds the steps and their frequencies."""
 
 OUTPUT_UNITS = ("V", "mV", "mA")
