@@ -159,10 +159,10 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
 
     from accelcal.budget import budgets
     from accelcal.budget.lab import load_lab
+    from accelcal.budget.render import render_budgets
     from accelcal.catalog import demo_methods
     from accelcal.certificate import issue
     from accelcal.certificate.render import pdf_available
-    from accelcal.cli.budget import render_budgets
 
     out = Path(result.out)
     lab_path = out / "lab.toml"
