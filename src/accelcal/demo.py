@@ -33,10 +33,12 @@ The stages, each in its method's package:
    kHz, and the second-order fit (|S(80 Hz)| and the bandwidth in the
    store's history).
 
-After the campaign, :func:`certify` writes the demo's lab file (a copy of
-examples/lab.toml kept in the package), the uncertainty budget of one
-result, and a calibration certificate of the indexing-head sensors (HTML,
-JSON, and PDF where WeasyPrint is installed).
+Before the report, :func:`head_budgets` writes the demo's lab file (a copy
+of examples/lab.toml kept in the package) and makes the uncertainty budgets
+of the indexing-head sensors: the report states them (the summary's U and
+k, an annex). After the campaign, :func:`certify` shows the budget of one
+result and writes a calibration certificate of the indexing-head sensors
+(HTML, JSON, and PDF where WeasyPrint is installed) from the same budgets.
 
 Every run is stamped with the current time (microseconds), which goes into
 the files' ``date`` and so into the records: running the demo twice adds
@@ -126,8 +128,45 @@ def run(out="accelcal-demo", *, db=None, seed: int | None = None, progress: bool
         subtitle=(f"Simulated campaign of {', '.join(SERIALS)} and the triad {TRIAD_SERIAL}: "
                   f"{listed((m.demo_test for m in demo_methods()), 'and')}; "
                   f"operator {OPERATOR}, date {{date}}, seed {{seed}}."),
-        history_serial=SERIALS[0],
+        history_serial=SERIALS[0], budgets=head_budgets,
     )
+
+
+def head_budgets(out, outcomes, data) -> dict:
+    """Write the demo's lab file and make the budgets of the indexing head's sensors.
+
+    Parameters
+    ----------
+    out : path-like
+        The campaign's output directory (``lab.toml`` is written there).
+    outcomes : list of Outcome
+        The campaign's reductions, in stage order.
+    data : list of path
+        The input file of each stage.
+
+    Returns
+    -------
+    dict
+        ``(serial, method) -> list of Budget``, named by the records' serial
+        numbers (the report's summary and annex, the certificate).
+    """
+    from importlib.resources import files
+
+    from accelcal.budget import budgets
+    from accelcal.budget.lab import load_lab
+    from accelcal.catalog import demo_methods
+
+    lab_path = Path(out) / "lab.toml"
+    write_text_atomic(lab_path, files("accelcal.certificate").joinpath(
+        "example_lab.toml").read_text(encoding="utf-8"))
+    head = next(o for o in outcomes if o.reduction.family == "dividing-head")
+    stage = [m.family for m in demo_methods()].index("dividing-head")  # data: one per stage
+    made: dict = {}
+    for b in budgets(head.reduction, load_lab(lab_path), records=data[stage]):
+        record = head.records[b.sensor]
+        made.setdefault((record.serial, record.method), []).append(
+            replace(b, serial=record.serial))
+    return made
 
 
 @dataclass(frozen=True)
@@ -143,6 +182,9 @@ class Certified:
 def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
     """The demo's lab file, the budget of the first bias, and the indexing head's certificate.
 
+    The budgets are the result's (:func:`head_budgets`, made for the
+    report), made here only for a result without them.
+
     Parameters
     ----------
     result : CampaignResult
@@ -155,28 +197,20 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
     Certified
     """
     import datetime as dt
-    from importlib.resources import files
 
-    from accelcal.budget import budgets
-    from accelcal.budget.lab import load_lab
-    from accelcal.catalog import demo_methods
+    from accelcal.budget.render import render_budgets
     from accelcal.certificate import issue
     from accelcal.certificate.render import pdf_available
-    from accelcal.cli.budget import render_budgets
 
     out = Path(result.out)
     lab_path = out / "lab.toml"
-    write_text_atomic(lab_path, files("accelcal.certificate").joinpath(
-        "example_lab.toml").read_text(encoding="utf-8"))
-    lab = load_lab(lab_path)
+    made = result.budgets or head_budgets(out, result.outcomes, result.data)
     head, start = next((o, sum(len(p.records) for p in result.outcomes[:i]))
                        for i, o in enumerate(result.outcomes)
                        if o.reduction.family == "dividing-head")
-    stage = [m.family for m in demo_methods()].index("dividing-head")  # data: one per stage
-    made = budgets(head.reduction, lab, records=result.data[stage])
     paths = result.records[start:start + len(head.records)]
-    by_record = [[{**b.as_dict(), "serial": r.serial} for b in made if b.sensor == k]
-                 for k, r in enumerate(head.records)]
+    by_record = [[b.as_dict() for b in made.get((r.serial, r.method), ())]
+                 for r in head.records]
     with_pdf = pdf and pdf_available()
     issued = issue(paths, lab_path, out=out / "certificate.html",
                    pdf=out / "certificate.pdf" if with_pdf else None,
@@ -184,6 +218,6 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
                    issued=dt.datetime.now(dt.UTC).date().isoformat(),
                    item=Item(make="accelcal demo", model="simulated pendulous accelerometer"),
                    budgets=by_record)
-    first = replace(made[0], serial=head.records[made[0].sensor].serial)
+    first = made[(head.records[0].serial, head.records[0].method)][0]
     return Certified(lab_path, render_budgets([first], "table"), issued.document["number"],
                      issued.files)

@@ -99,6 +99,9 @@ class CampaignResult:
         Wall-clock time of the run.
     outcomes : list of Outcome
         Every reduction, in stage order.
+    budgets : dict
+        The uncertainty budgets the report states, ``(serial, method) ->
+        list of Budget`` (empty without a ``budgets`` callable).
     """
 
     out: Path
@@ -111,11 +114,12 @@ class CampaignResult:
     seed: int = 0
     seconds: float = 0.0
     outcomes: list = field(default_factory=list)
+    budgets: dict = field(default_factory=dict)
 
 
 def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: bool = True,
-                 title: str, subtitle: str = "", history_serial: str | None = None
-                 ) -> CampaignResult:
+                 title: str, subtitle: str = "", history_serial: str | None = None,
+                 budgets=None) -> CampaignResult:
     """Run every stage, then write records, store them and write the report.
 
     Parameters
@@ -139,6 +143,10 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
     history_serial : str, optional
         Add this serial number's history (by the first outcome's method)
         from the store to the report.
+    budgets : callable, optional
+        ``budgets(out, outcomes, data) -> {(serial, method): [Budget]}``:
+        the uncertainty budgets the report states (summary's U and k, the
+        annex), made after the reductions and kept in the result.
 
     Returns
     -------
@@ -167,7 +175,8 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
         seed = int(np.random.SeedSequence().entropy % 1_000_000)
     seeds = np.random.SeedSequence(seed).spawn(len(stages))
     names = [f"simulating: {s.name}" for s in stages] + [f"reducing: {s.name}" for s in stages]
-    names += ["writing calibration records", "adding records to the store", "writing the report"]
+    names += ["writing calibration records", "adding records to the store"]
+    names += ["uncertainty budgets"] * (budgets is not None) + ["writing the report"]
     # The store is opened (created, checked, migrated) before anything is simulated: a store
     # that cannot be used (a directory, a file that is not a database, a newer schema) is
     # refused at once, not after the work.
@@ -177,11 +186,13 @@ def run_campaign(stages, out, *, db=None, seed: int | None = None, progress: boo
         outcomes = [o for s, path in zip(stages, data, strict=True) for o in step(s.reduce, path)]
         written = step(_write_records, out / "records", outcomes)
         store_url, ids = step(_store, store, [r for _, r in written])
+        made = step(budgets, out, outcomes, data) if budgets is not None else {}
         report, figures = step(_report, out, store, outcomes, title,
-                               subtitle.format(seed=seed, date=format_date(date)), history_serial)
+                               subtitle.format(seed=seed, date=format_date(date)), history_serial,
+                               made)
     return CampaignResult(out=out, data=data, records=[p for p, _ in written], report=report,
                           figures=figures, store=store_url, record_ids=ids, seed=seed,
-                          seconds=time.perf_counter() - start, outcomes=outcomes)
+                          seconds=time.perf_counter() - start, outcomes=outcomes, budgets=made)
 
 
 class _Steps:
@@ -252,7 +263,7 @@ def _store(store, records):
 
 
 def _report(out: Path, store, outcomes, title: str, subtitle: str,  # noqa: PLR0917
-            history_serial):
+            history_serial, budgets):
     from accelcal.io.atomic import write_text_atomic
     from accelcal.report import write_report
     from accelcal.report.sections import history_section, reduction_sections
@@ -266,7 +277,8 @@ def _report(out: Path, store, outcomes, title: str, subtitle: str,  # noqa: PLR0
         if history is not None:
             sections.append(history)
     report = out / "report.html"
-    write_report(report, sections, title=title, subtitle=subtitle)
+    write_report(report, sections, title=title, subtitle=subtitle,
+                 budgets={key: [b.as_dict() for b in items] for key, items in budgets.items()})
     figures = []
     main = [s for s in sections if not s.appendix]  # numbered as in the report
     for i, section in enumerate(main, 1):

@@ -4,13 +4,24 @@ import json
 
 import pytest
 
-from accelcal.demo import certify, stages
+from accelcal.demo import certify, head_budgets, stages
 from accelcal.pipeline import run_campaign
 
 
-@pytest.mark.slow  # the budget engine re-runs the joint reduction per position: ~5 s of CPU
-def test_demo_certifies_the_indexing_head_sensors(tmp_path):
-    result = run_campaign(stages()[:1], tmp_path / "demo", seed=3, progress=False, title="t")
+@pytest.mark.slow  # a campaign of the indexing head, its report and certificate: ~4 s
+def test_demo_certifies_the_indexing_head_sensors(tmp_path, monkeypatch):
+    result = run_campaign(stages()[:1], tmp_path / "demo", seed=3, progress=False, title="t",
+                          budgets=head_budgets)
+    assert sorted(s for s, _ in result.budgets) == ["ACC-0001", "ACC-0002", "ACC-0003",
+                                                    "ACC-0004"]
+    html = result.report.read_text(encoding="utf-8")
+    assert 'id="budgets"' in html  # the report states the budgets the certificate uses
+    assert "head_angle" in html
+
+    def made_again(*args, **kwargs):
+        raise AssertionError("the budgets are made once, for the report")
+
+    monkeypatch.setattr("accelcal.budget.budgets", made_again)
     cert = certify(result, pdf=False)
     assert cert.lab.read_text(encoding="utf-8").startswith("# A lab file")
     assert cert.budget.splitlines()[0].strip().startswith("ACC-0001 K_F")

@@ -292,3 +292,36 @@ def test_the_demo_sections_render_in_field_units_with_readable_dates(demo_sectio
     # repeated
     assert main.count('<table class="coef">') == 12
     assert main.count('<table class="wide">') == 1  # the head's overview
+
+
+def test_report_with_a_lab_file_states_the_records_budgets(campaign, capsys, tmp_path):
+    from accelcal.budget.lab import load_lab
+    from accelcal.report.budgets import record_budgets
+    from accelcal.report.inputs import read_input
+    from accelcal.report.summary import summary_rows
+    from helpers.paths import ROOT
+
+    head = [p for p in campaign.records if p.name.endswith("-head.json")]
+    lab = ROOT / "examples" / "lab.toml"
+    out = tmp_path / "r.html"
+    code, _, err = run_cli(["report", *head, "--out", out, "--lab", lab], capsys)
+    assert code == 0, err
+    html = out.read_text(encoding="utf-8")
+    assert 'id="budgets"' in html  # the annex
+    assert "head_angle" in html
+    assert "local_gravity" in html
+    method = campaign.outcomes[0].reduction.method
+    made = record_budgets(head, load_lab(lab))
+    assert set(made) == {(s, method) for s in SERIALS}
+    records = [read_input(p) for p in head]
+    with_budget = summary_rows(records, made)[0]["cells"]["bias"][0].expanded
+    alone = summary_rows(records)[0]["cells"]["bias"][0].expanded
+    assert with_budget != alone
+    assert with_budget.endswith(")")
+    assert with_budget in html
+    plain = run_cli(["report", *head, "--out", tmp_path / "p.html"], capsys)
+    assert plain[0] == 0
+    text = (tmp_path / "p.html").read_text(encoding="utf-8")
+    assert 'id="budgets"' not in text
+    assert alone in text
+    assert with_budget not in text

@@ -7,7 +7,8 @@ package's ``budget`` module, the inputs named by
 :attr:`accelcal.catalog.Method.budget_inputs`) feed it through
 :mod:`accelcal.budget.engine`; :mod:`accelcal.budget.mc` checks a budget by
 Monte Carlo (JCGM 101). :func:`budgets` is the one call; ``accelcal
-budget`` (:mod:`accelcal.cli.budget`) reads the files and prints them.
+budget`` (:mod:`accelcal.cli.budget`) reads the files and prints them
+(:mod:`accelcal.report.budgets`, :mod:`accelcal.budget.render`).
 
 The package sits beside the methods (each method's ``budget`` module uses
 :mod:`accelcal.budget.engine`; :func:`budgets` finds that module through the

@@ -124,7 +124,7 @@ def engine_budgets(paths, records, lab, search=()) -> list[list[dict] | None]:
     model gets None.
     """
     from accelcal.budget import budgets
-    from accelcal.cli.budget import gather
+    from accelcal.report.budgets import gather
 
     out: list[list[dict] | None] = [None] * len(records)
     for reduction, inputs, sensors, _ in gather(paths, search):

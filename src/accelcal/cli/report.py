@@ -26,6 +26,10 @@ def report(
     skip_bad: bool = typer.Option(
         False, "--skip-bad", help="With --history: leave out rows of the store that fail "
         "validation (changed outside accelcal) and count them, instead of refusing."),
+    lab: Path | None = typer.Option(
+        None, "--lab", help="Lab file (TOML, examples/lab.toml): each calibration record's "
+        "uncertainty budget (as accelcal budget makes it) goes into an annex, and the "
+        "summary's U is the budget's, with its k."),
 ) -> None:
     """Write a self-contained HTML report: the same sections as the demo's.
 
@@ -41,7 +45,9 @@ def report(
     so). Every file is read and validated before the report is written; the
     file is written atomically. With --history, the store's hash chain is
     verified and its status line ('chain verified: yes (n records)') printed
-    and written in each history section.
+    and written in each history section. With --lab, every calibration
+    record's uncertainty budget (:func:`accelcal.report.budgets.record_budgets`)
+    is in an annex and gives the summary's U and k.
     """
     from accelcal.report import write_report
     from accelcal.report.inputs import report_sections
@@ -51,6 +57,12 @@ def report(
 
         raise AccelcalError(f"{'--db' if db is not None else '--skip-bad'} goes with --history")
     sections = report_sections(records, search=data)
+    budgets = None
+    if lab is not None:
+        from accelcal.budget.lab import load_lab
+        from accelcal.report.budgets import record_budgets
+
+        budgets = record_budgets(records, load_lab(lab), search=data)
     if history:
         from accelcal.report.sections import history_section
         from accelcal.store import Store
@@ -67,5 +79,5 @@ def report(
         typer.echo(chain)
         if skipped:
             typer.echo(f"skipped {skipped} bad row{'s' * (skipped != 1)}", err=True)
-    write_report(out, sections, title=title)
+    write_report(out, sections, title=title, budgets=budgets)
     typer.echo(f"wrote {out}")
