@@ -318,6 +318,13 @@ def test_report_with_a_lab_file_states_the_records_budgets(campaign, capsys, tmp
     alone = summary_rows(records)[0]["cells"]["bias"][0].expanded
     assert with_budget != alone
     assert with_budget.endswith(")")
+    # the budget's own U and k, in the field's unit (the budget states U in µg)
+    from accelcal.formatting import format_std
+
+    (first,) = [b for b in made[(SERIALS[0], method)]
+                if b["coefficient"] in ("K_F", "K_F+K_OO") and b.get("sensor", 0) == 0]
+    assert first["unit"] in ("µg", "ug")
+    assert with_budget == f"{format_std(first['U'])} µg (k={first['k']:.3g})"
     assert with_budget in html
     plain = run_cli(["report", *head, "--out", tmp_path / "p.html"], capsys)
     assert plain[0] == 0

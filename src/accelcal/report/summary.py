@@ -99,22 +99,20 @@ def summary_rows(records, budgets=None, refs=()) -> list[dict]:
             std = float(stds[i])
             group = _group(named_quantity(plain, rec.units.get(name, "")))
             given = budget.get(name) or budget.get(plain)
-            row["cells"][group].append(_line(name, test, fields[i][0], std, given, ref))
+            row["cells"][group].append(_line(name, test, fields[i][0], std, given, ref,
+                                             rec.units.get(name, "")))
     for row in rows.values():
         row["tests"] = list(dict.fromkeys(row["tests"]))
     return list(rows.values())
 
 
 def _line(name: str, test: str, field: FieldValue, std: float, budget,  # noqa: PLR0917
-          ref: str) -> Line:
+          ref: str, unit: str = "") -> Line:
     """A summary line: the estimate and U in field units (U = k std, or the budget's)."""
-    k = COVERAGE
-    if budget is not None and budget.get("U") is not None and std > 0:
-        k = float(budget.get("k") or COVERAGE)
-        scale = float(budget["U"]) / (k * std)  # the budget's U over k std, in any unit
-    else:
-        scale = 1.0
-    std_field = field.std * scale
+    k, std_field = COVERAGE, field.std
+    given = _budget_std(budget, field, std, unit)
+    if given is not None:
+        k, std_field = given
     u = k * std_field
     note = "" if k == COVERAGE else f" (k={k:.3g})"
     if field.relative:
@@ -124,6 +122,27 @@ def _line(name: str, test: str, field: FieldValue, std: float, budget,  # noqa: 
     unit = format_unit(field.unit)
     return Line(name, test, f"{format_value(field.estimate, std_field)} {unit}",
                 f"{format_std(u)} {unit}{note}", ref)
+
+
+def _budget_std(budget, field: FieldValue, std: float, unit: str):
+    """``(k, standard uncertainty in the field's unit)`` from a budget, or None.
+
+    A budget states U in the field's unit (``accelcal budget``: µg, µrad, ppm
+    for a scale factor) or, for a method without field units, in the
+    record's; a budget in neither unit is not used.
+    """
+    if budget is None or budget.get("U") is None or budget.get("k") is None:
+        return None
+    k, big_u, given = float(budget["k"]), float(budget["U"]), budget.get("unit", "")
+    if not (k > 0 and big_u >= 0):
+        return None
+    shown = format_unit(given)
+    if (field.relative and shown == "ppm") or (not field.relative
+                                                and shown == format_unit(field.unit)):
+        return k, big_u / k
+    if shown == format_unit(unit) and std > 0:  # in the record's unit: scale the field's std
+        return k, field.std * big_u / (k * std)
+    return None
 
 
 def _keys(rec) -> list[int]:
