@@ -43,6 +43,7 @@ KEY_COEFFICIENTS = {
     "centrifuge": ("K0", "K1", "K2", "K3"),
     "triad": ("b_x", "b_y", "b_z", "s_x", "s_y", "s_z", "a_yz", "a_zy", "a_zx"),
     "acceptance": ("threshold", "range_pos", "range_neg", "bias_repeatability"),
+    "response": ("S(80 Hz)", "fn", "f_3dB"),
 }
 """Family -> the coefficients the summary shows (every one for a family not listed)."""
 
