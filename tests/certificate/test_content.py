@@ -261,3 +261,21 @@ def test_an_expired_standard_the_method_does_not_take_does_not_refuse(tmp_path):
     assert [s.quantity for s in lab.expired()] == ["reference_sensitivity", "reference_phase"]
     doc = build(_records(tmp_path), lab, issued="2026-11-26")  # a shaker's, not the head's
     assert doc["expired_standards"] == []
+
+
+def test_a_scale_factor_in_ppm_is_named_a_deviation_from_nominal():
+    """A scale factor whose field unit is ppm is its deviation from the nominal value: the
+    results row says so, and the value itself (V/g) is beside it."""
+    from accelcal.certificate.render import _result_view
+
+    row = {"coefficient": "K_I", "plain": "K_I", "method": "dividing-head/joint",
+           "estimate": 1.299372, "u_c": 1.1e-5, "U": 2.2e-5, "unit": "V/g", "k": 2.0,
+           "relative": None,
+           "engineering": [{"estimate": 1.7, "u": 8.5, "U": 17.0, "unit": "ppm"}]}
+    view = _result_view(row)
+    assert view["name"] == "K_I, deviation from nominal"
+    assert view["unit"] == "ppm"
+    assert "V/g" in view["also"]
+    bias = {**row, "coefficient": "K_F", "plain": "K_F", "unit": "V",
+            "engineering": [{"estimate": -640.3, "u": 2.0, "U": 4.0, "unit": "ug"}]}
+    assert _result_view(bias)["name"] == "K_F"

@@ -15,6 +15,7 @@ References
 
 import math
 
+from accelcal.engineering import QUANTITIES
 from accelcal.errors import AccelcalError
 from accelcal.formatting import format_std, format_unit, format_value
 
@@ -39,8 +40,11 @@ def _result_view(r: dict) -> dict:
                          for x in r["engineering"][1:])
         raw = (f"{format_value(r['estimate'], r['u_c'] or None)} ± {format_std(r['U'])} "
                f"{format_unit(r['unit'])}")
-        return {"name": r["plain"] if r["plain"] == r["coefficient"]
-                else f"{r['plain']} ({r['coefficient']})", "route": route,
+        name = (r["plain"] if r["plain"] == r["coefficient"]
+                else f"{r['plain']} ({r['coefficient']})")
+        if e["unit"] == "ppm" and QUANTITIES.get(r["plain"]) == "scale":
+            name += ", deviation from nominal"  # the value itself is in "also"
+        return {"name": name, "route": route,
                 "value": format_value(e["estimate"], e["u"] or None), "U": format_std(e["U"]),
                 "unit": format_unit(e["unit"]), "k": _k(r["k"]),
                 "also": "; ".join(x for x in (also, raw) if x)}
