@@ -108,6 +108,8 @@ BASE: dict[str, list[str]] = {
                            "--allow-extrapolation"],
     "acceptance simulate": ["--out", "{out}/steps.csv", "--dwell", "1"],
     "acceptance reduce": ["{steps}"],
+    "acceptance compare": ["{record}", "{fixed}"],
+    "acceptance repeatability": ["--serial", "R-1", "--db", "{store}"],
     "import": ["{examples}/still.csv", "--kind", "noise", "--channels", "acc=acc",
                "--out", "{out}/imported.csv"],
     "inspect": ["{examples}/still.csv"],
@@ -461,7 +463,7 @@ def judge(case: dict, res: dict) -> str | None:
 
 def _fill(tmp: Path) -> dict:
     """Shared input files of the matrix: a calibration record, tumble and step records, a store
-    (the record and two noise fits of ACC-0001)."""
+    (the record, two noise fits of ACC-0001, four tumble calibrations of R-1)."""
     from accelcal.cli import main
 
     record = EXAMPLES / "calibration_record.json"
@@ -481,6 +483,12 @@ def _fill(tmp: Path) -> dict:
                  ["noise", "fit", str(still), "--terms", "N,B,K", "--record", str(fit),
                   "--serial", "ACC-0001"],
                  ["records", "add", str(fit), "--db", str(store)]]
+    for seed in ("1", "2"):  # four tumble calibrations of R-1: `acceptance repeatability`
+        pair = tmp / f"env{seed}.json"
+        runs += [["acceptance", "simulate", "--test", "environment", "--shift", "K0=0ug",
+                  "--serial", "R-1", "--seed", seed, "--out", str(pair)],
+                 ["records", "add", str(tmp / f"env{seed}-before.json"),
+                  str(tmp / f"env{seed}-after.json"), "--db", str(store)]]
     for args in runs:
         with pytest.raises(SystemExit) as info:
             main(args)
