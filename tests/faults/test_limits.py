@@ -206,8 +206,14 @@ def test_ctrl_c_at_start_up_is_one_line(dirs, delay):
     work, tmpdir = dirs
     result, ending = kill_after(["triad", "simulate", "--out", work / "o.csv"], delay,
                                 signal.SIGINT, cwd=work, tmpdir=tmpdir)
-    assert ending is not None
     assert not result.traceback, result.err
+    if ending is None or result.code == -signal.SIGINT:
+        # the run had finished first (a quiet machine), or the signal came as the process
+        # exited, its handlers gone, and the default action ended it: the output is whole
+        assert result.code in (0, -signal.SIGINT), result.err
+        assert "wrote" in result.out
+        assert (work / "o.csv").exists()
+        return
     assert result.code == 130, result.err
     assert not (work / "o.csv").exists()
 
