@@ -31,11 +31,12 @@ from collections.abc import Iterable, Sequence
 
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
-from accelcal.method_ids import ALIASES, spellings
+from accelcal.method_ids import spellings
 from accelcal.store.chain import ChainReport, append, check_supersedable, journal_entries
 from accelcal.store.chain import corrections as chain_corrections
 from accelcal.store.chain import report as chain_report
 from accelcal.store.checks import HISTORY_COLUMNS, LIST_SPEC, READ_SPECS, RowChecker, date_problem
+from accelcal.store.history import plain_names
 from accelcal.store.location import (
     DEFAULT_DB_ENV,
     ReadonlyFile,
@@ -53,7 +54,9 @@ from accelcal.store.rows import (
     coefficient_rows,
     former_uids,
     labels,
+    method_today,
     none_added,
+    row_columns,
     what,
 )
 from accelcal.store.schema import SCHEMA_VERSION, WRITE_LOCK, migrate, stored_version
@@ -394,7 +397,7 @@ class Store:
         """
         query = self._calibrations_query(serial)
         rows = self.checker.check(self._rows(query)[0], LIST_SPEC)
-        columns = _columns(rows, [c.name for c in query.selected_columns])
+        columns = row_columns(rows, [c.name for c in query.selected_columns])
         columns["simulated"] = list(map(bool, columns["simulated"]))
         return columns
 
@@ -404,7 +407,7 @@ class Store:
 
         cal = self._tables["calibrations"]
         simulated = sa.false().label("simulated") if self._version == 1 else cal.c.simulated
-        query = sa.select(cal.c.id, cal.c.serial, _method_today(cal), cal.c.date,
+        query = sa.select(cal.c.id, cal.c.serial, method_today(cal), cal.c.date,
                           cal.c.software, simulated, self._superseded_by())
         if serial is not None:
             query = query.where(cal.c.serial == check_label(serial, "serial number"))
@@ -455,11 +458,11 @@ class Store:
         if method is not None:
             check_label(method, "method")
         cal, coef = self._tables["calibrations"], self._tables["coefficients"]
-        method_today = _method_today(cal)
+        method_now = method_today(cal)
         columns = {
-            "history": (cal.c.id, cal.c.date, method_today, coef.c.name, coef.c.unit,
+            "history": (cal.c.id, cal.c.date, method_now, coef.c.name, coef.c.unit,
                         coef.c.estimate, coef.c.std, self._superseded_by(), coef.c.id),
-            "calibrations": (cal.c.id, cal.c.date, method_today),
+            "calibrations": (cal.c.id, cal.c.date, method_now),
             "coefficients": (coef.c.calibration_id, coef.c.name, coef.c.unit,
                              coef.c.estimate, coef.c.std, coef.c.id),
         }
@@ -517,7 +520,7 @@ class Store:
             a bad row (without ``skip_bad``).
         """
         nan = math.nan
-        plain = _plain_names()
+        plain = plain_names()
         return [{"id": i, "date": d, "method": m, "name": n, "unit": u, "estimate": e,
                  "std": nan if s is None else s, "superseded_by": by, "coefficient": plain(n)}
                 for i, d, m, n, u, e, s, by, _ in self._history(
@@ -529,10 +532,10 @@ class Store:
         No dict per row: the form for writing a long history out (``records
         history --format csv`` of a serial with 100k calibrations).
         """
-        columns = _columns(self._history(serial, method, "history")[0], HISTORY_COLUMNS)
+        columns = row_columns(self._history(serial, method, "history")[0], HISTORY_COLUMNS)
         if None in columns["std"]:
             columns["std"] = [math.nan if s is None else s for s in columns["std"]]
-        plain = _plain_names()
+        plain = plain_names()
         distinct = {n: plain(n) for n in set(columns["name"])}
         columns["coefficient"] = list(map(distinct.__getitem__, columns["name"]))
         return columns
@@ -590,29 +593,3 @@ def verify_chain(db=None) -> ChainReport:
     """
     with Store(db, readonly=True) as store:
         return store.verify()
-
-
-def _plain_names():
-    """``name -> plain coefficient`` (:func:`accelcal.identifiability.plain_name`), cached.
-
-    A history repeats a handful of names over many rows.
-    """
-    from functools import lru_cache
-
-    from accelcal.identifiability import plain_name
-
-    return lru_cache(maxsize=None)(plain_name)
-
-
-def _columns(rows: list[tuple], names: Sequence[str]) -> dict[str, list]:
-    """The driver's row tuples as columns, ``names[i]`` -> every row's ``i``-th value."""
-    from operator import itemgetter
-
-    return {name: list(map(itemgetter(i), rows)) for i, name in enumerate(names)}
-
-
-def _method_today(cal):
-    """The ``method`` column as its id today (old ids mapped by the database, one CASE)."""
-    import sqlalchemy as sa
-
-    return sa.case(ALIASES, value=cal.c.method, else_=cal.c.method).label("method")

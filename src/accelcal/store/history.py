@@ -87,3 +87,15 @@ def renamings(rows) -> list[Renaming]:
             out.append(Renaming(method, coefficient, before, name, str(date), int(cal_id)))
         last[key] = name
     return out
+
+
+def plain_names():
+    """``name -> plain coefficient`` (:func:`accelcal.identifiability.plain_name`), cached.
+
+    A history repeats a handful of names over many rows.
+    """
+    from functools import lru_cache
+
+    from accelcal.identifiability import plain_name
+
+    return lru_cache(maxsize=None)(plain_name)

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
-from accelcal.method_ids import spellings
+from accelcal.method_ids import ALIASES, spellings
 from accelcal.validation import shown_path
 
 
@@ -88,3 +88,17 @@ def utc(date: str) -> str:
     if moment.tzinfo is None:
         moment = moment.replace(tzinfo=dt.UTC)
     return moment.astimezone(dt.UTC).isoformat(timespec="microseconds")
+
+
+def row_columns(rows: list[tuple], names: Sequence[str]) -> dict[str, list]:
+    """The driver's row tuples as columns, ``names[i]`` -> every row's ``i``-th value."""
+    from operator import itemgetter
+
+    return {name: list(map(itemgetter(i), rows)) for i, name in enumerate(names)}
+
+
+def method_today(cal):
+    """The ``method`` column as its id today (old ids mapped by the database, one CASE)."""
+    import sqlalchemy as sa
+
+    return sa.case(ALIASES, value=cal.c.method, else_=cal.c.method).label("method")
