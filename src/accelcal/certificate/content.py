@@ -123,18 +123,10 @@ def engine_budgets(paths, records, lab, search=()) -> list[list[dict] | None]:
     data (their notes say so). A record of a method without a measurement
     model gets None.
     """
-    from accelcal.budget import budgets
-    from accelcal.report.budgets import gather
+    from accelcal.report.budgets import calibration_budgets
 
-    out: list[list[dict] | None] = [None] * len(records)
-    for reduction, inputs, sensors, _ in gather(paths, search):
-        for b in budgets(reduction, lab, records=inputs):
-            if sensors is not None and b.sensor not in sensors:
-                continue
-            for i, rec in enumerate(records):
-                if rec.serial == b.serial and rec.method == reduction.method:
-                    out[i] = [*(out[i] or []), b.as_dict()]
-    return out
+    made = calibration_budgets(paths, lab, search)
+    return [made.get((rec.serial, rec.method)) for rec in records]
 
 
 def kept_budgets(record, lab) -> list[dict] | None:

@@ -95,11 +95,22 @@ def record_budgets(paths, lab, search=()) -> dict:
         ``(serial, method) -> list of`` :meth:`Budget.as_dict`, as
         :func:`accelcal.report.render_report` takes them.
     """
-    from accelcal.budget import budgets
     from accelcal.io.calibration_record import CalibrationRecord
     from accelcal.report.inputs import read_input
 
     paths = [p for p in map(Path, paths) if isinstance(read_input(p), CalibrationRecord)]
+    return calibration_budgets(paths, lab, search)
+
+
+def calibration_budgets(paths, lab, search=()) -> dict:
+    """:func:`record_budgets` of paths that are all calibration records (not read to check).
+
+    The records are reduced again from their input files (:func:`gather`),
+    and each sensor the records name gets :func:`accelcal.budget.budgets`'
+    budgets, keyed ``(serial, method)``.
+    """
+    from accelcal.budget import budgets
+
     out: dict = {}
     for reduction, inputs, sensors, _ in gather(paths, search):
         for b in budgets(reduction, lab, records=inputs):
