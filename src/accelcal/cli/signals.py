@@ -24,6 +24,12 @@ ends, would each print a traceback.
 pyarrow's own handler, which turns a signal into a cancelled read and can
 lose it, is switched off when pyarrow is first imported.
 
+A signal taken while the main thread runs Python code called back from C
+that cannot pass an exception on (a finaliser, a C library's callback)
+would be printed as "Exception ignored in ..." with a traceback and lost:
+the unraisable hook takes such an :class:`Interrupted` back and delivers
+the signal again, to be raised at the next point that can pass it on.
+
 References
 ----------
 .. [signal] Python documentation, ``signal``: "Python signal handlers are
@@ -33,11 +39,13 @@ References
    signal: exit status 128 plus the signal number).
 """
 
+import _thread
 import contextlib
 import os
 import signal
 import sys
 import threading
+import time
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 """The signals that end a run cleanly."""
@@ -47,6 +55,9 @@ GRACE = 0.8
 
 ENDING = 10.0
 """Seconds the main thread has to end after taking a signal (its cleanup)."""
+
+REDELIVER = 0.02
+"""Seconds after a swallowed :class:`Interrupted` before its signal is delivered again."""
 
 _taken = threading.Event()
 _printed = threading.Lock()
@@ -105,6 +116,7 @@ def install() -> None:
         return
     threading.Thread(target=_watch, args=(read_end,), daemon=True,
                      name="accelcal-signals").start()
+    sys.unraisablehook = _unraisable(sys.unraisablehook)
     _quiet_arrow()
 
 
@@ -114,6 +126,27 @@ def _handler(signum, frame):
     _received.append(signum)
     _taken.set()
     raise Interrupted(signum)
+
+
+def _unraisable(previous):
+    """An unraisable hook that delivers a swallowed :class:`Interrupted` again."""
+
+    def hook(args):
+        if not isinstance(args.exc_value, Interrupted):
+            previous(args)
+            return
+        signum = args.exc_value.signum
+        _received.clear()  # the handler raises again when the signal comes back
+        # from another thread, a moment later: a signal raised now would be taken inside
+        # this hook (and a Thread's start() waits, where the handler would run)
+        _thread.start_new_thread(_deliver, (signum,))
+
+    return hook
+
+
+def _deliver(signum: int) -> None:
+    time.sleep(REDELIVER)
+    os.kill(os.getpid(), signum)
 
 
 def _watch(read_end: int) -> None:
