@@ -267,7 +267,7 @@ def _method(record) -> dict:
     return {"id": record.method, "title": record.method, "standard": ""}
 
 
-def _response(page, rec, budgets_of, lab, spec, rule, phase_at) -> list[dict]:
+def _response(page, rec, budgets_of, lab, *, spec, rule, phase_at) -> list[dict]:
     """Put a frequency-response record on its page; the budgets it adds to the annex.
 
     A complex record's points go to ``page["response"]`` (with a statement
@@ -458,7 +458,8 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
         page["simulated"] = page["simulated"] or rec.simulated
         page["results"] += results
         if response.is_response(rec):
-            all_budgets += _response(page, rec, budgets_of, lab, spec, rule, phase_at)
+            all_budgets += _response(page, rec, budgets_of, lab, spec=spec, rule=rule,
+                                     phase_at=phase_at)
         page["records"].append({"method": rec.method, "date": rec.date,
                                 "sha256": record_digest(rec)})
     for page in serials.values():
