@@ -146,7 +146,7 @@ def _result(results, r: dict, probability: float) -> None:
           label=r["coefficient"])
 
 
-def _quantity(parent, name: str, ref: str, value: float, unit: str, expanded=None, *,
+def _quantity(parent, name: str, ref: str, value: float, unit: str, *, expanded=None,
               k: float = 2.0, probability: float = 0.9545, label=None) -> None:
     """A ``dcc:quantity`` of a frequency response (:data:`RESPONSE_UNITS`)."""
     dsi, factor = RESPONSE_UNITS[unit]
@@ -175,16 +175,16 @@ def _response(results, curve: dict, probability: float) -> None:
         _quantity(point, "Frequency", "frequency", p["frequency_hz"], "Hz")
         if p["unit"] in RESPONSE_UNITS:
             _quantity(point, "Sensitivity magnitude", "magnitude", p["magnitude"], p["unit"],
-                      p["magnitude_U"], k=p["magnitude_k"], probability=probability,
+                      expanded=p["magnitude_U"], k=p["magnitude_k"], probability=probability,
                       label=p["coefficient"])
         else:
             _text(point, "text", f"{p['magnitude']!r} {p['unit']}, U = {p['magnitude_U']!r} "
                                  f"{p['unit']} (k = {p['magnitude_k']:.4f})")
         if p["deviation_U"] is not None:
             _quantity(point, "Deviation from the reference frequency", "deviation",
-                      p["deviation_pct"], "%", p["deviation_U"], k=p["deviation_k"],
+                      p["deviation_pct"], "%", expanded=p["deviation_U"], k=p["deviation_k"],
                       probability=probability)
-        _quantity(point, "Phase", "phase", p["phase_deg"], "deg", p["phase_U"],
+        _quantity(point, "Phase", "phase", p["phase_deg"], "deg", expanded=p["phase_U"],
                   k=p["phase_k"], probability=probability)
 
 
@@ -198,10 +198,10 @@ def _response_model(results, m: dict, probability: float) -> None:
         point = _el(outer, "list", refType="accelcal_response_point")
         _text(point, "name", f"{a['frequency_hz']:g} Hz")
         _quantity(point, "Frequency", "frequency", a["frequency_hz"], "Hz")
-        _quantity(point, "Phase", "phase", a["phase_deg"], "deg", a["phase_U"],
+        _quantity(point, "Phase", "phase", a["phase_deg"], "deg", expanded=a["phase_U"],
                   k=a["phase_k"], probability=probability)
         _quantity(point, "Group delay", "group_delay", a["group_delay_s"], "s",
-                  a["group_delay_U"], k=a["group_delay_k"], probability=probability)
+                  expanded=a["group_delay_U"], k=a["group_delay_k"], probability=probability)
 
 
 def to_dcc(c: dict) -> str:
