@@ -83,7 +83,8 @@ def certificate(
         typer.echo(f"warning: issued with expired standard(s): "
                    f"{', '.join(doc['expired_standards'])}", err=True)
     for item in doc["items"]:
-        for r in item["results"]:
+        stated = item["results"] + [p for c in item.get("response", ()) for p in c["points"]]
+        for r in stated:
             if r["conformity"] is not None:
                 typer.echo(f"{item['serial']} {statement(r['conformity'])}")
     for path in result.files:
