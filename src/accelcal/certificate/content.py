@@ -282,7 +282,8 @@ def _response(page, rec, budgets_of, lab, *, spec, rule, phase_at) -> list[dict]
         c = response.curve(rec, budgets_of)
         for point in c["points"]:
             point["conformity"] = (None if spec is None else response.conformity(
-                spec, rule, point, rec.serial, rec.method))
+                spec, rule, point, serial=rec.serial, method=rec.method,
+                statements=STATEMENTS))
         page.setdefault("response", []).append(c)
         return []
     if rec.method != response.FIT:

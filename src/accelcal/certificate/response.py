@@ -263,13 +263,13 @@ def model(rec, lab, at) -> tuple[dict, list[dict]]:
              "parameters": dict(zip(names, values, strict=True)), "at": rows}, budgets)
 
 
-def conformity(spec, rule, point: dict, serial: str, method: str):
+def conformity(spec, rule, point: dict, *, serial: str, method: str, statements: dict):
     """The statement of conformity of one point's magnitude deviation (None: no band applies).
 
     A limit on ``magnitude deviation`` (:mod:`accelcal.conformity`) applies
-    to the points inside its ``band_hz`` (every point without one).
+    to the points inside its ``band_hz`` (every point without one);
+    ``statements`` words each decision's outcome.
     """
-    from accelcal.certificate.content import STATEMENTS
     from accelcal.conformity import decide
     from accelcal.units import convert
 
@@ -290,5 +290,5 @@ def conformity(spec, rule, point: dict, serial: str, method: str):
     return {"quantity": quantity, "estimate": value, "u": u, "U": big_u, "unit": lim.unit,
             "lower": lim.lower, "upper": lim.upper, "rule": rule, "guard": d.guard,
             "acceptance": list(d.acceptance), "outcome": d.outcome,
-            "statement": STATEMENTS[d.outcome], "conforming": d.conforming,
+            "statement": statements[d.outcome], "conforming": d.conforming,
             "false_accept_risk": d.false_accept_risk}
