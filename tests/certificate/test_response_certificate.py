@@ -3,6 +3,7 @@
 import base64
 import json
 import math
+from dataclasses import replace
 from types import SimpleNamespace
 
 import pytest
@@ -242,3 +243,17 @@ def test_pdf_of_a_response_certificate(issued, tmp_path):
     assert "Annex" in "".join(texts)
     assert sum("/Image" in str(p.get("/Resources", {})) or "/XObject" in str(
         p.get("/Resources", {})) for p in reader.pages) >= 1  # the Bode figure is drawn
+
+
+def test_without_lab_inputs_the_points_state_the_records_own_uncertainty(issued):
+    from accelcal.budget.lab import load_lab
+    from accelcal.certificate.content import build
+
+    record = replace(CalibrationRecord.load(issued.paths[0]), budget=None)  # none kept
+    doc = build([record], load_lab(LAB), issued="2026-11-26")
+    pol = record.polar()
+    k = float(stdtrit(record.dof, 0.5 + 0.9545 / 2)) if record.dof else 2.0
+    for i, p in enumerate(_item(doc)["response"][0]["points"]):
+        assert p["magnitude_u"] == pytest.approx(pol.magnitude_std[i], rel=1e-9)
+        assert p["phase_u"] == pytest.approx(math.degrees(pol.phase_std[i]), rel=1e-9)
+        assert p["magnitude_k"] == pytest.approx(k, rel=1e-6)

@@ -280,6 +280,10 @@ def _response(page, rec, budgets_of, lab, *, spec, rule, phase_at) -> list[dict]
 
     if rec.is_complex:
         c = response.curve(rec, budgets_of)
+        if not c["points"]:
+            raise AccelcalError(f"record of {rec.serial} ({rec.method}): no budget of any "
+                                "point's magnitude and phase; issue it again without its kept "
+                                "budgets", parameter="records")
         for point in c["points"]:
             point["conformity"] = (None if spec is None else response.conformity(
                 spec, rule, point, serial=rec.serial, method=rec.method,
