@@ -5,6 +5,8 @@ content (:mod:`accelcal.certificate.content`: ISO/IEC 17025 7.8), and
 writes it as HTML, and on request as PDF (:mod:`.render`), as JSON (the
 machine-readable certificate, ``schema/certificate.schema.json``) and as
 XML in the structure of PTB's Digital Calibration Certificate (:mod:`.dcc`).
+A frequency response's points and fitted model are
+:mod:`accelcal.certificate.response`'s.
 docs/certificate.md shows the use and the content map.
 """
 

@@ -1,6 +1,8 @@
 """The certificate laid out for people: HTML (jinja2, autoescaped) and PDF (WeasyPrint).
 
-The HTML has one page of results per serial number, then one annex page of
+The HTML has one page of results per serial number (a frequency
+response's table per frequency, its model's phases and its Bode figure,
+:mod:`accelcal.certificate.figure`, among them), then one annex page of
 budgets per serial number; each page carries a footer ``Page x of y``. In
 print, and so in the PDF, those footers give way to the CSS paged-media
 counters (``@page { @bottom-center { content: "Page " counter(page) " of "

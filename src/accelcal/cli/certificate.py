@@ -62,6 +62,9 @@ def certificate(
     µg/g²) with their expanded uncertainty U, k and the coverage probability,
     the standards' certificates and due dates, the statement of conformity
     (with --spec) and the signatory, with the uncertainty budgets as an annex.
+    A frequency response (accelcal response reduce/fit --record) gets its
+    magnitude, deviation and phase per frequency with U and k, the fitted
+    model's phase and group delay (--phase-at) and a Bode figure.
     A standard past its due date refuses the certificate unless
     --allow-expired. Every input is checked before anything is written.
     """
