@@ -257,3 +257,15 @@ def test_without_lab_inputs_the_points_state_the_records_own_uncertainty(issued)
         assert p["magnitude_u"] == pytest.approx(pol.magnitude_std[i], rel=1e-9)
         assert p["phase_u"] == pytest.approx(math.degrees(pol.phase_std[i]), rel=1e-9)
         assert p["magnitude_k"] == pytest.approx(k, rel=1e-6)
+
+
+def test_other_records_certificates_carry_nothing_of_a_response(tmp_path):
+    from helpers.certificates import write_inputs
+
+    doc = issue(write_inputs(tmp_path), LAB, out=tmp_path / "c.html",
+                issued="2026-11-26").document
+    assert all(not ({"response", "response_models"} & set(i)) for i in doc["items"])
+    html = (tmp_path / "c.html").read_text(encoding="utf-8")
+    assert "<figure" not in html
+    assert "Frequency response" not in html
+    assert html.count("<h2>Results</h2>") == 2
