@@ -242,7 +242,10 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce"),
         report="accelcal.methods.acceptance.report_text", docs="docs/acceptance.md",
         paper="IEEE1293", demo="accelcal.methods.acceptance.demo", demo_order=8,
-        demo_sensors="one", demo_test="acceptance tests"),
+        demo_sensors="one", demo_test="acceptance tests",
+        budget_inputs=("local_gravity", "head_angle", "head_repeatability", "centrifuge_radius",
+                       "centrifuge_rate", "coil_constant", "daq_gain", "daq_offset",
+                       "daq_linearity", "daq_resolution", "sensor_temperature")),
     Method(
         name="response", family="response", title="frequency response",
         package=_m("response"), kinds=("response",), formats=("accelcal.io.formats.response",),

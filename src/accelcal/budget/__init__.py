@@ -55,7 +55,7 @@ def budgets(reduction, lab=None, *, records=None, model=None, check=None) -> lis
     from accelcal.errors import AccelcalError
 
     found = [m for m in catalog.METHODS if m.family == reduction.family]
-    inputs = found[0].budget_inputs if found else ()
+    inputs = model_inputs(reduction)
     data_model, notes = None, []
     if inputs:
         module = importlib.import_module(f"{found[0].package}.budget")
@@ -77,3 +77,22 @@ def budgets(reduction, lab=None, *, records=None, model=None, check=None) -> lis
         out = [dataclasses.replace(b, check=mc_check(b, correlation=lab.correlations, **options))
                for b in out]
     return out
+
+
+def model_inputs(reduction) -> tuple:
+    """The lab inputs of a reduction's measurement model.
+
+    Its method's (:attr:`accelcal.catalog.Method.budget_inputs`), narrowed
+    to the reduction's own test where the method's ``budget`` module says
+    which (``inputs(reduction)``: the acceptance tests each have their own).
+    """
+    import importlib
+
+    from accelcal import catalog
+
+    found = [m for m in catalog.METHODS if m.family == reduction.family]
+    if not found or not found[0].budget_inputs:
+        return ()
+    module = importlib.import_module(f"{found[0].package}.budget")
+    narrow = getattr(module, "inputs", None)
+    return tuple(narrow(reduction)) if narrow is not None else found[0].budget_inputs

@@ -45,6 +45,7 @@ import math
 from dataclasses import dataclass, field
 
 from accelcal.budget.gum import Input, combine
+from accelcal.errors import AccelcalError
 
 ORDER_EXPONENT = {"bias": 1, "scale": -1, "ratio": 0, "misalignment": 0, "transverse": 0,
                   "second": -1, "third": -2, "fourth": -3}
@@ -52,9 +53,9 @@ ORDER_EXPONENT = {"bias": 1, "scale": -1, "ratio": 0, "misalignment": 0, "transv
 
 NO_MODEL = "no lab inputs modelled for this method"
 
-CORRECTIONS = ("head_angle", "head_axis_tilt", "autocollimator", "daq_gain", "daq_offset",
-               "daq_linearity", "load_resistor", "centrifuge_rate", "frequency",
-               "reference_phase")
+CORRECTIONS = ("head_angle", "head_repeatability", "head_axis_tilt", "autocollimator",
+               "daq_gain", "daq_offset", "daq_linearity", "daq_resolution", "load_resistor",
+               "centrifuge_rate", "frequency", "reference_phase")
 """Inputs whose value is an error (zero when none is known): a non-zero value is a
 correction, which the budget names but does not apply."""
 
@@ -83,7 +84,9 @@ class DataModel:
     analytic : dict
         Inputs whose sensitivity the method states in closed form:
         ``quantity -> f(reported, standard)``, the coefficient of one
-        :class:`Reported` per unit of the standard.
+        :class:`Reported` per unit of the standard (an
+        :class:`~accelcal.errors.AccelcalError` from it: the declaration
+        does not enter the model, noted).
     parameters : dict
         Inputs that enter through the reduction's parameters, perturbed
         and re-run rather than analytic: ``quantity -> {dimension:
@@ -238,8 +241,6 @@ def _run(model: DataModel, rows, **shift) -> list[float]:
     """The rows' values in the reduction of the perturbed data (NaN where it fails)."""
     import numpy as np
 
-    from accelcal.errors import AccelcalError
-
     try:
         return _values(model.reduce(**shift), rows)
     except (AccelcalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
@@ -341,7 +342,10 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
             notes.append(f"{q}: the declared value {std.value:g} {std.unit} is a correction "
                          "the reduction has not applied; only its uncertainty is in the budget")
         if data_model is not None and q in data_model.analytic:
-            out[q] = [data_model.analytic[q](r, std) for r in rows]
+            try:
+                out[q] = [data_model.analytic[q](r, std) for r in rows]
+            except AccelcalError as exc:  # the closed form does not take this declaration
+                notes.append(f"{q}: {exc.message}; not in the budget")
         elif data_model is not None and data_model.reduce and q in data_model.parameters:
             keyword = data_model.parameters[q].get(std.dimension)
             if keyword is None:

@@ -75,6 +75,7 @@ UNITS = {
     "frequency": {"Hz": 1.0, "kHz": 1e3},
     "sensitivity": {"V/g": 1.0, "mV/g": 1e-3, "mV/(m/s^2)": 9.80665e-3},
     "charge sensitivity": {"pC/g": 1.0, "pC/(m/s^2)": 9.80665},
+    "coil constant": {"mT/A": 1.0, "uT/A": 1e-3, "T/A": 1e3, "G/A": 0.1},
 }
 """Units of each dimension with their size in the dimension's first unit.
 
@@ -86,11 +87,15 @@ QUANTITIES = {
                       "local gravity at the test position (absolute-gravity survey)"),
     "head_angle": (("angle",), "arcsec",
                    "angle error of each indexing-head or rate-table position (one per position)"),
+    "head_repeatability": (("angle",), "arcsec",
+                           "repeatability of a head or tilt-table position (one error per visit)"),
     "head_axis_tilt": (("angle",), "arcsec", "tilt of the head's rotation axis from level"),
     "autocollimator": (("angle",), "arcsec", "autocollimator or polygon reading of a position"),
     "daq_gain": (("relative",), "ppm", "relative gain error of the data acquisition"),
     "daq_offset": (("voltage",), "uV", "offset of the data acquisition"),
     "daq_linearity": (("relative",), "ppm", "integral nonlinearity of the data acquisition"),
+    "daq_resolution": (("voltage",), "uV",
+                       "quantization error of a reading (half the least significant bit)"),
     "load_resistor": (("resistance", "relative"), "ohm",
                       "load resistor of a current-output accelerometer (V = I R)"),
     "load_resistor_tc": (("relative/temperature",), "ppm/degC",
@@ -102,6 +107,8 @@ QUANTITIES = {
                               "sensitivity of the reference accelerometer (shaker)"),
     "reference_phase": (("angle",), "deg", "phase of the reference accelerometer (shaker)"),
     "frequency": (("frequency", "relative"), "Hz", "frequency of the excitation"),
+    "coil_constant": (("coil constant", "relative"), "mT/A",
+                      "field per ampere of the Helmholtz coils (the applied field's scale)"),
 }
 """The vocabulary of input quantities: ``name -> (dimensions, usual unit, meaning)``."""
 

@@ -80,15 +80,16 @@ def budget(
         from accelcal.budget.lab import load_lab
 
         the_lab = load_lab(lab)
-    from accelcal.budget import budgets
+    from accelcal.budget import budgets, model_inputs
     from accelcal.budget.render import render_budgets
     from accelcal.report.budgets import gather
 
     out, warned = [], set()
     for reduction, inputs, sensors, method in gather(records, data):
         if the_lab is not None:
-            _check_due(the_lab, method, allow_expired, warned)
-            _warn_missing(method, the_lab)
+            quantities = model_inputs(reduction)
+            _check_due(the_lab, quantities, allow_expired, warned)
+            _warn_missing(method, quantities, the_lab)
         found = budgets(reduction, the_lab, records=inputs, model=model,
                         check={"trials": trials, "seed": seed} if check else None)
         out += [b for b in found if (sensors is None or b.sensor in sensors)
@@ -99,9 +100,8 @@ def budget(
     sys.stdout.write(render_budgets(out, fmt))
 
 
-def _check_due(lab, method, allow_expired: bool, warned: set) -> None:
-    """Refuse the method's inputs past their due date, or warn once when they are allowed."""
-    inputs = method.budget_inputs if method is not None else ()
+def _check_due(lab, inputs, allow_expired: bool, warned: set) -> None:
+    """Refuse the model's inputs past their due date, or warn once when they are allowed."""
     if not allow_expired:
         lab.check_due(quantities=inputs)
         return
@@ -112,10 +112,10 @@ def _check_due(lab, method, allow_expired: bool, warned: set) -> None:
             f"{s.quantity} (due {s.due})" for s in late), err=True)
 
 
-def _warn_missing(method, lab) -> None:
+def _warn_missing(method, inputs, lab) -> None:
     if method is None:
         return
-    missing = [q for q in method.budget_inputs if q not in lab.standards]
+    missing = [q for q in inputs if q not in lab.standards]
     if missing:
         typer.echo(f"warning: {lab.path.name} declares no {', '.join(missing)} (inputs of the "
                    f"{method.name} model); they are not in the budget", err=True)
