@@ -22,11 +22,12 @@ the steps of increment ``d_k``; the decided increment is a told ``d_j``):
   times that;
 - the DAQ's gain: ``c = r`` per relative gain on a response, 0 on the
   decided increment (the 50 % rule does not move for steps much above or
-  below it); its linearity (a bow ``v + l |v| v / max|v|``, the engine's):
-  a step's output change at the level ``v`` grows by ``2 l |v| / max|v|``,
-  so ``c = 2 r |v| / max|v|``; its resolution (an independent quantization
-  error ``e_k`` of each dwell mean): ``c = ||w_k||`` per output unit, ``w_k``
-  the weights that make ``r_k`` from the dwell means.
+  below it); its linearity (the engine's bow ``v + l |v| v / max|v|`` of
+  every sample) moves each dwell mean by ``l F_k / max|v|``, ``F_k`` the
+  mean of ``|v| v`` over dwell k's samples, and ``r_k = w_k . m``, a linear
+  form in the dwell means, by ``l w_k . F / max|v|``: ``c = w_k . F /
+  max|v|``; its resolution (an independent quantization error of each
+  dwell mean): ``c = ||w_k||`` per output unit.
 
 Hysteresis (``H = (mean of the decreasing-leg means - mean of the
 increasing-leg means) / K1`` at a point ``a = sin theta``):
@@ -34,8 +35,9 @@ increasing-leg means) / K1`` at a point ``a = sin theta``):
 - the head's repeatability (an independent angle error at each visit;
   its accuracy, the same at each visit, cancels): ``c = cos theta
   sqrt(1/n_d + 1/n_u)`` (g per rad), ``n_d, n_u`` the visits of each leg;
-- the DAQ's gain ``c = H``; its linearity ``c = 2 H |v| / max|v|``; its
-  resolution ``c = sqrt(1/n_d + 1/n_u) / K1`` (g per output unit).
+- the DAQ's gain ``c = H``; its linearity, as for the responses, ``c =
+  (mean F_down - mean F_up) / (K1 max|v|)``; its resolution ``c =
+  sqrt(1/n_d + 1/n_u) / K1`` (g per output unit).
 
 Input range (the input where the nonlinearity relative to a straight line
 fitted to the same dwells leaves the limit): a common scale error ``e`` of
@@ -52,7 +54,8 @@ Turn-on repeatability (bias ``b_j = beta_0 / beta_1`` at +-1 g of the local
 gravity): local gravity ``c = y / g`` on every bias, its spread and the
 drift (the scale factors, relative to their mean, do not move); the DAQ's
 offset ``c = 1 / k_j`` (g per output unit) on each turn-on's bias and their
-mean, 0 on the spread (common to the turn-ons); the sensor's temperature
+mean, and on their spread ``s`` only through the spread of the ``k_j``,
+``c = sum (b_j - mean b)(1/k_j - mean 1/k) / ((N - 1) s)``; the sensor's temperature
 by its bias temperature coefficient (:mod:`accelcal.budget.engine`, the
 model's ``K0_T1``; on the spread this is a bound: a turn-on that ran
 ``u(T)`` away moves one bias by ``dK0/dT u(T)``).
@@ -155,7 +158,7 @@ def _relative(sign: float, rows=None):
     return c
 
 
-def _steps(reduction, full_scale: float) -> dict:
+def _steps(reduction, bows, full_scale: float) -> dict:
     """Closed forms of a threshold or resolution reduction (module docs)."""
     import numpy as np
 
@@ -163,13 +166,12 @@ def _steps(reduction, full_scale: float) -> dict:
 
     obs, prov = reduction.observations, reduction.provenance
     test, k1, unit = prov["test"], prov["scale_factor"], prov["output_unit"]
-    a, m = np.asarray(obs["dwell_input"]), np.asarray(obs["dwell_mean"])
+    a = np.asarray(obs["dwell_input"])
     groups = []
     for size, idx, coef in weights(a, k1):
         where = np.unique(np.r_[a[idx], a[idx + 1]])
-        level = float(np.mean(np.abs(np.r_[m[idx], m[idx + 1]])))
         groups.append((size, float(np.sqrt(np.sum(1.0 - where**2))),
-                       float(np.sqrt(np.sum(coef**2))), level))
+                       float(np.sqrt(np.sum(coef**2))), float(coef @ bows)))
     decided = int(prov["decided"])
 
     def group(row):
@@ -184,7 +186,7 @@ def _steps(reduction, full_scale: float) -> dict:
 
     def linearity(row, std):
         g = group(row)
-        return 0.0 if g is None else 2.0 * row.estimate * g[3] / full_scale * std.factor("1")
+        return 0.0 if g is None else g[3] / full_scale * std.factor("1")
 
     def resolution(row, std):
         g = group(row)
@@ -196,20 +198,20 @@ def _steps(reduction, full_scale: float) -> dict:
             "daq_linearity": linearity, "daq_resolution": resolution}
 
 
-def _hysteresis(reduction, full_scale: float) -> dict:
+def _hysteresis(reduction, bows, full_scale: float) -> dict:
     """Closed forms of a hysteresis reduction (module docs)."""
     import numpy as np
 
     obs, prov = reduction.observations, reduction.provenance
     k1, unit = prov["scale_factor"], prov["output_unit"]
-    a, m = np.asarray(obs["dwell_input"]), np.asarray(obs["dwell_mean"])
+    a = np.asarray(obs["dwell_input"])
     direction = np.asarray(obs["dwell_direction"])
     points = []
     for p in prov["points_g"]:
         down, up = (a == p) & (direction < 0), (a == p) & (direction > 0)
         spread = math.sqrt(1.0 / down.sum() + 1.0 / up.sum())
-        level = 0.5 * abs(m[down].mean() + m[up].mean())
-        points.append((math.sqrt(max(1.0 - p * p, 0.0)), spread, level))
+        bow = (bows[down].mean() - bows[up].mean()) / k1
+        points.append((math.sqrt(max(1.0 - p * p, 0.0)), spread, bow))
 
     def point(row):
         k = _index(row.name, "hysteresis")
@@ -219,7 +221,7 @@ def _hysteresis(reduction, full_scale: float) -> dict:
         "head_repeatability": lambda row, std: (point(row)[0] * point(row)[1] * _to_row(row)
                                                 * std.factor("rad")),
         "daq_gain": _relative(1.0),
-        "daq_linearity": lambda row, std: (2.0 * row.estimate * point(row)[2] / full_scale
+        "daq_linearity": lambda row, std: (point(row)[2] / full_scale * _to_row(row)
                                            * std.factor("1")),
         "daq_resolution": lambda row, std: (point(row)[1] / k1 * _to_row(row)
                                             * _per_output(std, unit))}
@@ -255,15 +257,20 @@ def _turn_on(reduction) -> dict:
     import numpy as np
 
     prov = reduction.provenance
-    scale = np.asarray(reduction.observations["scale"], dtype=float)
+    obs = reduction.observations
+    inverse = 1.0 / np.asarray(obs["scale"], dtype=float)
+    bias = np.asarray(obs["bias"], dtype=float)
+    spread = float(np.std(bias, ddof=1))
     unit = prov["output_unit"]
     moving = ("bias_repeatability", "drift", "bias_mean")
+    per = {"bias_mean": float(np.mean(inverse)),  # d s / d o of the spread s of b_j + o / k_j
+           "bias_repeatability": float(np.sum((bias - bias.mean()) * (inverse - inverse.mean()))
+                                       / ((bias.size - 1) * spread)) if spread else 0.0}
 
     def offset(row, std):
         k = _index(row.name, "bias")
-        per = (float(np.mean(1.0 / scale)) if row.name == "bias_mean"
-               else 1.0 / scale[k] if k is not None else 0.0)
-        return per * _to_row(row) * _per_output(std, unit) if per else 0.0
+        c = per.get(row.name, inverse[k] if k is not None else 0.0)
+        return c * _to_row(row) * _per_output(std, unit) if c else 0.0
 
     return {"local_gravity": _gravity(lambda r: 1 if r.name in moving
                                       or _index(r.name, "bias") is not None else 0),
@@ -298,6 +305,27 @@ def _linearity_rerun(run, skip=()):
     return c
 
 
+def _bows(record, reduction):
+    """``F_k``, the mean of ``|v| v`` over each dwell's samples kept, and ``max|v|``.
+
+    What the DAQ linearity's bow ``v + l |v| v / max|v|`` adds to each
+    dwell mean, per ``l / max|v|``; without the record, ``|m| m`` of the
+    dwell means and the largest ``|m|``.
+    """
+    from itertools import pairwise
+
+    import numpy as np
+
+    if record is None:
+        m = np.asarray(reduction.observations["dwell_mean"])
+        return np.abs(m) * m, float(np.abs(m).max())
+    settle = float(reduction.assumed("settle", reduction.provenance.get("settle", 0.0)))
+    v = np.asarray(record.output)
+    bows = [(np.abs(v[lo:hi]) * v[lo:hi])[record.t[lo:hi] >= record.t[lo] + settle].mean()
+            for lo, hi in pairwise(record.dwells())]
+    return np.asarray(bows), float(np.abs(v).max())
+
+
 def _record(records):
     """The step record (read from its file) of ``records``, or None."""
     if isinstance(records, list | tuple):  # the input files a calibration record names
@@ -323,8 +351,6 @@ def data_model(reduction, records):
     AccelcalError
         A reduction without the dwells it was made from (its observations).
     """
-    import numpy as np
-
     from accelcal.budget.engine import DataModel
 
     record = _record(records)
@@ -333,12 +359,10 @@ def data_model(reduction, records):
     need = "scale" if test == "turn-on" else "dwell_mean"
     if need not in obs:
         raise AccelcalError("the reduction does not hold its dwells")
-    full_scale = (float(np.max(np.abs(record.output))) if record is not None
-                  else float(np.max(np.abs(obs.get("dwell_mean", [1.0])))))
     if test in ("threshold", "resolution"):
-        analytic = _steps(reduction, full_scale)
+        analytic = _steps(reduction, *_bows(record, reduction))
     elif test == "hysteresis":
-        analytic = _hysteresis(reduction, full_scale)
+        analytic = _hysteresis(reduction, *_bows(record, reduction))
     elif test.startswith("range"):
         analytic = _range(reduction)
     elif test == "turn-on":
@@ -366,7 +390,8 @@ def rerun(record, reduction):
         (an angle error of each visit, rad) on dwell ``k``'s samples; the told
         inputs become ``(1 + input_scale) a``, and ``sin(theta_p +
         angles[p])`` at each position ``p`` (the distinct dwell inputs,
-        ascending); the field ``(1 + field_scale) B``.
+        ascending); the field ``(1 + field_scale) B``. A range test's
+        ``linear_span`` scales with the inputs (the line keeps its dwells).
     """
     import dataclasses
 
@@ -400,6 +425,8 @@ def rerun(record, reduction):
         applied = applied * (1.0 + input_scale)
         field = None if record.field is None else record.field * (1.0 + field_scale)
         moved = dataclasses.replace(record, output=out, input=applied, field=field)
-        return reduce(moved, **options)
+        span = options.get("linear_span")
+        scaled = {} if span is None else {"linear_span": span * (1.0 + input_scale)}
+        return reduce(moved, **(options | scaled))  # the same dwells on the line
 
     return run
