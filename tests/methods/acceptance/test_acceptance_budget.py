@@ -240,3 +240,10 @@ def test_cli_lists_the_tests_missing_inputs_and_writes_the_budget_keys(tmp_path,
         for r in b["rows"]:
             assert {"quantity", "estimate", "u", "unit", "distribution", "sensitivity",
                     "contribution", "dof", "share"} <= set(r)
+
+
+def test_the_descriptor_declares_every_tests_inputs():
+    from accelcal.catalog import method
+
+    declared = method("acceptance").budget_inputs
+    assert set(declared) == {q for test in INPUTS.values() for q in test}

@@ -107,9 +107,8 @@ def _test(reduction) -> str:
 
 def inputs(reduction) -> tuple:
     """The lab inputs of this reduction's test (:data:`INPUTS`; every one for an unknown test)."""
-    from accelcal.catalog import method
-
-    return INPUTS.get(_test(reduction), method("acceptance").budget_inputs)
+    return INPUTS.get(_test(reduction), tuple(dict.fromkeys(q for t in INPUTS.values()
+                                                              for q in t)))
 
 
 def _to_row(row) -> float:
