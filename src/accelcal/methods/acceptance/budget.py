@@ -97,7 +97,7 @@ GRAVITY_FIELD_G = 1.0 + 1e-9
 
 
 def _test(reduction) -> str:
-    test = reduction.provenance.get("test", "")
+    test = reduction.provenance.get("test") or reduction.method.partition("/")[2]
     if test == "range":
         inputs = reduction.observations.get("dwell_input")
         if inputs is not None and len(inputs) and max(abs(a) for a in inputs) <= GRAVITY_FIELD_G:
