@@ -247,3 +247,32 @@ def test_the_descriptor_declares_every_tests_inputs():
 
     declared = method("acceptance").budget_inputs
     assert set(declared) == {q for test in INPUTS.values() for q in test}
+
+
+def test_a_record_without_its_data_keeps_the_closed_forms_of_its_results(threshold, tmp_path,
+                                                                          capsys):
+    import dataclasses
+
+    from accelcal.calibration import lab_info
+    from accelcal.io.formats import acceptance as steps_format
+
+    rec, _ = threshold
+    data = tmp_path / "steps.csv"
+    meta = {"serial": "SN-7", "operator": "op", "date": "2026-11-20T10:00:00+00:00"}
+    steps_format.write(data, dataclasses.replace(rec, metadata={**rec.metadata, **meta}))
+    red = acceptance.reduce(data)
+    (record,) = red.to_records(lab_info([data]), input_files=[data])
+    record.save(tmp_path / "threshold.json")
+    data.unlink()  # the step record is gone: the budget of the record's own numbers
+    lab = tmp_path / "lab.toml"
+    lab.write_text(lab_text(standard("local_gravity", 9.81, "m/s^2", u=1e-4),
+                            standard("head_angle", 0.0, "arcsec", u=0.5)), encoding="utf-8")
+    code, out, err = run_cli(["budget", tmp_path / "threshold.json", "--lab", lab,
+                              "--coefficient", "threshold", "--format", "json"], capsys)
+    assert code == 0, err
+    (b,) = json.loads(out)
+    rows = {r["quantity"]: r for r in b["rows"]}
+    assert rows["local_gravity"]["contribution"] == pytest.approx(
+        b["estimate"] * 1e-4 / 9.81, rel=1e-9)
+    assert "head_angle" not in rows
+    assert any(n.startswith("head_angle: the input data were not found") for n in b["notes"])

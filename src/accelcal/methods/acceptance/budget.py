@@ -191,10 +191,8 @@ def _steps(reduction, bows, full_scale: float) -> dict:
         g = group(row)
         return 0.0 if g is None else g[2] * _per_output(std, unit)
 
-    return {"local_gravity": _gravity(lambda r: 1 if r.name == test else -1 if group(r) else 0),
-            "head_angle": angle,
-            "daq_gain": _relative(1.0, lambda n: _index(n, "response") is not None),
-            "daq_linearity": linearity, "daq_resolution": resolution}
+    return _from_estimates(test) | {"head_angle": angle, "daq_linearity": linearity,
+                                    "daq_resolution": resolution}
 
 
 def _hysteresis(reduction, bows, full_scale: float) -> dict:
@@ -216,39 +214,59 @@ def _hysteresis(reduction, bows, full_scale: float) -> dict:
         k = _index(row.name, "hysteresis")
         return points[k]
 
-    return {
+    return _from_estimates("hysteresis") | {
         "head_repeatability": lambda row, std: (point(row)[0] * point(row)[1] * _to_row(row)
                                                 * std.factor("rad")),
-        "daq_gain": _relative(1.0),
         "daq_linearity": lambda row, std: (point(row)[2] / full_scale * _to_row(row)
                                            * std.factor("1")),
         "daq_resolution": lambda row, std: (point(row)[1] / k1 * _to_row(row)
                                             * _per_output(std, unit))}
 
 
+_RANGES = ("range_pos", "range_neg")
+_BIASES = ("bias_before", "bias_after")
+
+
+def _radius(row, std):
+    return row.estimate / std.value_in("m") * std.factor("m") if row.name in _RANGES else 0.0
+
+
+def _rate(row, std):
+    if std.dimension != "relative":
+        raise AccelcalError("a rate in rad/s enters each input differently; declare the "
+                        "rate's relative error (ppm)")
+    return 2.0 * row.estimate * std.factor("1") if row.name in _RANGES else 0.0
+
+
+def _from_estimates(test: str) -> dict:
+    """The closed forms that need a test's results alone (not its dwells)."""
+    response = lambda n: _index(n, "response") is not None  # noqa: E731
+    if test in ("threshold", "resolution"):
+        return {"local_gravity": _gravity(lambda r: 1 if r.name == test
+                                          else -1 if response(r.name) else 0),
+                "daq_gain": _relative(1.0, response)}
+    if test.startswith("range"):
+        return {"centrifuge_radius": _radius, "centrifuge_rate": _rate,
+                "local_gravity": _gravity(lambda r: 1 if r.name in _RANGES else 0),
+                "daq_gain": _relative(1.0, lambda n: n in (*_BIASES, "overload_shift"))}
+    if test == "turn-on":
+        return {"local_gravity": _gravity(
+            lambda r: 1 if r.name in ("bias_repeatability", "drift", "bias_mean")
+            or _index(r.name, "bias") is not None else 0)}
+    if test == "magnetic":
+        return {"coil_constant": _relative(-1.0), "daq_gain": _relative(1.0)}
+    return {"daq_gain": _relative(1.0)} if test == "hysteresis" else {}
+
+
 def _range(reduction) -> dict:
     """Closed forms of a range reduction (module docs)."""
     prov = reduction.provenance
     k1, unit = prov["scale_factor"], prov["output_unit"]
-    ranges = ("range_pos", "range_neg")
-    biases = ("bias_before", "bias_after")
-
-    def radius(row, std):
-        return row.estimate / std.value_in("m") * std.factor("m") if row.name in ranges else 0.0
-
-    def rate(row, std):
-        if std.dimension != "relative":
-            raise AccelcalError("a rate in rad/s enters each input differently; declare the "
-                                "rate's relative error (ppm)")
-        return 2.0 * row.estimate * std.factor("1") if row.name in ranges else 0.0
 
     def offset(row, std):
-        return _to_row(row) / k1 * _per_output(std, unit) if row.name in biases else 0.0
+        return _to_row(row) / k1 * _per_output(std, unit) if row.name in _BIASES else 0.0
 
-    return {"centrifuge_radius": radius, "centrifuge_rate": rate,
-            "local_gravity": _gravity(lambda r: 1 if r.name in ranges else 0),
-            "daq_gain": _relative(1.0, lambda n: n in (*biases, "overload_shift")),
-            "daq_offset": offset}
+    return _from_estimates("range") | {"daq_offset": offset}
 
 
 def _turn_on(reduction) -> dict:
@@ -261,7 +279,6 @@ def _turn_on(reduction) -> dict:
     bias = np.asarray(obs["bias"], dtype=float)
     spread = float(np.std(bias, ddof=1))
     unit = prov["output_unit"]
-    moving = ("bias_repeatability", "drift", "bias_mean")
     per = {"bias_mean": float(np.mean(inverse)),  # d s / d o of the spread s of b_j + o / k_j
            "bias_repeatability": float(np.sum((bias - bias.mean()) * (inverse - inverse.mean()))
                                        / ((bias.size - 1) * spread)) if spread else 0.0}
@@ -271,14 +288,7 @@ def _turn_on(reduction) -> dict:
         c = per.get(row.name, inverse[k] if k is not None else 0.0)
         return c * _to_row(row) * _per_output(std, unit) if c else 0.0
 
-    return {"local_gravity": _gravity(lambda r: 1 if r.name in moving
-                                      or _index(r.name, "bias") is not None else 0),
-            "daq_offset": offset}
-
-
-def _magnetic(reduction) -> dict:
-    """Closed forms of a magnetic reduction (module docs)."""
-    return {"coil_constant": _relative(-1.0), "daq_gain": _relative(1.0)}
+    return _from_estimates("turn-on") | {"daq_offset": offset}
 
 
 def _linearity_rerun(run, skip=()):
@@ -345,10 +355,10 @@ def data_model(reduction, records):
     tests, and the full scale ``max|v|`` of the linearity's bow (else the
     largest dwell mean).
 
-    Raises
-    ------
-    AccelcalError
-        A reduction without the dwells it was made from (its observations).
+    A reduction without the dwells it was made from (a calibration record
+    whose data are not found) gets the closed forms that need its results
+    alone (local gravity, the centrifuge, the coils, the DAQ's gain); the
+    other inputs are then left out, noted.
     """
     from accelcal.budget.engine import DataModel
 
@@ -356,8 +366,9 @@ def data_model(reduction, records):
     test = _test(reduction)
     obs = reduction.observations
     need = "scale" if test == "turn-on" else "dwell_mean"
-    if need not in obs:
-        raise AccelcalError("the reduction does not hold its dwells")
+    unit = reduction.provenance.get("output_unit", "V")
+    if need not in obs:  # a calibration record without its data: its results alone
+        return DataModel(None, 0, unit, analytic=_from_estimates(test))
     if test in ("threshold", "resolution"):
         analytic = _steps(reduction, *_bows(record, reduction))
     elif test == "hysteresis":
@@ -367,11 +378,10 @@ def data_model(reduction, records):
     elif test == "turn-on":
         analytic = _turn_on(reduction)
     else:
-        analytic = _magnetic(reduction)
+        analytic = _from_estimates(test)
     run = rerun(record, reduction) if record is not None else None
     if test.startswith("range") or test == "turn-on":
         analytic["daq_linearity"] = _linearity_rerun(run, ("clipped_samples",))
-    unit = reduction.provenance.get("output_unit", "V")
     return DataModel(run, 0, unit, analytic=analytic)
 
 
