@@ -196,6 +196,14 @@ def test_turn_on_gravity_and_offset(tmp_path):
             _row(b, "daq_offset").sensitivity, rel=1e-6, abs=1e-9)
     assert _row(_by(bs, "bias_1"), "daq_offset").sensitivity == pytest.approx(1 / 1.25, rel=1e-3)
     assert _row(_by(bs, "scale_repeatability"), "local_gravity").sensitivity == 0.0
+    # the sensor's temperature through the bias temperature coefficient of the model given
+    from accelcal.model import ErrorModel, TemperatureTerms
+
+    model = ErrorModel(K1=1.25, temperature=TemperatureTerms(20.0, {"K0_T1": 2e-6}))
+    hot = _lab(tmp_path, standard("sensor_temperature", 23.0, "degC", u=0.1))
+    warm = budgets(red, hot, records=rec, model=model)
+    assert _row(_by(warm, "bias_mean"), "sensor_temperature").sensitivity == pytest.approx(2.0)
+    assert _row(_by(warm, "drift"), "sensor_temperature").sensitivity == 0.0
 
 
 def test_magnetic_coil_constant(tmp_path):
