@@ -89,7 +89,8 @@ def budget(
         if the_lab is not None:
             quantities = model_inputs(reduction)
             _check_due(the_lab, quantities, allow_expired, warned)
-            _warn_missing(method, quantities, the_lab)
+            _warn_missing(method.name if method is not None and quantities == method.budget_inputs
+                          else reduction.method, quantities, the_lab)
         found = budgets(reduction, the_lab, records=inputs, model=model,
                         check={"trials": trials, "seed": seed} if check else None)
         out += [b for b in found if (sensors is None or b.sensor in sensors)
@@ -112,10 +113,9 @@ def _check_due(lab, inputs, allow_expired: bool, warned: set) -> None:
             f"{s.quantity} (due {s.due})" for s in late), err=True)
 
 
-def _warn_missing(method, inputs, lab) -> None:
-    if method is None:
-        return
+def _warn_missing(model: str, inputs, lab) -> None:
+    """Warn of the ``model``'s inputs the lab file does not declare."""
     missing = [q for q in inputs if q not in lab.standards]
     if missing:
         typer.echo(f"warning: {lab.path.name} declares no {', '.join(missing)} (inputs of the "
-                   f"{method.name} model); they are not in the budget", err=True)
+                   f"{model} model); they are not in the budget", err=True)

@@ -236,6 +236,7 @@ def test_cli_lists_the_tests_missing_inputs_and_writes_the_budget_keys(tmp_path,
     code, out, err = run_cli(["budget", path, "--lab", lab, "--format", "json"], capsys)
     assert code == 0, err
     assert "coil_constant" in err
+    assert "acceptance/magnetic model" in err
     for other in ("centrifuge_radius", "head_angle", "daq_resolution"):  # not this test's
         assert other not in err
     found = json.loads(out)
