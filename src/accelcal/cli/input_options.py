@@ -67,7 +67,9 @@ RAILS = typer.Option(
     None, "--rails",
     help="The clipping levels LOW,HIGH (in --unit, after --scale; e.g. the ADC's range): "
          "runs of 3 or more samples at or beyond one are clipped: refused, or left out "
-         "with --gaps split.")
+         "with --gaps split. triad: left out of the static intervals and the fit; there "
+         "the default is auto (runs of 10 or more identical samples at a channel's "
+         "extreme), none to look for no clipping.")
 
 
 def input_options(*, input_format: str = "auto", columns: str | None = None,
@@ -111,6 +113,18 @@ def parse_rails(text: str):
     except ValueError:
         raise AccelcalError(f"--rails {text!r}: give LOW,HIGH, e.g. -2,2",
                             parameter="rails") from None
+
+
+def static_rails(text: str | None):
+    """``--rails`` of a command that leaves clipped samples out (triad).
+
+    ``"auto"`` when not given or ``auto``, None for ``none``, else ``LOW,HIGH``.
+    """
+    if text is None or text.strip().lower() == "auto":
+        return "auto"
+    if text.strip().lower() == "none":
+        return None
+    return parse_rails(text)
 
 
 def print_repairs(repairs) -> None:
