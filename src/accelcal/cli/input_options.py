@@ -104,6 +104,17 @@ def input_options(*, input_format: str = "auto", columns: str | None = None,
                         rails=None if rails is None else parse_rails(rails))
 
 
+def repair_options(gaps: str = "refuse", max_fill: int = 5, sort: bool = False,
+                   jitter_tol: float | None = None, resample: bool = False) -> dict:
+    """The values of :data:`GAPS` to :data:`RESAMPLE` as :class:`InputOptions` keywords.
+
+    Every command that reads a recording declares those options and passes
+    their values through here (a record's reader takes ``gaps`` and ``max_fill``).
+    """
+    return {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
+            "resample": resample}
+
+
 def parse_rails(text: str):
     """``LOW,HIGH`` as two numbers (checked by InputOptions)."""
     from accelcal.errors import AccelcalError
@@ -133,3 +144,12 @@ def print_repairs(repairs) -> None:
 
     for line in repairs.notes():
         print(line, file=sys.stderr)
+
+
+def print_reduction_repairs(reduction) -> None:
+    """Print the repairs of the record a reduction read (its provenance's), as notes."""
+    from accelcal.io.recordings.repairs import Repairs
+
+    found = (reduction.provenance or {}).get("repairs")
+    if found:
+        print_repairs(Repairs.from_dict(found))

@@ -24,6 +24,7 @@ from accelcal.cli.input_options import (
     UNIT,
     input_options,
     print_repairs,
+    repair_options,
     static_rails,
 )
 from accelcal.errors import AccelcalError
@@ -121,8 +122,7 @@ def _repair_options(gaps, max_fill, sort, jitter_tol, resample) -> dict:
     if gaps == "split":
         raise AccelcalError("--gaps split: static intervals need consecutive samples; give "
                             "--gaps fill, or split the file at its gaps", parameter="gaps")
-    return {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
-            "resample": resample}
+    return repair_options(gaps, max_fill, sort, jitter_tol, resample)
 
 
 @app.command("calibrate")

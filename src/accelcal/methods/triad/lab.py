@@ -266,7 +266,7 @@ def _reduced(rec, found, again, means, gravity, up, labels, priors):  # noqa: PL
     The repairs go into the provenance and the notes; a refusal for too few
     positions says how many clipping dropped.
     """
-    import dataclasses
+    from accelcal.io.record_gaps import with_repairs
 
     excluded = getattr(found, "excluded", None) or {}
     note_excluded(rec.repairs, excluded)
@@ -279,11 +279,7 @@ def _reduced(rec, found, again, means, gravity, up, labels, priors):  # noqa: PL
                             f"dropped for clipped samples ({excluded['samples']} samples at "
                             "the rails): give longer holds, a range that does not clip, or "
                             "--rails", parameter=exc.parameter) from None
-    if not rec.repairs:
-        return red
-    return dataclasses.replace(
-        red, provenance={**red.provenance, "repairs": rec.repairs.to_dict()},
-        notes=(*red.notes, *(n.removeprefix("note: ") for n in rec.repairs.notes())))
+    return with_repairs(red, rec.repairs.to_dict() if rec.repairs else None)
 
 
 def _bounded(again, means, gravity, up, labels, priors):  # noqa: PLR0917
