@@ -57,7 +57,7 @@ def check_gap_options(gaps: str, max_fill: int) -> None:
 def repair_gaps(columns: dict, *, where, keys=(), time: str = "t",
                 interval: float | None = None, gaps: str = "refuse",
                 max_fill: int = 5, keep: str = "last", what: str = "plateau",
-                fillable: str | None = None) -> tuple:
+                fillable: str | None = None, hint: str | None = None) -> tuple:
     """The record's columns with the gaps inside its runs refused, cut or filled.
 
     Parameters
@@ -83,6 +83,8 @@ def repair_gaps(columns: dict, *, where, keys=(), time: str = "t",
         What a run is called (``plateau``, ``step``), in messages and notes.
     fillable : str, optional
         Why ``fill`` is refused for this record (None: it is allowed).
+    hint : str, optional
+        What to do, for a reader that offers no repair (default: the options).
 
     Returns
     -------
@@ -119,14 +121,17 @@ def repair_gaps(columns: dict, *, where, keys=(), time: str = "t",
     missing = np.rint(steps[gap] / interval).astype(np.int64) - 1
     if gaps == "refuse" or (gaps == "fill" and fillable):
         k = int(at[0])
-        run = ", ".join(f"{c} {columns[c][k]:g}" for c in keys) or "the record"
-        hint = (f"give --gaps split (the {what} is cut at the gap, its {keep} piece kept)"
-                + (f"; --gaps fill does not apply: {fillable}" if fillable else
-                   " or --gaps fill (at most --max-fill missing samples interpolated)"))
+        run = "".join(f" {c} {columns[c][k]:g}" for c in keys)
+        hint = hint or (
+            f"give --gaps split (the {what} is cut at the gap, its {keep} piece kept)"
+            + (f"; --gaps fill does not apply: {fillable}" if fillable else
+               " or --gaps fill (at most --max-fill missing samples interpolated)"))
+        between = f"a jump between {what}s is harmless, one inside a {what} is a gap: " \
+            if keys else "a gap: "
         raise AccelcalError(
             f"{where}: time column {shown_name(time)} jumps {steps[k]:.6g} s (about "
-            f"{missing[0]} samples missing) inside {what} {run} at data row {rows[0]}; a "
-            f"jump between {what}s is harmless, one inside a {what} is a gap: {hint}")
+            f"{missing[0]} samples missing) inside {what}{run} at data row {rows[0]}; "
+            f"{between}{hint}")
     from accelcal.io.recordings.repairs import Repairs
 
     repairs = Repairs()
