@@ -61,3 +61,21 @@ def test_fill_interpolates_and_agrees_with_the_cut(gapped, capsys):
     for r in cut:  # the settled window at the soak's end is untouched either way
         if r["coefficient"] in ("K0_T1", "K1_T1"):
             assert filled[r["coefficient"]] == pytest.approx(r["estimate"], rel=1e-6)
+
+
+def test_compensate_maps_row_by_row_and_fills_when_told(tmp_path, capsys):
+    t = np.r_[np.arange(50), np.arange(53, 100)] * 0.1  # three samples lost after row 50
+    lines = ["t,output,temperature", *(f"{float(ti)!r},1.0,{20.0 + float(ti)!r}" for ti in t)]
+    path = tmp_path / "rec.csv"
+    path.write_text("\n".join(lines) + "\n")
+    model = EXAMPLES / "thermal_compensation.json"
+    base = ["thermal", "compensate", path, "--model", model, "--time", "t",
+            "--temperature-unit", "degC"]
+    code, _, err = run_cli([*base, "--out", tmp_path / "a.csv"], capsys)
+    assert code == 0, err  # a row-by-row map: a gap is harmless
+    assert f"({t.size} rows)" in err
+    code, _, err = run_cli([*base, "--out", tmp_path / "b.csv", "--gaps", "fill",
+                            "--max-fill", "3"], capsys)
+    assert code == 0, err
+    assert f"({t.size + 3} rows)" in err
+    assert "note: 3 samples filled in the gaps before (data rows 51)" in err

@@ -22,6 +22,7 @@ References
 .. [TR8350.2] NIMA TR8350.2, World Geodetic System 1984, 3rd ed., 2000.
 """
 
+import dataclasses
 from dataclasses import dataclass
 from os import PathLike
 
@@ -155,6 +156,7 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         For inconsistent options, a recording that cannot be read, or too
         few positions; the message names the parameter.
     """
+    from accelcal.io.recordings.repairs import Repairs
     from accelcal.signal.static import check_settings
 
     if orientations not in (None, *ORIENTATIONS):
@@ -172,10 +174,9 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
 
     check_priors(priors)
     if options is not None and options.rails is not None:  # left out here, not refused
-        import dataclasses
-
         options, rails = dataclasses.replace(options, rails=None), options.rails
     rec = read(source, options)
+    rec = dataclasses.replace(rec, repairs=Repairs.from_dict(rec.repairs.to_dict()))  # its own
     g = local_gravity(rec, gravity=gravity, latitude=latitude, height=height)
     check_magnitude(rec, g)
     exclude = clipped_samples(rec, rails)
