@@ -154,6 +154,11 @@ def test_detect_reports_clipping_and_rails_none_turns_it_off(tmp_path, capsys, t
                             "--format", "json"], capsys)
     assert code == 0, err
     assert "note: 2 static intervals dropped for clipped samples" in err
+    code, _, err = run_cli(["triad", "detect", path, "--columns", "x,y,z", "--time", "t",
+                            "--unit", "m/s^2", "--init-static", "4", "--factor", "3",
+                            "--rails", f"-20,{RAIL}"], capsys)
+    assert code == 0, err
+    assert "(runs of 3 or more at or beyond the rails -20, 9)" in err
     code, _, err = run_cli([*base, "--rails", "none", "--out", tmp_path / "c.json"], capsys)
     assert code == 0, err
     assert "clipped" not in err
