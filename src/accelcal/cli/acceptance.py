@@ -195,7 +195,7 @@ def reduce(
     import math
 
     from accelcal.io.formats import acceptance as steps_format
-    from accelcal.io.record_gaps import with_repairs
+    from accelcal.io.recordings.repairs import with_repairs
     from accelcal.methods import acceptance
 
     check_format(fmt)

@@ -286,7 +286,7 @@ def reduce_cmd(
 ) -> None:
     """Reduce a record: estimate and standard uncertainty of each coefficient (volts)."""
     from accelcal.io.formats.dividing_head import read_head_record
-    from accelcal.io.record_gaps import with_repairs
+    from accelcal.io.recordings.repairs import with_repairs
     from accelcal.methods.dividing_head import HeadData, lab_options, reduce
 
     check_format(fmt)

@@ -19,15 +19,16 @@ that takes the run's samples as consecutive would be wrong. Following
   interpolations of the rows either side, on the nominal grid (refused
   where a method's signal is not linear between samples: ``fillable``).
 
-What was found and done goes into a :class:`~accelcal.io.recordings.repairs.Repairs`.
+What was found and done is returned as the dict of
+:meth:`accelcal.io.recordings.repairs.Repairs.to_dict` (built here: this module
+is a leaf of the io floor, which the recordings' checks take
+:data:`GAP_FACTOR` from).
 
 References
 ----------
 .. [IEEE1057] IEEE Std 1057-2017, sec. 4.1 (a record is a sequence of samples
    at a nominal sampling interval: a gap breaks it).
 """
-
-import dataclasses
 
 import numpy as np
 
@@ -90,8 +91,9 @@ def repair_gaps(columns: dict, *, where, keys=(), time: str = "t",
     -------
     columns : dict
         Repaired (the input itself when no gap was found).
-    repairs : Repairs or None
-        What was found and done (None when no gap was found).
+    repairs : dict or None
+        What was found and done, as ``Repairs.to_dict()`` (None when no gap
+        was found).
 
     Raises
     ------
@@ -132,9 +134,6 @@ def repair_gaps(columns: dict, *, where, keys=(), time: str = "t",
             f"{where}: time column {shown_name(time)} jumps {steps[k]:.6g} s (about "
             f"{missing[0]} samples missing) inside {what}{run} at data row {rows[0]}; "
             f"{between}{hint}")
-    from accelcal.io.recordings.repairs import Repairs
-
-    repairs = Repairs()
     label = f"gaps inside a {what}"
     if gaps == "fill":
         over = missing > max_fill
@@ -143,11 +142,11 @@ def repair_gaps(columns: dict, *, where, keys=(), time: str = "t",
                 f"{where}: a gap of {missing[over][0]} missing samples before data row "
                 f"{rows[over][0]} is longer than --max-fill {max_fill}; give --gaps split or "
                 "a larger --max-fill")
-        repairs.add(label, "filled by linear interpolation on the nominal grid (flagged)",
-                    rows)
-        repairs.add(f"samples filled in the gaps inside a {what}", "linear interpolation "
-                    "between the rows either side", rows, count=int(missing.sum()))
-        return _filled(columns, t, at, missing), repairs
+        return _filled(columns, t, at, missing), {"found": [
+            finding(label, "filled by linear interpolation on the nominal grid (flagged)",
+                    rows),
+            finding(f"samples filled in the gaps inside a {what}", "linear interpolation "
+                    "between the rows either side", rows, int(missing.sum()))]}
     run_start = np.r_[0, np.flatnonzero(~same) + 1]
     run_stop = np.r_[run_start[1:], t.size]
     drop = np.zeros(t.size, dtype=bool)
@@ -160,9 +159,20 @@ def repair_gaps(columns: dict, *, where, keys=(), time: str = "t",
         piece = len(lengths) - 1 if keep == "last" else int(np.argmax(lengths))
         drop[a:b] = True
         drop[bounds[piece]:bounds[piece + 1]] = False
-    repairs.add(label, f"the {what} cut at the gap, its {keep} piece kept", rows)
-    repairs.add(f"rows of a {what} cut at a gap", "left out", np.flatnonzero(drop) + 1)
-    return {c: np.asarray(v)[~drop] for c, v in columns.items()}, repairs
+    left_out = np.flatnonzero(drop) + 1
+    return {c: np.asarray(v)[~drop] for c, v in columns.items()}, {"found": [
+        finding(label, f"the {what} cut at the gap, its {keep} piece kept", rows),
+        finding(f"rows of a {what} cut at a gap", "left out", left_out)]}
+
+
+def finding(what: str, action: str, rows, count: int | None = None) -> dict:
+    """One finding as ``Repairs.to_dict()`` lists it.
+
+    ``count`` (default: one per row) and the first five ``rows`` (data rows, 1-based).
+    """
+    rows = [int(r) for r in np.atleast_1d(rows)]
+    return {"found": what, "count": len(rows) if count is None else int(count),
+            "first_rows": rows[:5], "action": action}
 
 
 def _filled(columns: dict, t, at, missing) -> dict:
@@ -187,19 +197,3 @@ def merged(items) -> dict | None:
         return items[0][1] if items else None
     return {"found": [{**f, "found": f"{f['found']} ({name})"} for name, found in items
                       for f in found.get("found", [])]}
-
-
-def with_repairs(reduction, found: dict | None):
-    """``reduction`` with the repairs ``found`` in its provenance and notes.
-
-    ``found``: ``Repairs.to_dict()``, kept as the provenance's ``repairs``;
-    the reduction itself when there were none.
-    """
-    if not found:
-        return reduction
-    from accelcal.io.recordings.repairs import Repairs
-
-    return dataclasses.replace(
-        reduction, provenance={**reduction.provenance, "repairs": found},
-        notes=(*reduction.notes,
-               *(n.removeprefix("note: ") for n in Repairs.from_dict(found).notes())))

@@ -58,7 +58,8 @@ def test_fill_interpolates_on_the_grid_and_split_keeps_the_last_piece():
     assert filled["t"] == pytest.approx([0, 1, 2, 3, 4, 5, 6, 10, 11])
     assert filled["y"] == pytest.approx(2.0 * filled["t"])
     assert filled["run"].tolist() == [0] * 7 + [1, 1]
-    assert found.findings["gaps inside a plateau"].count == 1
+    assert found["found"][0]["found"] == "gaps inside a plateau"
+    assert found["found"][1]["count"] == 2  # samples filled
     cut, _ = repair_gaps({"t": t, "run": run, "y": y}, where="x", keys=("run",),
                          gaps="split")
     assert cut["t"].tolist() == [5, 6, 10, 11]  # run 0's last piece; run 1 untouched

@@ -235,7 +235,7 @@ def read(path, *, gaps: str = "refuse", max_fill: int = 5) -> StepRecord:
     cols, repairs = repair_gaps(cols, where=path, keys=keys, gaps=gaps, max_fill=max_fill,
                                 keep="last", what="dwell")
     if repairs:
-        meta = {**meta, "repairs": repairs.to_dict()}
+        meta = {**meta, "repairs": repairs}
     units = meta["units"]
     if units["output"] != meta["output_unit"]:
         raise AccelcalError(f"{path}: the output column's unit {shown(units['output'])} is not "

@@ -237,7 +237,7 @@ def read_head_record(path, *, gaps: str = "refuse", max_fill: int = 5) -> HeadRe
         that do not match the columns, a wrong number of mount phases or
         scale factors, duplicated angles, incomplete repeats, NaN readings.
     """
-    from accelcal.io.record_gaps import check_gap_options
+    from accelcal.io.record_gaps import check_gap_options, finding
 
     check_gap_options(gaps, max_fill)
     meta, cols = read_record(
@@ -322,13 +322,9 @@ def read_head_record(path, *, gaps: str = "refuse", max_fill: int = 5) -> HeadRe
             outputs[r, i] = cols[s][sel][idx]
     repairs = None
     if dropped:
-        from accelcal.io.recordings.repairs import Repairs
-
-        found = Repairs()
-        found.add("incomplete repeats (positions missing)", "left out (split)",
-                  [row for _, row, _ in dropped])
+        repairs = {"found": [finding("incomplete repeats (positions missing)",
+                                     "left out (split)", [row for _, row, _ in dropped])]}
         outputs = np.delete(outputs, [r for r, _, _ in dropped], axis=0)
-        repairs = found.to_dict()
     ac = ac_sd = None
     if "autocollimator_arcsec" in meta:
         ac = np.asarray(_number_list(meta["autocollimator_arcsec"], path,

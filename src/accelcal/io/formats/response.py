@@ -282,7 +282,7 @@ def read(path, *, gaps: str = "refuse", max_fill: int = 5) -> ResponseRecord:
                                 max_fill=max_fill, keep="longest", what="step",
                                 fillable=NOT_FILLED)
     if repairs:
-        meta = {**meta, "repairs": repairs.to_dict()}
+        meta = {**meta, "repairs": repairs}
     steps = int(np.count_nonzero(np.diff(cols["step"]))) + 1 if cols["step"].size else 0
     check_metadata(meta, path, steps)
     try:

@@ -241,7 +241,7 @@ def read(path, *, gaps: str = "refuse", max_fill: int = 5) -> ThermalRecord:
     cols, repairs = repair_gaps(cols, where=path, keys=("phase", "plateau", "angle"),
                                 gaps=gaps, max_fill=max_fill, keep="last", what="plateau")
     if repairs:
-        meta = {**meta, "repairs": repairs.to_dict()}
+        meta = {**meta, "repairs": repairs}
     if meta["rotation_axis"] not in AXES:
         raise AccelcalError(f"{path}: metadata rotation_axis {shown(meta['rotation_axis'])} is "
                             f"not one of {', '.join(AXES)}")

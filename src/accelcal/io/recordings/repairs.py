@@ -137,6 +137,22 @@ class Repairs:
         return bool(self.findings) or len(self.segments) > 1
 
 
+def with_repairs(reduction, found: dict | None):
+    """``reduction`` with the repairs ``found`` in its provenance and notes.
+
+    ``found``: :meth:`Repairs.to_dict`, kept as the provenance's ``repairs``;
+    the reduction itself when there were none.
+    """
+    if not found:
+        return reduction
+    import dataclasses
+
+    return dataclasses.replace(
+        reduction, provenance={**reduction.provenance, "repairs": found},
+        notes=(*reduction.notes,
+               *(n.removeprefix("note: ") for n in Repairs.from_dict(found).notes())))
+
+
 class TimeRepair:
     """The state of the repairs across the blocks of one recording.
 

@@ -21,7 +21,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.identifiability import combination_name
 from accelcal.io.formats.dividing_head import HeadRecord
-from accelcal.io.record_gaps import with_repairs
+from accelcal.io.recordings.repairs import with_repairs
 from accelcal.methods.dividing_head.data import HeadData
 from accelcal.methods.dividing_head.four import four
 from accelcal.methods.dividing_head.joint import joint

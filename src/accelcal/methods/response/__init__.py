@@ -255,7 +255,8 @@ def reduce(records, *, method: str | None = None, reference=None, reference_freq
         extra = {} if min_coherence is None else {"min_coherence": min_coherence}
         return reduce_broadband(items[0], reference, segment=segment,
                                 reference_frequency=reference_frequency, **extra)
-    from accelcal.io.record_gaps import merged, with_repairs
+    from accelcal.io.record_gaps import merged
+    from accelcal.io.recordings.repairs import with_repairs
 
     loaded = [read(r, gaps=gaps, max_fill=max_fill) if isinstance(r, str | PathLike) else r
               for r in items]

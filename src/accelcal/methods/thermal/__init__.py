@@ -107,7 +107,7 @@ def reduce(records, *, gaps: str = "refuse", max_fill: int = 5, **options):
     """
     from os import PathLike
 
-    from accelcal.io.record_gaps import with_repairs
+    from accelcal.io.recordings.repairs import with_repairs
 
     record = records
     if isinstance(records, str | PathLike):

@@ -267,7 +267,7 @@ def _reduced(rec, found, again, means, gravity, up, labels, priors):  # noqa: PL
     The repairs go into the provenance and the notes; a refusal for too few
     positions says how many clipping dropped.
     """
-    from accelcal.io.record_gaps import with_repairs
+    from accelcal.io.recordings.repairs import with_repairs
 
     excluded = getattr(found, "excluded", None) or {}
     note_excluded(rec.repairs, excluded)
