@@ -104,21 +104,21 @@ QUANTITIES = {
     "reference_phase": (("angle",), "deg", "phase of the reference accelerometer (shaker)"),
     "frequency": (("frequency", "relative"), "Hz", "frequency of the excitation"),
     "daq_gain_mismatch": (("relative",), "ppm",
-                          "gain of the DUT's DAQ channel relative to the reference's, beyond "
-                          "the correction the record states"),
+                          ("gain of the DUT's DAQ channel relative to the reference's, beyond "
+                          "the correction the record states")),
     "daq_delay_mismatch": (("time",), "ns",
-                           "delay of the DUT's DAQ channel behind the reference's, beyond the "
-                           "correction the record states"),
+                           ("delay of the DUT's DAQ channel behind the reference's, beyond the "
+                           "correction the record states")),
     "transverse_motion": (("relative",), "%",
-                          "the shaker's transverse acceleration along the DUT's most sensitive "
-                          "transverse axis, of the axial (each quadrature component)"),
+                          ("the shaker's transverse acceleration along the DUT's most sensitive "
+                          "transverse axis, of the axial (each quadrature component)")),
     "transverse_sensitivity": (("relative",), "%", "the DUT's largest transverse sensitivity"),
     "distortion": (("relative",), "%",
-                   "harmonic distortion of the shaker's motion (each of the 2nd and 3rd "
-                   "harmonics, of the fundamental)"),
+                   ("harmonic distortion of the shaker's motion (each of the 2nd and 3rd "
+                   "harmonics, of the fundamental)")),
     "relative_motion": (("relative",), "%",
-                        "motion of the DUT relative to the reference's, of the axial (each "
-                        "quadrature component)"),
+                        ("motion of the DUT relative to the reference's, of the axial (each "
+                        "quadrature component)")),
     "sensitivity_tc": (("relative/temperature",), "ppm/degC",
                        "temperature coefficient of the DUT's sensitivity"),
 }

@@ -58,8 +58,9 @@ quantities' estimates zero and their distributions symmetric, the signs
 change no budget.
 
 Laser, gravity and model-fit reductions are not comparisons: these inputs
-are named as not entering them. Each closed form is checked against the reduction of re-simulated data
-(central differences) in ``tests/methods/response/test_response_budget.py``.
+are named as not entering them. Each closed form is checked against the
+reduction of re-simulated data (central differences) in
+``tests/methods/response/test_response_budget.py``.
 
 The inputs are listed in the method's descriptor
 (:attr:`accelcal.catalog.Method.budget_inputs`).
@@ -97,10 +98,9 @@ class _Model:
     """What the closed forms need of a reduction and, when at hand, of its records."""
 
     def __init__(self, reduction, loaded, rerun):
-        from accelcal.methods.response.stepped import METHOD
-
         import numpy as np
 
+        from accelcal.methods.response.stepped import METHOD
         from accelcal.rigs.shaker_response import ReferenceTable
 
         est = reduction.estimate
@@ -288,7 +288,8 @@ def harmonics(record, distortion: float):
 
 def data_model(reduction, records):
     """A :class:`~accelcal.budget.engine.DataModel` of response records (closed forms alone
-    without them)."""
+    without them).
+    """
     from os import PathLike
 
     from accelcal.budget.engine import DataModel
