@@ -287,8 +287,9 @@ def harmonics(record, distortion: float):
 
 
 def data_model(reduction, records):
-    """A :class:`~accelcal.budget.engine.DataModel` of response records (closed forms alone
-    without them).
+    """A :class:`~accelcal.budget.engine.DataModel` of response records.
+
+    Without the records (None or empty) the closed forms alone.
     """
     from os import PathLike
 
