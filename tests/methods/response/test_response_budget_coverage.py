@@ -99,11 +99,29 @@ PRIMARY = dataclasses.replace(  # a reference calibrated by laser to 0.1 % and 0
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("reference", [default_reference(), PRIMARY], ids=["default", "primary"])
-def test_budget_covers_the_truth(reference):
-    result = coverage(reference)
+def test_budget_covers_the_truth_at_the_default_settings():
+    """The default reference (U = 0.5 %, 0.5 deg) dominates: a near-normal output."""
+    result = coverage(default_reference())
     print(f"\n{TRIALS} campaigns x 11 points, seed {SEED}: " + "; ".join(
         f"{part}: SD ratio {sd:.3f}, coverage {cov:.3f}" for part, (sd, cov) in result.items()))
     for part, (sd, cov) in result.items():
         assert 0.93 <= cov <= 0.97, (part, cov)
+        assert 0.9 <= sd <= 1.1, (part, sd)
+
+
+@pytest.mark.slow
+def test_budget_covers_the_truth_with_a_primary_reference():
+    """A reference of 0.1 %, 0.1 deg: the motions and the delay mismatch weigh.
+
+    The relative motion's rectangular input is then 57 % of the magnitude's
+    variance: ``k = 2`` on a sum so near a uniform one over-covers (a
+    uniform's 95.45 % interval is ``1.65 u``), as ``--check mc`` shows; the
+    SD ratio stays near 1.
+    """
+    trials = TRIALS // 2
+    result = coverage(PRIMARY, trials=trials)
+    print(f"\n{trials} campaigns x 11 points, seed {SEED}: " + "; ".join(
+        f"{part}: SD ratio {sd:.3f}, coverage {cov:.3f}" for part, (sd, cov) in result.items()))
+    for part, (sd, cov) in result.items():
+        assert 0.93 <= cov <= 0.99, (part, cov)
         assert 0.9 <= sd <= 1.1, (part, sd)
