@@ -239,3 +239,20 @@ def test_the_fit_and_the_laser_are_not_comparisons(base):
     bs = budgets(fit_model(red), load_lab(LAB), records=rec)
     assert {r.quantity for b in bs for r in b.rows} <= {"Type A"}
     assert any("not of response/model-fit" in n for n in bs[0].notes)
+
+
+def test_the_rigs_mounting_multiplies_the_dut_by_its_factor(base):
+    from accelcal.errors import AccelcalError
+
+    rec, red = base
+    moved = reduce(_record(relative_motion=(0.01, -0.02), transverse=(0.03, 0.04),
+                           transverse_sensitivity=0.05))
+    ratio = np.asarray(moved.estimate.values) / np.asarray(red.estimate.values)
+    np.testing.assert_allclose(ratio, 1 + 0.01 - 0.02j + 0.05 * (0.03 + 0.04j), rtol=1e-10)
+    stated = _record(relative_motion=(0.01, 0.0))
+    assert stated.metadata["mounting"] == {"relative_motion": [0.01, 0.0],
+                                           "transverse": [0.0, 0.0],
+                                           "transverse_sensitivity": 0.0}
+    assert "mounting" not in rec.metadata  # none: a record as before
+    with pytest.raises(AccelcalError, match="magnitude below 1"):
+        _record(relative_motion=(1.5, 0.0))
