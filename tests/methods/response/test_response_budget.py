@@ -256,3 +256,16 @@ def test_the_rigs_mounting_multiplies_the_dut_by_its_factor(base):
     assert "mounting" not in rec.metadata  # none: a record as before
     with pytest.raises(AccelcalError, match="magnitude below 1"):
         _record(relative_motion=(1.5, 0.0))
+
+
+def test_broadband_points_get_the_budget_without_distortion():
+    from accelcal.rigs.response_routes import BroadbandRig
+
+    rec = BroadbandRig(kind="random", duration_s=2.0, sample_rate=5000.0).simulate(seed=2)
+    red = reduce(rec)
+    bs = budgets(red, load_lab(LAB), records=rec)
+    assert len(bs) == 2 * len(red.estimate.names)
+    quantities = {r.quantity for r in bs[0].rows}
+    assert {"reference_sensitivity", "relative_motion", "frequency"} <= quantities
+    assert "distortion" not in quantities
+    assert any(n.startswith("distortion: an input of the stepped sine") for n in bs[0].notes)

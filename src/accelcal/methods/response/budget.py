@@ -43,10 +43,11 @@ and the phase by ``Im x`` rad. In closed form:
   reference (its table), and ``F`` the sine fits' own response to a
   mismatch of the data's and the fit's frequency, found by re-running the
   reduction with the stated frequency moved (the reduction re-run moves
-  ``L'_ref + F``, so ``c = L'_dut - c_rerun``);
+  ``L'_ref + F``, so ``c = L'_dut - c_rerun``); without the data, or for
+  broadband excitation (no sine fits), the slopes alone;
 - ``distortion``: 0 (the fits hold the 2nd and 3rd harmonics), and with the
   data at hand found by re-running the reduction with both harmonics added
-  to both channels;
+  to both channels; not an input of broadband excitation;
 - ``daq_gain``, ``daq_linearity``: re-run on both channels (a common gain
   cancels in the ratio).
 
@@ -301,7 +302,8 @@ def data_model(reduction, records):
         from accelcal.catalog import method
 
         return DataModel(None, 0, "V", per_row=dict.fromkeys(
-            method("response").budget_inputs, _not_a_comparison(reduction.method)))
+            method("response").budget_inputs, _not_of("an input of the comparison",
+                                                      reduction.method)))
     analytic = {"daq_gain_mismatch": _gain_mismatch, "relative_motion": _relative_motion}
     per_row = {"sensor_temperature": _temperature, "sensitivity_tc": _temperature_coefficient,
                "transverse_motion": _transverse_motion,
@@ -330,15 +332,17 @@ def data_model(reduction, records):
         return reduce(moved, reference_frequency=reference_frequency)
 
     model = _Model(reduction, loaded, rerun)
+    if reduction.method == BROADBAND:  # no sine, no harmonics of it
+        per_row["distortion"] = _not_of("an input of the stepped sine", BROADBAND)
     return DataModel(rerun, 0, loaded[0].output_unit,
                      analytic=analytic | {"daq_delay_mismatch": _delay_mismatch(model)},
                      per_row=per_row | _table_inputs(model),
                      parameters={"distortion": {"relative": ("distortion", "1")}})
 
 
-def _not_a_comparison(name: str):
+def _not_of(what: str, name: str):
     def per_row(row, std, lab):
-        return f"an input of the comparison, not of {name}"
+        return f"{what}, not of {name}"
 
     return per_row
 
