@@ -18,6 +18,7 @@ from pathlib import Path
 
 import typer
 
+from accelcal.cli import record_options
 from accelcal.cli.common import check_format, check_writable, emit, parse_grid
 
 app = typer.Typer(
@@ -34,6 +35,28 @@ _REFERENCE = typer.Option(
          "(magnitude in V/g, phase in deg); default: the one each record states.")
 _FORMAT = typer.Option("table", "--format", help="table, csv or json.")
 _PLOT = typer.Option(None, "--plot", help="Directory for the Bode figure.")
+_RECORD = typer.Option(
+    None, "--record", help="Write the calibration record (JSON) of the result, for "
+    "accelcal certificate, report, budget and the store; the serial number from the records' "
+    "metadata or --serial.")
+
+
+def _lab_info(record_out, files, serial, operator):
+    """The laboratory metadata of ``--record`` (checked before any reduction; None without)."""
+    return record_options.lab_info_for(record_out, [Path(f) for f in files], serial=serial,
+                                       operator=operator)
+
+
+def _save(result, info, record_out, files) -> None:
+    if info is None:
+        return
+    import sys
+
+    from accelcal.calibration import save_records
+
+    for p in save_records(result.to_records(info, input_files=[Path(f) for f in files]),
+                          record_out):
+        print(f"wrote {p}", file=sys.stderr)
 
 
 @app.command("simulate")
@@ -184,6 +207,9 @@ def reduce(
              "output unit per g, e.g. a tumble's K1) to tie the lowest rate to."),
     fmt: str = _FORMAT,
     plot: Path | None = _PLOT,
+    record_out: Path | None = _RECORD,
+    serial: str | None = record_options.SERIAL,
+    operator: str | None = record_options.OPERATOR,
 ) -> None:
     """Magnitude and phase of the DUT's sensitivity per step or bin, with uncertainties.
 
@@ -199,9 +225,11 @@ def reduce(
         tie = parse_grid(static_scale_factor, "--static-scale-factor")
         if len(tie) != 2:
             raise AccelcalError("--static-scale-factor: give value,u")
+    info = _lab_info(record_out, files, serial, operator)
     red = _reduced(files, reference, reference_frequency, method=method, segment=segment,
                    min_coherence=min_coherence, static_scale_factor=tie)
     _plot(red, plot)
+    _save(red, info, record_out, files)
     title = f"frequency response, {red.method} ({len(files)} record(s))"
     if any(a.name == "static_tie" for a in red.assumptions):
         dev, u, f_low = red.assumed("static_tie")
@@ -228,6 +256,9 @@ def fit(
                                  help="Frequencies at which to give the phase, Hz (list)."),
     fmt: str = _FORMAT,
     plot: Path | None = _PLOT,
+    record_out: Path | None = _RECORD,
+    serial: str | None = record_options.SERIAL,
+    operator: str | None = record_options.OPERATOR,
 ) -> None:
     """The transfer function fitted to the frequency response, and what it gives.
 
@@ -240,8 +271,10 @@ def fit(
     check_format(fmt)
     parse_model(model)
     at = parse_grid(phase_at, "--phase-at") if phase_at else []
+    info = _lab_info(record_out, [file], serial, operator)
     result = fit_model(_reduced([file], reference, None), model)
     _plot(result, plot)
+    _save(result, info, record_out, [file])
     emit(fit_rows(result, at), fmt, title=f"{model} fit of {file.name}")
 
 
