@@ -44,7 +44,17 @@ N_DIG = 2
 
 @dataclass(frozen=True)
 class Check:
-    """The Monte Carlo validation of one budget (JCGM 101 sec. 8)."""
+    """The Monte Carlo validation of one budget (JCGM 101 sec. 8).
+
+    ``model``: ``"linearised"`` (:func:`check`) or ``"reduction"``
+    (:func:`propagate`). ``s_low``, ``s_high``: the numerical standard
+    deviations of the Monte Carlo endpoints (of their average over the
+    batches, JCGM 101 7.9.4 g); ``stabilised``: whether twice the numerical
+    standard deviations of the mean, standard deviation and endpoints are
+    within the tolerance of the Monte Carlo's standard uncertainty (7.9.4
+    i); None where not estimated (one batch, the linearised model).
+    ``failed``: trials whose reduction failed (left out).
+    """
 
     trials: int
     seed: int
@@ -60,9 +70,13 @@ class Check:
     d_high: float
     validated: bool
     coverage: float = COVERAGE
+    s_low: float | None = None
+    s_high: float | None = None
+    stabilised: bool | None = None
+    failed: int = 0
 
     def as_dict(self) -> dict:
-        """JSON-ready fields."""
+        """JSON-ready fields (``s_low``, ``s_high``, ``stabilised`` null when not estimated)."""
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
 
@@ -151,3 +165,180 @@ def check(budget, *, trials: int = TRIALS, seed: int = 1, correlation=None) -> C
                  float(high), float(y.mean()), float(y.std(ddof=1)), delta, float(d_low),
                  float(d_high),
                  bool(d_low <= delta and d_high <= delta))
+
+
+BATCH = 10_000
+"""Trials per batch of the adaptive procedure (JCGM 101 7.9.4 b: ``M = max(100 / (1 - p),
+10^4)``)."""
+
+MAX_ADAPTIVE = 50_000
+"""Most trials of the full model when no count is given and each trial runs the reduction
+again (five batches; :data:`TRIALS` when none does: the trials are then vectorised)."""
+
+MAX_FULL_TRIALS = 1_000_000
+"""Most trials of the full model (each a reduction; all are kept for the intervals)."""
+
+BLOCK = 64
+"""Trials per seed block of the full model (with the seed, what the draws depend on)."""
+
+MAX_SECONDS = 600.0
+"""Longest full-model run accepted without ``force``, s (estimated from a few reductions)."""
+
+PROBE = 8
+"""Trials timed to estimate a full-model run."""
+
+
+def propagate(study, budgets, *, trials: int | None = None, seed: int = 1,
+              workers: int | None = None, scheduler: str | None = None,
+              timeout: float = 10.0, force: bool = False, progress=None) -> list[Check]:
+    """Validate one reduction's budgets against the Monte Carlo of the full model.
+
+    Parameters
+    ----------
+    study : accelcal.budget.full.Study
+        The reduction's full measurement model (:func:`accelcal.budget.full.model_of`).
+    budgets : list of Budget
+        Its budgets, one per output of ``study``.
+    trials : int, optional
+        Trials in batches of about :data:`BATCH` (at least two batches).
+        None: the adaptive procedure (JCGM 101 7.9.4): batches of
+        :data:`BATCH` until every budget is stabilised, at most
+        :data:`MAX_ADAPTIVE` trials (:data:`TRIALS` when no trial runs the
+        reduction again).
+    seed : int
+        Batch ``h`` draws from :func:`accelcal.montecarlo.run` seeded with
+        ``SeedSequence(seed, spawn_key=(h,))``: the result depends on
+        ``seed`` and ``trials`` only, not on ``workers`` or ``scheduler``.
+    workers, scheduler, timeout :
+        As :func:`accelcal.montecarlo.run` takes them; a local cluster is
+        started once for all batches.
+    force : bool
+        Run a study estimated (from :data:`PROBE` reductions, timed) to take
+        longer than :data:`MAX_SECONDS` locally; refused otherwise.
+    progress : callable, optional
+        ``progress(done, total)`` over all batches.
+
+    Returns
+    -------
+    list of Check
+        One per budget, ``model="reduction"``.
+    """
+    import contextlib
+
+    import numpy as np
+
+    from accelcal import montecarlo
+    from accelcal.errors import AccelcalError
+
+    montecarlo.check_parallel(workers, scheduler, timeout)
+    if trials is not None and not 2 <= trials <= MAX_FULL_TRIALS:
+        raise AccelcalError(f"{trials} trials of the full model: give 2 to "
+                            f"{MAX_FULL_TRIALS:,} (each trial is a reduction)",
+                            parameter="trials")
+    sizes = _batches(trials, MAX_ADAPTIVE if study.reruns else TRIALS)
+    planned = sum(sizes)
+    if not force and scheduler is None and study.reruns:
+        _bound(study, planned, workers)
+    names = tuple(f"{b.serial} {b.coefficient}" for b in budgets)
+    samples, stats, done = [], [], 0
+    with contextlib.ExitStack() as stack:
+        address = scheduler
+        if workers is not None:
+            from accelcal.parallel import local_cluster
+
+            address = stack.enter_context(local_cluster(workers)).scheduler_address
+        for h, size in enumerate(sizes):
+            step = None if progress is None else (
+                lambda d, _t, before=done: progress(before + d, planned))
+            result = montecarlo.run(study, size, names=names, seed=_batch_seed(seed, h),
+                                    block_size=BLOCK, keep_samples=True, max_kept=size,
+                                    covariance=False, scheduler=address, timeout=timeout,
+                                    progress=step)
+            samples.append(result.samples)
+            stats.append(_statistics(result.samples))
+            done += size
+            if trials is None and h >= 1 and all(_stabilised(np.array(stats))):
+                break
+    y = np.concatenate(samples)
+    stats = np.array(stats)  # (batches, 4, outputs): mean, std, low, high
+    h = len(stats)
+    s = stats.std(axis=0, ddof=1) / math.sqrt(h) if h > 1 else None
+    steady = _stabilised(stats) if h > 1 else None
+    out = []
+    for j, b in enumerate(budgets):
+        col = y[:, j]
+        ok = col[np.isfinite(col)]
+        low, high = (np.quantile(ok, [(1.0 - COVERAGE) / 2.0, (1.0 + COVERAGE) / 2.0])
+                     if ok.size else (math.nan, math.nan))
+        delta = tolerance(b.u_c)
+        gum_low, gum_high = b.estimate - b.U, b.estimate + b.U
+        d_low, d_high = abs(gum_low - low), abs(gum_high - high)
+        out.append(Check(len(y), int(seed), "reduction", gum_low, gum_high, float(low),
+                         float(high), float(ok.mean()) if ok.size else math.nan,
+                         float(ok.std(ddof=1)) if ok.size > 1 else math.nan, delta,
+                         float(d_low), float(d_high), bool(d_low <= delta and d_high <= delta),
+                         s_low=None if s is None else float(s[2, j]),
+                         s_high=None if s is None else float(s[3, j]),
+                         stabilised=None if steady is None else bool(steady[j]),
+                         failed=int(col.size - ok.size)))
+    return out
+
+
+def _batches(trials: int | None, cap: int) -> list[int]:
+    """Batch sizes: ``cap / BATCH`` of :data:`BATCH`, or ``trials`` in about equal parts."""
+    if trials is None:
+        return [BATCH] * (cap // BATCH)
+    h = max(2, round(trials / BATCH))
+    return [trials // h + (1 if i < trials % h else 0) for i in range(h)]
+
+
+def _batch_seed(seed: int, batch: int) -> int:
+    import numpy as np
+
+    return int(np.random.SeedSequence(seed, spawn_key=(batch,)).generate_state(1, np.uint64)[0])
+
+
+def _statistics(samples):
+    """Each output's mean, standard deviation and 95.45 % endpoints: shape (4, outputs)."""
+    import warnings
+
+    import numpy as np
+
+    with warnings.catch_warnings():  # an output whose every trial failed: NaN
+        warnings.simplefilter("ignore", RuntimeWarning)
+        low, high = np.nanquantile(samples, [(1.0 - COVERAGE) / 2.0, (1.0 + COVERAGE) / 2.0],
+                                   axis=0)
+        return np.array([np.nanmean(samples, axis=0), np.nanstd(samples, axis=0, ddof=1),
+                         low, high])
+
+
+def _stabilised(stats):
+    """Per output: ``2 s <= delta`` for the mean, std and endpoints (JCGM 101 7.9.4 g-i).
+
+    ``stats``: (batches, 4, outputs); ``delta`` the numerical tolerance of
+    the Monte Carlo's standard uncertainty (the batches' average).
+    """
+    import numpy as np
+
+    s = stats.std(axis=0, ddof=1) / math.sqrt(len(stats))
+    delta = np.array([tolerance(u) for u in stats[:, 1, :].mean(axis=0)])
+    return [bool(np.all(2.0 * s[:, j] <= delta[j])) for j in range(s.shape[1])]
+
+
+def _bound(study, planned: int, workers: int | None) -> None:
+    """Refuse a run estimated to take longer than :data:`MAX_SECONDS` (from :data:`PROBE`)."""
+    import time
+
+    import numpy as np
+
+    from accelcal.errors import AccelcalError
+
+    start = time.monotonic()
+    study(np.random.default_rng(0), PROBE)
+    seconds = (time.monotonic() - start) / PROBE * planned / (workers or 1)
+    if seconds > MAX_SECONDS:
+        raise AccelcalError(
+            f"{planned:,} trials of the full model (each a reduction) would take about "
+            f"{seconds:,.0f} s (from {PROBE}, timed); the bound is {MAX_SECONDS:g} s: give "
+            "fewer trials or more workers, or --force (force=True) to run it anyway",
+            parameter="trials")
