@@ -179,7 +179,8 @@ MAX_FULL_TRIALS = 1_000_000
 """Most trials of the full model (each a reduction; all are kept for the intervals)."""
 
 BLOCK = 64
-"""Trials per seed block of the full model (with the seed, what the draws depend on)."""
+"""Trials per seed block of the full model when each runs the reduction again (with the
+seed, what the draws depend on; vectorised trials: the engine's 4096)."""
 
 MAX_SECONDS = 600.0
 """Longest full-model run accepted without ``force``, s (estimated from a few reductions)."""
@@ -251,7 +252,9 @@ def propagate(study, budgets, *, trials: int | None = None, seed: int = 1,
             step = None if progress is None else (
                 lambda d, _t, before=done: progress(before + d, planned))
             result = montecarlo.run(study, size, names=names, seed=_batch_seed(seed, h),
-                                    block_size=BLOCK, keep_samples=True, max_kept=size,
+                                    block_size=BLOCK if study.reruns else
+                                    montecarlo.DEFAULT_BLOCK_SIZE, keep_samples=True,
+                                    max_kept=size,
                                     covariance=False, scheduler=address, timeout=timeout,
                                     progress=step)
             samples.append(result.samples)
