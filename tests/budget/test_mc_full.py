@@ -37,9 +37,9 @@ def test_local_gravity_through_the_full_model_is_validated_and_agrees_with_the_l
         record, write_lab):
     rec, red = record
     lab = load_lab(write_lab(lab_text(standard("local_gravity", 9.81, "m/s^2", u=1e-4))))
-    full = _by(budgets(red, lab, records=rec, check={"trials": 50_000, "seed": 3}), "K1")
+    full = _by(budgets(red, lab, records=rec, check={"trials": 20_000, "seed": 3}), "K1")
     linear = _by(budgets(red, lab, records=rec,
-                         check={"model": "linear", "trials": 50_000, "seed": 3}), "K1")
+                         check={"model": "linear", "trials": 20_000, "seed": 3}), "K1")
     c = full.check
     assert c.model == "reduction"
     assert linear.check.model == "linearised"

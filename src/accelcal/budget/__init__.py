@@ -41,7 +41,9 @@ def budgets(reduction, lab=None, *, records=None, model=None, check=None) -> lis
         (:func:`accelcal.budget.full.model_of`,
         :func:`accelcal.budget.mc.propagate`; the other keys ``trials``
         (None: adaptive), ``seed``, ``workers``, ``scheduler``,
-        ``timeout``, ``force``, ``progress`` as it takes them);
+        ``timeout``, ``force``, ``progress`` as it takes them; a method whose
+        ``data_model`` takes ``rerun=True`` is run again in full, not
+        through its first-order response);
         ``{"model": "linear"}``: through the budget's linearised model
         (:func:`accelcal.budget.mc.check`, ``trials`` and ``seed``).
 
@@ -56,6 +58,7 @@ def budgets(reduction, lab=None, *, records=None, model=None, check=None) -> lis
     """
     import dataclasses
     import importlib
+    import inspect
 
     from accelcal import catalog
     from accelcal.budget.engine import itemise
@@ -87,6 +90,9 @@ def budgets(reduction, lab=None, *, records=None, model=None, check=None) -> lis
             options.pop("trials", None)
         return [dataclasses.replace(b, check=mc_check(b, correlation=lab.correlations,
                                                       **options)) for b in out]
+    if data_model is not None and "rerun" in inspect.signature(module.data_model).parameters:
+        # the reduction itself, not the first-order response the sensitivities may use
+        data_model = module.data_model(reduction, records, rerun=True)
     return _checked(out, reduction, lab, data_model, model=model, options=options)
 
 

@@ -92,6 +92,11 @@ class Study:
     """``quantity -> sensitivities per row`` (the budgets')."""
     temperature: tuple = ()
     """``(reference, {k: c_k}, scale, lab temperature) or None`` per row."""
+    components: dict = field(default_factory=dict)
+    """``quantity -> per-position sensitivities per row`` of the vector inputs (the budgets')."""
+    part: str = "both"
+    """``"both"``: each trial's full-model values, then its linearised ones (``(n, 2 rows)``,
+    the same draws); ``"linear"``: the linearised ones only (vectorised)."""
 
     @property
     def reruns(self) -> bool:
@@ -100,10 +105,42 @@ class Study:
             e.route in ("shift", "resistor", "vector") for e in self.entries)
 
     def __call__(self, rng, n: int):
-        """``n`` trials drawn from ``rng``: every row's value, shape ``(n, rows)``."""
+        """``n`` trials drawn from ``rng``: shape ``(n, 2 rows)`` or ``(n, rows)`` (``part``)."""
         import numpy as np
 
         draws = self._draws(rng, n)
+        linear = self._linearised(draws, n)
+        if self.part == "linear":
+            return linear
+        return np.hstack([self._full(draws, n), linear])
+
+    def _linearised(self, draws: dict, n: int):
+        """The budgets' model ``y0 + sum_i c_i dx_i`` on the same draws (the control variate)."""
+        import numpy as np
+
+        y = np.tile(np.asarray(self.estimates, dtype=float), (n, 1))
+        for e in self.entries:
+            if e.route == "vector":
+                y += draws[e.quantity] @ np.asarray(self.components[e.quantity]).T
+            else:
+                y += draws[e.quantity][:, None] * np.asarray(self.sensitivity[e.quantity])[None]
+        return self._added(y, draws)
+
+    def _added(self, y, draws: dict):
+        """``y`` with the inputs added linearly in both models and the Type A parts."""
+        import numpy as np
+
+        for quantity, _, _, _, sens in self.linear:
+            y += draws[quantity][:, None] * np.asarray(sens)[None, :]
+        for j, (u, _) in enumerate(self.type_a):
+            if u > 0:
+                y[:, j] += draws[("Type A", j)]
+        return y
+
+    def _full(self, draws: dict, n: int):
+        """Every row's value in the full model (module doc)."""
+        import numpy as np
+
         y = np.tile(np.asarray(self.estimates, dtype=float), (n, 1))
         if self.reruns:
             y += self._rerun(draws, n)
@@ -118,17 +155,7 @@ class Study:
                     self.sensitivity[e.quantity])[None, :]
             elif e.route == "temperature":
                 y += self._temperature(x)
-            elif e.route == "linear":
-                y += x[:, None] * np.asarray(self.sensitivity[e.quantity])[None, :]
-        for quantity, _, _, _, sens in self.linear:
-            y += draws[quantity][:, None] * np.asarray(sens)[None, :]
-        for j, (u, dof) in enumerate(self.type_a):
-            if u > 0:
-                from accelcal.budget.mc import sample
-
-                y[:, j] += sample("student-t" if math.isfinite(dof) else "normal", u, dof, n,
-                                  rng)
-        return y
+        return self._added(y, draws)
 
     def _draws(self, rng, n: int) -> dict:
         """Every input's draws in the study's order (the same for a given generator)."""
@@ -152,6 +179,10 @@ class Study:
                                          normal=normals.get(e.quantity))
         for quantity, distribution, u, dof, _ in self.linear:
             out[quantity] = sample(distribution, u, dof, n, rng, normal=normals.get(quantity))
+        for j, (u, dof) in enumerate(self.type_a):
+            if u > 0:
+                out[("Type A", j)] = sample("student-t" if math.isfinite(dof) else "normal", u,
+                                            dof, n, rng)
         return out
 
     def _rerun(self, draws: dict, n: int):
@@ -281,10 +312,27 @@ def model_of(budgets, reduction, lab, data_model, *, model=None) -> tuple[Study,
     reduce = data_model.reduce if data_model is not None else None
     base = tuple(_run(_Model(reduce), list(rows))) if reduce is not None else (0.0,) * len(rows)
     study = Study(reduce, rows, tuple(b.estimate for b in budgets), base,
-                  data_model.n_positions if data_model is not None else 0, tuple(entries),
+                  _positions(data_model), tuple(entries),
                   tuple(linear) + tuple(priors), type_a, correlation,
-                  {q: tuple(s) for q, s in sens.items()}, temperature)
+                  {q: tuple(s) for q, s in sens.items()}, temperature,
+                  _components(budgets, entries, _positions(data_model)))
     return study, notes
+
+
+def _positions(data_model) -> int:
+    """Positions of a data model (0 without one)."""
+    return data_model.n_positions if data_model is not None else 0
+
+
+def _components(budgets, entries, n_positions: int) -> dict:
+    """Per-position sensitivities per row of each vector entry (zeros where a row has none)."""
+    out = {}
+    for e in entries:
+        if e.route == "vector":
+            out[e.quantity] = tuple(
+                next((r.components for r in b.rows if r.quantity == e.quantity and r.components),
+                     (0.0,) * n_positions) for b in budgets)
+    return out
 
 
 def _row_sensitivity(budget, quantity: str) -> float:

@@ -97,6 +97,10 @@ def sample(distribution: str, u: float, dof: float, size: int, rng, *, normal=No
     import numpy as np
     from scipy import stats
 
+    if normal is None and distribution in ("normal", "student-t"):
+        if distribution == "student-t" and math.isfinite(dof):
+            return u * rng.standard_t(dof, size)  # JCGM 101 6.4.9.7: scale u, nu dof
+        return u * rng.standard_normal(size)
     uniform = stats.norm.cdf(normal) if normal is not None else rng.random(size)
     if distribution == "rectangular":
         return u * math.sqrt(3.0) * (2.0 * uniform - 1.0)
@@ -188,6 +192,15 @@ MAX_SECONDS = 600.0
 PROBE = 8
 """Trials timed to estimate a full-model run."""
 
+REFERENCE = 2_000_000
+"""Trials of the linearised model that the full model's estimates are referred to (at
+most; twenty per full-model trial, at least :data:`REFERENCE_BATCH`, for a count given):
+its endpoints' numerical standard deviation is then 0.2 % of ``u``, within any tolerance
+of two significant digits."""
+
+REFERENCE_BATCH = 100_000
+"""Trials per batch of the linearised reference."""
+
 
 def propagate(study, budgets, *, trials: int | None = None, seed: int = 1,
               workers: int | None = None, scheduler: str | None = None,
@@ -241,7 +254,9 @@ def propagate(study, budgets, *, trials: int | None = None, seed: int = 1,
     if not force and scheduler is None and study.reruns:
         _bound(study, planned, workers)
     names = tuple(f"{b.serial} {b.coefficient}" for b in budgets)
-    samples, stats, done = [], [], 0
+    ref, s_ref = _reference(study, seed, REFERENCE if trials is None else
+                            min(REFERENCE, max(REFERENCE_BATCH, 20 * trials)))
+    diffs, pairs, done = [], [], 0
     with contextlib.ExitStack() as stack:
         address = scheduler
         if workers is not None:
@@ -251,40 +266,65 @@ def propagate(study, budgets, *, trials: int | None = None, seed: int = 1,
         for h, size in enumerate(sizes):
             step = None if progress is None else (
                 lambda d, _t, before=done: progress(before + d, planned))
-            result = montecarlo.run(study, size, names=names, seed=_batch_seed(seed, h),
+            result = montecarlo.run(study, size, names=names + names, seed=_batch_seed(seed, h),
                                     block_size=BLOCK if study.reruns else
                                     montecarlo.DEFAULT_BLOCK_SIZE, keep_samples=True,
-                                    max_kept=size,
-                                    covariance=False, scheduler=address, timeout=timeout,
-                                    progress=step)
-            samples.append(result.samples)
-            stats.append(_statistics(result.samples))
+                                    max_kept=size, covariance=False, scheduler=address,
+                                    timeout=timeout, progress=step)
+            pairs.append(result.samples)
+            diffs.append(_difference(result.samples))
             done += size
-            if trials is None and h >= 1 and all(_stabilised(np.array(stats))):
+            if trials is None and h >= 1 and all(_stabilised(np.array(diffs), ref, s_ref)):
                 break
-    y = np.concatenate(samples)
-    stats = np.array(stats)  # (batches, 4, outputs): mean, std, low, high
-    h = len(stats)
-    s = stats.std(axis=0, ddof=1) / math.sqrt(h) if h > 1 else None
-    steady = _stabilised(stats) if h > 1 else None
+    y = np.concatenate(pairs)
+    diffs = np.array(diffs)  # (batches, 4, outputs): full less linearised
+    h = len(diffs)
+    cv = _difference(y) + ref  # mean, std, low, high: the control-variate estimates
+    s = np.sqrt(diffs.var(axis=0, ddof=1) / h + s_ref**2) if h > 1 else None
+    steady = _stabilised(diffs, ref, s_ref) if h > 1 else None
     out = []
     for j, b in enumerate(budgets):
-        col = y[:, j]
-        ok = col[np.isfinite(col)]
-        low, high = (np.quantile(ok, [(1.0 - COVERAGE) / 2.0, (1.0 + COVERAGE) / 2.0])
-                     if ok.size else (math.nan, math.nan))
+        mean, std, low, high = (float(v) for v in cv[:, j])
+        failed = int(np.count_nonzero(~np.isfinite(y[:, j])))
         delta = tolerance(b.u_c)
         gum_low, gum_high = b.estimate - b.U, b.estimate + b.U
         d_low, d_high = abs(gum_low - low), abs(gum_high - high)
-        out.append(Check(len(y), int(seed), "reduction", gum_low, gum_high, float(low),
-                         float(high), float(ok.mean()) if ok.size else math.nan,
-                         float(ok.std(ddof=1)) if ok.size > 1 else math.nan, delta,
-                         float(d_low), float(d_high), bool(d_low <= delta and d_high <= delta),
+        out.append(Check(len(y), int(seed), "reduction", gum_low, gum_high, low, high, mean,
+                         std, delta, d_low, d_high, bool(d_low <= delta and d_high <= delta),
                          s_low=None if s is None else float(s[2, j]),
                          s_high=None if s is None else float(s[3, j]),
                          stabilised=None if steady is None else bool(steady[j]),
-                         failed=int(col.size - ok.size)))
+                         failed=failed))
     return out
+
+
+def _reference(study, seed: int, trials: int):
+    """The linearised model's mean, std and endpoints from ``trials`` vectorised trials.
+
+    Returns the batches' average ``(4, outputs)`` and its numerical standard
+    deviation.
+    """
+    import dataclasses
+
+    import numpy as np
+
+    from accelcal.montecarlo import block_generator
+
+    linear = dataclasses.replace(study, part="linear")
+    stats = np.array([_statistics(linear(block_generator(_batch_seed(seed, r, stream=1), 0),
+                                         REFERENCE_BATCH))
+                      for r in range(max(2, trials // REFERENCE_BATCH))])
+    return stats.mean(axis=0), stats.std(axis=0, ddof=1) / math.sqrt(len(stats))
+
+
+def _difference(pairs):
+    """Full less linearised mean, std and endpoints of paired trials ``(n, 2 outputs)``."""
+    import numpy as np
+
+    p = pairs.shape[1] // 2
+    full, linear = pairs[:, :p], pairs[:, p:].copy()
+    linear[~np.isfinite(full)] = np.nan  # a failed trial leaves both out
+    return _statistics(full) - _statistics(linear)
 
 
 def _batches(trials: int | None, cap: int) -> list[int]:
@@ -295,10 +335,12 @@ def _batches(trials: int | None, cap: int) -> list[int]:
     return [trials // h + (1 if i < trials % h else 0) for i in range(h)]
 
 
-def _batch_seed(seed: int, batch: int) -> int:
+def _batch_seed(seed: int, batch: int, *, stream: int = 0) -> int:
+    """The seed of a batch: of the full model (``stream`` 0) or the linearised reference (1)."""
     import numpy as np
 
-    return int(np.random.SeedSequence(seed, spawn_key=(batch,)).generate_state(1, np.uint64)[0])
+    key = (batch,) if stream == 0 else (stream, batch)
+    return int(np.random.SeedSequence(seed, spawn_key=key).generate_state(1, np.uint64)[0])
 
 
 def _statistics(samples):
@@ -307,6 +349,10 @@ def _statistics(samples):
 
     import numpy as np
 
+    q = [(1.0 - COVERAGE) / 2.0, (1.0 + COVERAGE) / 2.0]
+    if np.isfinite(samples).all():
+        return np.array([samples.mean(axis=0), samples.std(axis=0, ddof=1),
+                         *np.quantile(samples, q, axis=0)])
     with warnings.catch_warnings():  # an output whose every trial failed: NaN
         warnings.simplefilter("ignore", RuntimeWarning)
         low, high = np.nanquantile(samples, [(1.0 - COVERAGE) / 2.0, (1.0 + COVERAGE) / 2.0],
@@ -315,16 +361,18 @@ def _statistics(samples):
                          low, high])
 
 
-def _stabilised(stats):
+def _stabilised(diffs, ref, s_ref):
     """Per output: ``2 s <= delta`` for the mean, std and endpoints (JCGM 101 7.9.4 g-i).
 
-    ``stats``: (batches, 4, outputs); ``delta`` the numerical tolerance of
-    the Monte Carlo's standard uncertainty (the batches' average).
+    ``diffs``: (batches, 4, outputs), the full model less the linearised;
+    ``ref``, ``s_ref``: the linearised reference and its numerical standard
+    deviation; ``delta`` the numerical tolerance of the Monte Carlo's
+    standard uncertainty.
     """
     import numpy as np
 
-    s = stats.std(axis=0, ddof=1) / math.sqrt(len(stats))
-    delta = np.array([tolerance(u) for u in stats[:, 1, :].mean(axis=0)])
+    s = np.sqrt(diffs.var(axis=0, ddof=1) / len(diffs) + s_ref**2)
+    delta = np.array([tolerance(u) for u in diffs[:, 1, :].mean(axis=0) + ref[1]])
     return [bool(np.all(2.0 * s[:, j] <= delta[j])) for j in range(s.shape[1])]
 
 
