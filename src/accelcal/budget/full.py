@@ -29,7 +29,9 @@ of :func:`accelcal.montecarlo.run`) whose every trial
   reductions are linear in the data they stand for.
 
 A trial whose reduction fails gives NaN (counted, left out of the
-intervals).
+intervals). Each trial also gives the budgets' linearised model
+``y0 + sum_i c_i dx_i`` on the same draws (:attr:`Study.part`): the
+control variate of :func:`accelcal.budget.mc.propagate`.
 
 References
 ----------

@@ -8,13 +8,16 @@ with its degrees of freedom (6.4.9: scale ``u``, ``nu`` dof; normal when
 ``nu`` is infinite). Correlated inputs share a Gaussian copula with the
 stated ``r`` (each marginal kept); a vector input (one independent error
 per position) is sampled element by element with each element's
-sensitivity. The samples go through the budget's
+sensitivity.
+
+Two models: :func:`check` puts the samples through the budget's
 **linearised** measurement model ``y = y0 + sum_i c_i (x_i - x_i0)`` with
-the sensitivity coefficients of the budget: the check tests what the GUM
-assumes about the output's distribution (a t with ``nu_eff`` degrees of
-freedom) for these inputs, not the model's curvature (the models are linear
-at the size of the inputs' uncertainties; the reduction itself is not run
-per trial).
+its sensitivity coefficients (vectorised: it tests what the GUM assumes
+about the output's distribution, a t with ``nu_eff`` degrees of freedom,
+for these inputs, not the model's curvature); :func:`propagate` through the
+**full** model, every trial running the method's reduction again
+(:mod:`accelcal.budget.full`), in batches with JCGM 101's adaptive
+procedure (7.9.4), on Dask workers where asked.
 
 The probabilistically symmetric 95.45 % coverage interval of the Monte
 Carlo (JCGM 101 7.7) is compared with the GUM's ``y +- U``: with ``u_c``
@@ -235,7 +238,19 @@ def propagate(study, budgets, *, trials: int | None = None, seed: int = 1,
     Returns
     -------
     list of Check
-        One per budget, ``model="reduction"``.
+        One per budget, ``model="reduction"``. The mean, standard deviation
+        and endpoints use the linearised model as a control variate: the
+        full model's on the trials, less the linearised model's on the same
+        draws, plus the linearised model's from :data:`REFERENCE`
+        vectorised trials (a variance reduction: the two move together
+        where the model is nearly linear; the estimate is the full model's
+        either way).
+
+    References
+    ----------
+    .. [Glasserman2004] Glasserman P., Monte Carlo Methods in Financial
+       Engineering, Springer 2004, secs. 4.1 (control variates) and 9.1
+       (quantile estimation).
     """
     import contextlib
 
