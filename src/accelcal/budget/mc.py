@@ -231,7 +231,8 @@ def propagate(study, budgets, *, trials: int | None = None, seed: int = 1,
         started once for all batches.
     force : bool
         Run a study estimated (from :data:`PROBE` reductions, timed) to take
-        longer than :data:`MAX_SECONDS` locally; refused otherwise.
+        longer than :data:`MAX_SECONDS` locally (the adaptive procedure: its
+        first two batches, the fewest it runs); refused otherwise.
     progress : callable, optional
         ``progress(done, total)`` over all batches.
 
@@ -266,8 +267,8 @@ def propagate(study, budgets, *, trials: int | None = None, seed: int = 1,
                             parameter="trials")
     sizes = _batches(trials, MAX_ADAPTIVE if study.reruns else TRIALS)
     planned = sum(sizes)
-    if not force and scheduler is None and study.reruns:
-        _bound(study, planned, workers)
+    if not force and scheduler is None and study.reruns:  # the adaptive: its first two batches
+        _bound(study, planned if trials is not None else sum(sizes[:2]), workers)
     names = tuple(f"{b.serial} {b.coefficient}" for b in budgets)
     ref, s_ref = _reference(study, seed, REFERENCE if trials is None else
                             min(REFERENCE, max(REFERENCE_BATCH, 20 * trials)))
