@@ -93,13 +93,13 @@ def test_same_seed_same_draws_another_seed_others(record, write_lab):
     lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=10.0),
                                       standard("head_angle", 0.0, "arcsec", bounds=1.0,
                                                distribution="rectangular"))))
-    first = budgets(red, lab, records=rec, check={"trials": 50, "seed": 7})
-    again = budgets(red, lab, records=rec, check={"trials": 50, "seed": 7})
-    other = budgets(red, lab, records=rec, check={"trials": 50, "seed": 8})
+    first = budgets(red, lab, records=rec, check={"trials": 20, "seed": 7})
+    again = budgets(red, lab, records=rec, check={"trials": 20, "seed": 7})
+    other = budgets(red, lab, records=rec, check={"trials": 20, "seed": 8})
     assert [b.check for b in first] == [b.check for b in again]
     assert _by(first, "K1").check.mc_low != _by(other, "K1").check.mc_low
     text = render_budgets(first, "table")
-    assert "Monte Carlo (50 trials, reduction model): 95.45 % interval" in text
+    assert "Monte Carlo (20 trials, reduction model): 95.45 % interval" in text
     assert "NOT stable at the tolerance: give more --trials (JCGM 101 7.9)" in text
 
 
@@ -113,8 +113,9 @@ def test_a_long_run_is_refused_with_its_estimate(record, write_lab):
         budgets(red, lab, records=rec, check={"trials": 1_000_000, "seed": 1})
 
 
-def test_cli_check_through_the_reduction(tumble_file, capsys):
-    code, out, err = run_cli(["budget", tumble_file, "--lab", LAB, "--coefficient", "K1",
+def test_cli_check_through_the_reduction(tumble_file, write_lab, capsys):
+    lab = write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=8.0)))
+    code, out, err = run_cli(["budget", tumble_file, "--lab", lab, "--coefficient", "K1",
                               "--check", "mc", "--trials", "100", "--format", "json"], capsys)
     assert code == 0, err
     c = json.loads(out)[0]["check"]
