@@ -101,6 +101,7 @@ def test_check_mc_reports_both_intervals(tumble_file, capsys):
     (["--check", "mc", "--mc-model", "exact"], "--mc-model"),
     (["--check", "mc", "--mc-model", "linear", "--workers", "2"], "go with --mc-model reduction"),
     (["--workers", "2"], "go with --check mc"),
+    (["--timeout", "nan"], "timeout"),
     (["--coefficient", "K9"], "no reported coefficient"),
     (["--format", "xml"], "--format"),
     (["--data", "no-such-directory"], "--data"),

@@ -80,6 +80,9 @@ def budget(
     check_format(fmt)
     if check is not None and check not in CHECKS:
         raise AccelcalError(f"--check {check!r} is not one of {', '.join(CHECKS)}")
+    from accelcal.montecarlo import check_parallel
+
+    check_parallel(workers, scheduler, timeout)
     if check is None and (trials is not None or seed != 1 or mc_model != "reduction"
                           or workers is not None or scheduler is not None or force):
         raise AccelcalError("--trials, --seed, --mc-model, --workers, --scheduler and --force "
@@ -92,10 +95,6 @@ def budget(
     if mc_model == "linear" and (workers is not None or scheduler is not None or force):
         raise AccelcalError("--workers, --scheduler and --force go with --mc-model reduction "
                             "(the linearised model is vectorised)")
-    if check is not None:
-        from accelcal.montecarlo import check_parallel
-
-        check_parallel(workers, scheduler, timeout)
     for d in data:
         if not d.is_dir():
             from accelcal.validation import shown_path
