@@ -55,7 +55,7 @@ class Check:
     batches, JCGM 101 7.9.4 g); ``stabilised``: whether twice the numerical
     standard deviations of the mean, standard deviation and endpoints are
     within the tolerance of the Monte Carlo's standard uncertainty (7.9.4
-    i); None where not estimated (one batch, the linearised model).
+    i); None in the linearised model (not estimated).
     ``failed``: trials whose reduction failed (left out).
     """
 
@@ -294,10 +294,9 @@ def propagate(study, budgets, *, trials: int | None = None, seed: int = 1,
                 break
     y = np.concatenate(pairs)
     diffs = np.array(diffs)  # (batches, 4, outputs): full less linearised
-    h = len(diffs)
     cv = _difference(y) + ref  # mean, std, low, high: the control-variate estimates
-    s = np.sqrt(diffs.var(axis=0, ddof=1) / h + s_ref**2) if h > 1 else None
-    steady = _stabilised(diffs, ref, s_ref) if h > 1 else None
+    s = np.sqrt(diffs.var(axis=0, ddof=1) / len(diffs) + s_ref**2)  # two batches or more
+    steady = _stabilised(diffs, ref, s_ref)
     out = []
     for j, b in enumerate(budgets):
         mean, std, low, high = (float(v) for v in cv[:, j])
@@ -307,10 +306,8 @@ def propagate(study, budgets, *, trials: int | None = None, seed: int = 1,
         d_low, d_high = abs(gum_low - low), abs(gum_high - high)
         out.append(Check(len(y), int(seed), "reduction", gum_low, gum_high, low, high, mean,
                          std, delta, d_low, d_high, bool(d_low <= delta and d_high <= delta),
-                         s_low=None if s is None else float(s[2, j]),
-                         s_high=None if s is None else float(s[3, j]),
-                         stabilised=None if steady is None else bool(steady[j]),
-                         failed=failed))
+                         s_low=float(s[2, j]), s_high=float(s[3, j]),
+                         stabilised=bool(steady[j]), failed=failed))
     return out
 
 
