@@ -73,6 +73,24 @@ def test_a_large_axis_tilt_is_not_validated_through_the_full_model(record, write
     assert linear.check.validated  # the linearised model agrees with the GUM: it is the GUM
 
 
+def test_the_sensor_temperature_through_its_polynomial(record, write_lab):
+    from accelcal.model import ErrorModel
+    from accelcal.terms import TemperatureTerms
+
+    rec, red = record
+    # at the reference temperature a quadratic term has no slope: the GUM gives it nothing
+    lab = load_lab(write_lab(lab_text(standard("sensor_temperature", 20.0, "degC", u=2.0))))
+    model = ErrorModel(K1=1.3, temperature=TemperatureTerms(20.0, {"K0_T2": 1e-6}))
+    b = _by(budgets(red, lab, records=rec, model=model,
+                    check={"trials": 20_000, "seed": 4}), "K0")
+    assert next(r for r in b.rows if r.quantity == "sensor_temperature").sensitivity == 0.0
+    c = b.check
+    # K0 moves by 1 ug/degC^2 dT^2, dT ~ N(0, 2 degC): 4 ug on average, a chi-square of 1 dof
+    assert c.mc_mean - b.estimate == pytest.approx(4.0, rel=0.05)
+    assert c.mc_high - b.estimate == pytest.approx(4.0 * 5.19, rel=0.05)
+    assert not c.validated
+
+
 def test_the_reduction_runs_again_per_trial_with_correlated_gain_and_resistor(write_lab):
     rec = linear_tumble(8, unit="mA")
     red = tumble.reduce(rec, terms=["K0", "K1"], sigma=1e-6, priors="none")
@@ -160,3 +178,19 @@ def test_gain_and_gravity_through_the_reduction_validated_and_as_the_linear(reco
     tol = max(c.delta, 4 * max(c.s_low, c.s_high))
     assert c.mc_low == pytest.approx(linear.check.mc_low, abs=tol)
     assert c.mc_high == pytest.approx(linear.check.mc_high, abs=tol)
+
+
+@pytest.mark.slow
+def test_the_indexing_head_record_through_its_reduction_run_again(capsys):
+    from helpers.paths import EXAMPLES
+
+    code, out, err = run_cli(["budget", EXAMPLES / "calibration_record.json", "--lab", LAB,
+                              "--data", EXAMPLES, "--coefficient", "K_I", "--check", "mc",
+                              "--trials", "100", "--format", "json"], capsys)
+    assert code == 0, err
+    b = json.loads(out)[0]
+    c = b["check"]
+    assert c["model"] == "reduction"
+    assert c["failed"] == 0
+    assert c["mc_std"] == pytest.approx(b["u_c"], rel=0.1)
+    assert c["mc_low"] < b["estimate"] < c["mc_high"]
