@@ -78,7 +78,8 @@ def test_without_a_lab_the_type_a_and_priors(tumble_file, capsys):
 
 def test_check_mc_reports_both_intervals(tumble_file, capsys):
     code, out, _ = run_cli(["budget", tumble_file, "--lab", LAB, "--coefficient", "K1",
-                            "--check", "mc", "--trials", "20000", "--format", "json"], capsys)
+                            "--check", "mc", "--mc-model", "linear", "--trials", "20000",
+                            "--format", "json"], capsys)
     assert code == 0
     c = json.loads(out)[0]["check"]
     assert c["model"] == "linearised"
@@ -87,14 +88,20 @@ def test_check_mc_reports_both_intervals(tumble_file, capsys):
     assert c["gum_low"] < c["gum_high"]
     assert isinstance(c["validated"], bool)
     code, out, _ = run_cli(["budget", tumble_file, "--lab", LAB, "--coefficient", "K1",
-                            "--check", "mc", "--trials", "20000"], capsys)
+                            "--check", "mc", "--mc-model", "linear", "--trials", "20000"],
+                           capsys)
     assert "Monte Carlo (20000 trials, linearised model): 95.45 % interval" in out
 
 
 @pytest.mark.parametrize(("args", "needle"), [
     (["--check", "bootstrap"], "--check"),
     (["--trials", "5000"], "go with --check mc"),
-    (["--check", "mc", "--trials", "10"], "at least 1000"),
+    (["--check", "mc", "--trials", "10"], "at least 100"),
+    (["--check", "mc", "--mc-model", "linear", "--trials", "500"], "at least 1000"),
+    (["--check", "mc", "--mc-model", "exact"], "--mc-model"),
+    (["--check", "mc", "--mc-model", "linear", "--workers", "2"], "go with --mc-model reduction"),
+    (["--workers", "2"], "go with --check mc"),
+    (["--timeout", "nan"], "timeout"),
     (["--coefficient", "K9"], "no reported coefficient"),
     (["--format", "xml"], "--format"),
     (["--data", "no-such-directory"], "--data"),

@@ -279,8 +279,14 @@ def per_position(model: DataModel, rows, step_rad: float, key: str = "angles"):
     return out
 
 
-def _temperature_slope(row: Reported, model, temperature: float) -> float | None:
-    """``dy/dT`` of a coefficient from the sensor's temperature terms (None: none apply)."""
+def temperature_polynomial(row: Reported, model):
+    """The sensor's temperature terms of a coefficient: ``(reference, {k: c_k}, scale)`` or None.
+
+    The coefficient moves by ``scale * sum_k c_k (T - reference)^k``
+    (``k = 1, 2, 3``; ``scale`` 1e6 for a budget in µg, ppm, µrad or
+    µg/g²); None when the model has no temperature terms or the quantity
+    none that apply.
+    """
     terms = getattr(model, "temperature", None)
     if terms is None or row.kind not in ("bias", "scale", "ratio", "misalignment", "second"):
         return None
@@ -288,9 +294,18 @@ def _temperature_slope(row: Reported, model, temperature: float) -> float | None
     if row.kind == "misalignment":
         base = "Kp" if row.name.lower().endswith("p") else "Ko"
     coefficients = dict(terms.coefficients)
-    dt = temperature - terms.reference
-    slope = sum(k * coefficients.get(f"{base}_T{k}", 0.0) * dt ** (k - 1) for k in (1, 2, 3))
-    return slope * 1e6 if row.unit in ("ug", "ppm", "urad", "ug/g^2") else slope
+    scale = 1e6 if row.unit in ("ug", "ppm", "urad", "ug/g^2") else 1.0
+    return terms.reference, {k: coefficients.get(f"{base}_T{k}", 0.0) for k in (1, 2, 3)}, scale
+
+
+def _temperature_slope(row: Reported, model, temperature: float) -> float | None:
+    """``dy/dT`` of a coefficient from the sensor's temperature terms (None: none apply)."""
+    found = temperature_polynomial(row, model)
+    if found is None:
+        return None
+    reference, c, scale = found
+    dt = temperature - reference
+    return scale * sum(k * c[k] * dt ** (k - 1) for k in c)
 
 
 def _prior_of(reduction, name: str):
