@@ -131,4 +131,5 @@ def test_records_show_prints_type_a_and_type_b(bounded, tmp_path, capsys):
     assert "type_b" in out
     assert "SN-7" in out
     refused(["records", "show", "7", "--db", db], capsys, "no record with id 7")
+    refused(["records", "show", "9" * 30, "--db", db], capsys, "no record with id")
     refused(["records", "show", tmp_path / "none.json"], capsys, "not found")

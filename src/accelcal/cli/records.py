@@ -132,9 +132,12 @@ def show(
     is k std with the record's coverage factor k. A complex coefficient is
     shown by its magnitude.
     """
+    from accelcal.errors import AccelcalError
     from accelcal.io.calibration_record import CalibrationRecord
 
     if record.isdigit() and not Path(record).exists():
+        if not 0 < int(record) < 2**63:  # the store's ids (SQL integers)
+            raise AccelcalError(f"no record with id {record[:30]} in the store")
         with _store(db, readonly=True) as store:
             rec = store.record(int(record))
     else:
