@@ -8,7 +8,12 @@ the rig's known sample ranges, and calibrated by both routes:
 - known orientations, the six Ferraris positions (dof 6);
 - known orientations, 18 positions (six + 12 random), sample-count weights;
 - gravity norm, 30 random orientations (dof 21);
-- gravity norm with quadratic terms, 40 random orientations.
+- gravity norm with quadratic terms, 40 random orientations;
+- every term non-zero: each axis a pendulous accelerometer whose terms the triad model
+  leaves out (K2, K3, Koo, Kpp, Kio, Kip, Kop, K0', K1'), bounded by the default priors
+  as Type B (:func:`with_type_b`): known orientations (18, with each position tilted by
+  0.1 mrad and the tilt stated, as ``triad calibrate --fixture-tilt`` runs it) and the
+  gravity norm (30).
 
 The coverage harness (tests/helpers/coverage.py) runs every class here.
 """
