@@ -127,8 +127,8 @@ def show(
     """One calibration record's coefficients, each uncertainty with its Type A and Type B parts.
 
     std is the standard uncertainty; type_b the part the priors of the terms
-    the reduction takes as zero contribute (empty where the record states
-    none), type_a = sqrt(std^2 - type_b^2) the part from the data; expanded
+    the reduction takes as zero contribute (null, n/a in the table, where
+    the record states none), type_a = sqrt(std^2 - type_b^2) the part from the data; expanded
     is k std with the record's coverage factor k. A complex coefficient is
     shown by its magnitude.
     """
