@@ -53,12 +53,19 @@ def test_broadband_without_noise_is_the_transfer_function():
     rec = BroadbandRig(noise=0.0, ref_noise=0.0, duration_s=4.0,
                        sample_rate=5000.0).simulate(DUT, seed=1)
     red = reduce(rec, segment=4096)
-    want = _closed(red.observations["frequency_hz"])
+    f, df = red.observations["frequency_hz"], red.observations["bin_hz"]
+    assert df == pytest.approx(5000.0 / 4096)
+    # a bin expects the response seen through the Hann window's squared spectrum
+    kernel = red.observations["kernel"]
+    assert kernel == pytest.approx([1 / 6, 2 / 3, 1 / 6], abs=1e-12)
+    want = sum(k * _closed(f + m * df) for m, k in zip((-1, 0, 1), kernel, strict=True))
     err = np.abs(red.estimate.values - want)
-    # the windowing's leakage, which the coherence shows and the stated error covers
+    # the leakage left after the window's derivative is fitted out (second order in the
+    # response's length over the segment), which the partial coherence shows and the
+    # stated error covers; the plain H1 erred up to 2e-3 here (median 3e-4)
     assert np.all(err < 5 * red.estimate.std)
-    assert np.max(err / np.abs(want)) < 5e-3
-    assert np.median(err / np.abs(want)) < 5e-4
+    assert np.max(err / np.abs(want)) < 1e-4
+    assert np.median(err / np.abs(want)) < 5e-6
 
 
 def test_broadband_file_streams_to_the_same_result(tmp_path):
