@@ -54,8 +54,8 @@ def _assert_honest(z, k, coverage=(0.92, 0.98), sd=(0.88, 1.12), label=""):
 def test_gravity_magnitude_and_phase():
     k, z_mag, z_phase, _ = _scores(lambda s: GravityRig(noise=1e-3).simulate(DUT, seed=s),
                                    fit=False)
-    _assert_honest(z_mag, k)
-    _assert_honest(z_phase, k)
+    _assert_honest(z_mag, k, label="gravity magnitude")
+    _assert_honest(z_phase, k, label="gravity phase")
 
 
 def test_laser_magnitude_phase_fn_zeta():
@@ -63,10 +63,10 @@ def test_laser_magnitude_phase_fn_zeta():
         return LaserRig(periods=10, noise=3e-3, laser_noise=2e-2).simulate(DUT, seed=seed)
 
     k, z_mag, z_phase, (z_fn, z_zeta) = _scores(make, fit=True)
-    _assert_honest(z_mag, k)
-    _assert_honest(z_phase, k)
-    _assert_honest(z_fn, 1.96, coverage=(0.9, 0.99), sd=(0.85, 1.2))
-    _assert_honest(z_zeta, 1.96, coverage=(0.9, 0.99), sd=(0.85, 1.2))
+    _assert_honest(z_mag, k, label="laser magnitude")
+    _assert_honest(z_phase, k, label="laser phase")
+    _assert_honest(z_fn, 1.96, coverage=(0.9, 0.99), sd=(0.85, 1.2), label="laser fn")
+    _assert_honest(z_zeta, 1.96, coverage=(0.9, 0.99), sd=(0.85, 1.2), label="laser zeta")
 
 
 def test_broadband_magnitude_phase_fn_zeta():
