@@ -106,6 +106,15 @@ def test_broadband_low_coherence_bins_flagged_and_none_left_refused():
         reduce(rec, min_coherence=0.999999)
 
 
+def test_broadband_refuses_too_few_averages():
+    rec = BroadbandRig(duration_s=0.25, sample_rate=5000.0).simulate(DUT, seed=1)
+    with pytest.raises(AccelcalError, match="1 Welch segment"):
+        reduce(rec, segment=1024)  # 1250 samples: one segment
+    red = reduce(rec, segment=512)  # six segments, 3.4 averages: 2 (3.4 - 1) = 4 dof
+    assert red.dof == 4
+    assert np.all(np.isfinite(red.estimate.std))
+
+
 def test_methods_refuse_records_of_another_excitation():
     rec = simulate(frequencies=(80.0, 160.0), noise=0.0)
     with pytest.raises(AccelcalError, match="broadband needs random or swept"):

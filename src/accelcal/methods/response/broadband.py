@@ -64,6 +64,10 @@ OVERLAP = 0.75
 constant, so that a sweep's energy is weighed alike wherever it falls in a segment (at
 one half, a system's group delay would bias H1 of a sweep by about delay / segment)."""
 
+MIN_AVERAGES = 2.0
+"""Fewest equivalent independent averages (Hann at 3/4 overlap: 4 segments): one goes to the
+window's leakage input, and the random error needs one more."""
+
 MAX_SEGMENT = 1 << 24
 """Longest Welch segment, samples."""
 
@@ -144,8 +148,9 @@ def reduce_broadband(source, reference=None, *, segment: int | None = None,
     Raises
     ------
     AccelcalError
-        For a record that is not broadband, too short for one segment, a
-        reference that does not cover the band, no bin of enough coherence.
+        For a record that is not broadband, too short for :data:`MIN_AVERAGES`
+        averages, a reference that does not cover the band, no bin of enough
+        coherence.
     """
     from os import PathLike
 
@@ -188,6 +193,11 @@ def reduce_broadband(source, reference=None, *, segment: int | None = None,
     for x, y in blocks:
         spectra.add(x, y)
     sp = spectra.result()
+    if sp.n_d < MIN_AVERAGES:
+        raise AccelcalError(f"{sp.segments} Welch segment(s) of {nperseg} samples hold "
+                            f"{sp.n_d:.2g} independent averages, fewer than {MIN_AVERAGES:g} "
+                            "(one is spent on the window's leakage): a longer record or "
+                            "shorter segments", parameter="segment")
     cond = sp.conditioned()
     inside = (sp.frequency >= lo) & (sp.frequency <= hi) & (sp.frequency > 0)
     if not inside.any():
