@@ -54,7 +54,8 @@ NO_MODEL = "no lab inputs modelled for this method"
 
 CORRECTIONS = ("head_angle", "head_axis_tilt", "autocollimator", "daq_gain", "daq_offset",
                "daq_linearity", "load_resistor", "centrifuge_rate", "frequency",
-               "reference_phase")
+               "reference_phase", "daq_gain_mismatch", "daq_delay_mismatch",
+               "transverse_motion", "relative_motion")
 """Inputs whose value is an error (zero when none is known): a non-zero value is a
 correction, which the budget names but does not apply."""
 
@@ -84,6 +85,13 @@ class DataModel:
         Inputs whose sensitivity the method states in closed form:
         ``quantity -> f(reported, standard)``, the coefficient of one
         :class:`Reported` per unit of the standard.
+    per_row : dict
+        Inputs whose standard or closed-form coefficient depends on the
+        row and on the lab's other inputs: ``quantity -> f(reported,
+        standard, lab) -> (Standard, c)``, the standard as it applies to
+        the row (e.g. a reference's certificate interpolated at the row's
+        frequency) and the coefficient per unit of it; a string instead
+        says why the input is not in the budget.
     parameters : dict
         Inputs that enter through the reduction's parameters, perturbed
         and re-run rather than analytic: ``quantity -> {dimension:
@@ -99,6 +107,7 @@ class DataModel:
     vectors: dict = field(default_factory=dict)
     parameters: dict = field(default_factory=dict)
     analytic: dict = field(default_factory=dict)
+    per_row: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -340,7 +349,14 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
                 "centrifuge_rate", "frequency", "load_resistor")):
             notes.append(f"{q}: the declared value {std.value:g} {std.unit} is a correction "
                          "the reduction has not applied; only its uncertainty is in the budget")
-        if data_model is not None and q in data_model.analytic:
+        if data_model is not None and q in data_model.per_row:
+            each = [data_model.per_row[q](r, std, lab) for r in rows]
+            why = next((e for e in each if isinstance(e, str)), None)
+            if why is not None:
+                notes.append(f"{q}: {why}; not in the budget")
+                continue
+            out[q] = [c for _, c in each]
+        elif data_model is not None and q in data_model.analytic:
             out[q] = [data_model.analytic[q](r, std) for r in rows]
         elif data_model is not None and data_model.reduce and q in data_model.parameters:
             keyword = data_model.parameters[q].get(std.dimension)
@@ -468,7 +484,10 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
         for q, cs in sens.items():
             if math.isfinite(cs[i]):
                 parts = components[q][i] if q in components else ()
-                terms.append((_lab_input(lab.standards[q], parts), cs[i]))
+                std = lab.standards[q]
+                if data_model is not None and q in data_model.per_row:  # as it applies here
+                    std = data_model.per_row[q](row, std, lab)[0]
+                terms.append((_lab_input(std, parts), cs[i]))
             else:
                 own.append(f"{q}: the reduction run again on the perturbed data did not give "
                            f"{row.title}; not in this budget")

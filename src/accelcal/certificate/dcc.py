@@ -10,7 +10,12 @@ performance dates, ``items``, ``calibrationLaboratory``, ``respPersons``,
 certificates and due dates), ``influenceConditions`` (temperature, local
 gravity) and ``results``, each a ``quantity`` holding an ``si:real``
 (value, unit, expanded uncertainty with k and the coverage probability) in
-D-SI notation [DSI]_.
+D-SI notation [DSI]_. A frequency response is one ``result`` whose data are a
+``dcc:list`` holding one ``dcc:list`` of quantities per frequency: the
+frequency, the magnitude with U (per m/s² in D-SI, its output unit per g in
+the name), the deviation from the reference frequency (%) and the phase
+(degrees) with U; a fitted model's phase and group delay at stated
+frequencies likewise (:data:`RESPONSE_UNITS`).
 
 The country code is the laboratory's (``--country``), ``ZZ`` (ISO 3166's
 code for an unknown country) when it is not stated.
@@ -65,6 +70,18 @@ DSI_UNITS = {
     "g/g": (r"\one", 1.0),
 }
 """Certificate unit -> (D-SI unit, factor from the certificate's value to the D-SI one)."""
+
+RESPONSE_UNITS = {
+    "V/g": (r"\volt\second\tothe{2}\metre\tothe{-1}", 1.0 / _G),
+    "mV/g": (r"\milli\volt\second\tothe{2}\metre\tothe{-1}", 1.0 / _G),
+    "mA/g": (r"\milli\ampere\second\tothe{2}\metre\tothe{-1}", 1.0 / _G),
+    "Hz": (r"\hertz", 1.0),
+    "%": (r"\percent", 1.0),
+    "deg": (r"\degree", 1.0),
+    "s": (r"\second", 1.0),
+}
+"""A frequency response's units -> (D-SI unit, factor): the magnitude in output unit per g
+is written per m/s² (divided by g_n)."""
 
 
 def _q(ns: str, tag: str) -> str:
@@ -129,6 +146,64 @@ def _result(results, r: dict, probability: float) -> None:
           label=r["coefficient"])
 
 
+def _quantity(parent, name: str, ref: str, value: float, unit: str, *, expanded=None,
+              k: float = 2.0, probability: float = 0.9545, label=None) -> None:
+    """A ``dcc:quantity`` of a frequency response (:data:`RESPONSE_UNITS`)."""
+    dsi, factor = RESPONSE_UNITS[unit]
+    quantity = _el(parent, "quantity", refType="accelcal_" + ref)
+    _text(quantity, "name", f"{name} in {unit}")
+    _real(quantity, value * factor, dsi, None if expanded is None else expanded * factor,
+          k=k, probability=probability, label=label)
+
+
+def _response(results, curve: dict, probability: float) -> None:
+    """A frequency response as one ``dcc:result``: a ``dcc:list`` of quantities per frequency.
+
+    Each frequency's list holds the frequency (Hz), the magnitude (per
+    m/s², D-SI; the certificate's output unit per g in its name) with U,
+    the deviation from the reference frequency (%) with U and the phase
+    (degrees) with U. A magnitude in another unit is written as text.
+    """
+    result = _el(results, "result")
+    _text(result, "name", f"Frequency response, {curve['route']} ({curve['method']}); "
+                          f"reference frequency {curve['reference_frequency_hz']:g} Hz")
+    data = _el(result, "data")
+    outer = _el(data, "list", refType="accelcal_frequency_response")
+    for p in curve["points"]:
+        point = _el(outer, "list", refType="accelcal_response_point")
+        _text(point, "name", f"{p['frequency_hz']:g} Hz")
+        _quantity(point, "Frequency", "frequency", p["frequency_hz"], "Hz")
+        if p["unit"] in RESPONSE_UNITS:
+            _quantity(point, "Sensitivity magnitude", "magnitude", p["magnitude"], p["unit"],
+                      expanded=p["magnitude_U"], k=p["magnitude_k"], probability=probability,
+                      label=p["coefficient"])
+        else:
+            _text(point, "text", f"{p['magnitude']!r} {p['unit']}, U = {p['magnitude_U']!r} "
+                                 f"{p['unit']} (k = {p['magnitude_k']:.4f})")
+        if p["deviation_U"] is not None:
+            _quantity(point, "Deviation from the reference frequency", "deviation",
+                      p["deviation_pct"], "%", expanded=p["deviation_U"], k=p["deviation_k"],
+                      probability=probability)
+        _quantity(point, "Phase", "phase", p["phase_deg"], "deg", expanded=p["phase_U"],
+                  k=p["phase_k"], probability=probability)
+
+
+def _response_model(results, m: dict, probability: float) -> None:
+    """A fitted model's phase and group delay at stated frequencies, one list per frequency."""
+    result = _el(results, "result")
+    _text(result, "name", f"Fitted transfer function {m['model']} ({m['method']}): phase and "
+                          "group delay")
+    outer = _el(_el(result, "data"), "list", refType="accelcal_response_model")
+    for a in m["at"]:
+        point = _el(outer, "list", refType="accelcal_response_point")
+        _text(point, "name", f"{a['frequency_hz']:g} Hz")
+        _quantity(point, "Frequency", "frequency", a["frequency_hz"], "Hz")
+        _quantity(point, "Phase", "phase", a["phase_deg"], "deg", expanded=a["phase_U"],
+                  k=a["phase_k"], probability=probability)
+        _quantity(point, "Group delay", "group_delay", a["group_delay_s"], "s",
+                  expanded=a["group_delay_U"], k=a["group_delay_k"], probability=probability)
+
+
 def to_dcc(c: dict) -> str:
     """The certificate document as DCC XML text (UTF-8, with its declaration)."""
     ET.register_namespace("dcc", DCC_NS)
@@ -178,6 +253,8 @@ def to_dcc(c: dict) -> str:
     _contact(admin, "customer", c["customer"].get("name", ""), c["customer"].get("address", ""))
     statements = [(i["serial"], r) for i in c["items"] for r in i["results"]
                   if r["conformity"] is not None]
+    statements += [(i["serial"], p) for i in c["items"] for curve in i.get("response", ())
+                   for p in curve["points"] if p["conformity"] is not None]
     if statements or c["expired_standards"]:
         block = _el(admin, "statements")
         for serial, r in statements:
@@ -230,6 +307,10 @@ def to_dcc(c: dict) -> str:
         results = _el(mr, "results")
         for r in i["results"]:
             _result(results, r, probability)
+        for curve in i.get("response", ()):
+            _response(results, curve, probability)
+        for m in i.get("response_models", ()):
+            _response_model(results, m, probability)
     ET.indent(root, space="  ")
     return ('<?xml version="1.0" encoding="UTF-8"?>\n'
             + ET.tostring(root, encoding="unicode") + "\n")

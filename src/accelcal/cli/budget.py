@@ -37,7 +37,8 @@ def budget(
     seed: int = typer.Option(1, "--seed", help="Seed of the Monte Carlo for --check mc."),
     coefficient: str | None = typer.Option(
         None, "--coefficient", help="Only this coefficient (as the reduction names it, e.g. "
-        "K1, K_I, K0+Kpp)."),
+        "K1, K_I, K0+Kpp; a frequency response's point, S(80 Hz), gives its magnitude and "
+        "phase budgets, 'S(80 Hz) phase' the one)."),
     data: list[Path] = typer.Option(
         [], "--data", help="A directory holding the records' input files (also searched two "
         "levels deep). Repeatable."),
@@ -92,7 +93,9 @@ def budget(
         found = budgets(reduction, the_lab, records=inputs, model=model,
                         check={"trials": trials, "seed": seed} if check else None)
         out += [b for b in found if (sensors is None or b.sensor in sensors)
-                and (coefficient is None or coefficient in (b.coefficient,))]
+                and (coefficient is None or coefficient in (
+                    b.coefficient, b.coefficient.removesuffix(" magnitude").removesuffix(
+                        " phase")))]
     if coefficient is not None and not out:
         raise AccelcalError(f"--coefficient {coefficient!r}: no reported coefficient of that "
                             "name")
