@@ -33,7 +33,8 @@ References
    and 8-2 (second-order systems: resonant peak, bandwidth).
 .. [GUM] JCGM 100:2008, sec. 5.1.2 (law of propagation of uncertainty).
 .. [BP2010] Bendat J. S., Piersol A. G., Random Data, 4th ed., 2010, sec. 8.5
-   and 9.1.4 (resolution bias of windowed spectral estimates).
+   (the resolution bias of spectral density estimates: the curvature of the
+   spectrum times the second moment of the analysis kernel).
 """
 
 import numpy as np
