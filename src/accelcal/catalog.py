@@ -259,8 +259,11 @@ METHODS: tuple[Method, ...] = (
         report="accelcal.methods.response.report_text", docs="docs/response.md",
         paper="ISO16063-21", demo="accelcal.methods.response.demo", demo_order=9,
         demo_sensors="one", demo_test="shaker frequency response",
-        budget_inputs=("reference_sensitivity", "reference_phase", "frequency", "daq_gain",
-                       "daq_linearity")),
+        budget_inputs=("reference_sensitivity", "reference_phase", "daq_gain",
+                       "daq_linearity", "daq_gain_mismatch", "daq_delay_mismatch",
+                       "transverse_motion", "transverse_sensitivity", "distortion",
+                       "relative_motion", "sensor_temperature", "sensitivity_tc",
+                       "frequency")),
 )
 """Every test method, in the order ``accelcal --help`` lists their groups."""
 

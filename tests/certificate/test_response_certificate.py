@@ -65,17 +65,19 @@ def test_points_carry_the_budgets_magnitude_and_phase(issued):
     assert [p["frequency_hz"] for p in curve["points"]] == [10, 40, 80, 160, 400, 800]
     assert curve["unit"] == "V/g"
     assert curve["reference_frequency_hz"] == 80
-    # the lab's reference accelerometer: U = 0.5 % (k = 2), reliability 10 % -> u = 0.25 %,
-    # 50 dof (GUM G.4.2); it dominates every magnitude, the reference phase (0.25 deg) every
-    # phase; the data's own scatter is below 0.01 % and 0.01 deg
+    # the reference's certificate: U = 0.5 % (k = 2; the lab's reliability 10 % -> 50 dof,
+    # GUM G.4.2), u = 0.25 %; it dominates every magnitude, the reference phase (0.25 deg)
+    # every phase; the comparison's other inputs (relative and transverse motion 0.058 and
+    # 0.029 %, the channels' delay mismatch 0.36 mdeg/Hz, ...) and the data's own scatter
+    # add up to 6 %
     k50 = float(stdtrit(50, 0.5 + 0.9545 / 2))
     for i, p in enumerate(curve["points"]):
         assert p["magnitude"] == pytest.approx(pol.magnitude[i], rel=1e-12)
         assert p["phase_deg"] == pytest.approx(math.degrees(pol.phase[i]), abs=1e-9)
-        assert 0.0025 <= p["magnitude_u"] / p["magnitude"] < 0.0025 * 1.01
+        assert 0.0025 <= p["magnitude_u"] / p["magnitude"] < 0.0025 * 1.06
         assert p["magnitude_k"] == pytest.approx(k50, rel=5e-3)
         assert p["magnitude_U"] == pytest.approx(p["magnitude_k"] * p["magnitude_u"], rel=1e-9)
-        assert 0.25 <= p["phase_u"] < 0.25 * 1.01
+        assert 0.25 <= p["phase_u"] < 0.25 * 1.06
         assert p["phase_k"] == pytest.approx(2.0, rel=1e-3)
         budget = _budget(issued.doc, f"{p['coefficient']} magnitude")
         assert p["magnitude_U"] == pytest.approx(budget["U"] * p["magnitude"] / 100, rel=1e-12)
@@ -97,7 +99,9 @@ def test_deviation_leaves_out_the_common_reference_sensitivity(issued):
                 if r["quantity"] != "reference_sensitivity"]
         expected = ratio * math.sqrt(sum(r["contribution"] ** 2 for r in rows))
         assert p["deviation_u"] == pytest.approx(expected, rel=1e-9)
-        assert p["deviation_u"] < 0.02  # far below the 0.25 % of either magnitude
+        # below the 0.25 % of either magnitude: the relative and transverse motion of the
+        # two steps, taken as independent, are most of it
+        assert p["deviation_u"] < 0.15
 
 
 def test_model_phase_and_group_delay_follow_the_closed_form(issued):

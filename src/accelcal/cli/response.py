@@ -20,6 +20,7 @@ import typer
 
 from accelcal.cli import record_options
 from accelcal.cli.common import check_format, check_writable, emit, parse_grid
+from accelcal.cli.input_options import GAPS, MAX_FILL, print_reduction_repairs
 
 app = typer.Typer(
     help="Frequency response of an accelerometer: by comparison with a reference on a shaker "
@@ -164,8 +165,10 @@ def simulate(
 def _reduced(files, reference, reference_frequency, **options):
     from accelcal.methods.response import reduce as reduce_response
 
-    return reduce_response([Path(f) for f in files], reference=reference,
-                           reference_frequency=reference_frequency, **options)
+    red = reduce_response([Path(f) for f in files], reference=reference,
+                          reference_frequency=reference_frequency, **options)
+    print_reduction_repairs(red)
+    return red
 
 
 def _plot(reduction, plot: Path | None, **context) -> None:
@@ -205,6 +208,7 @@ def reduce(
         None, "--static-scale-factor",
         help="Gravity: the static scale factor and its standard uncertainty (value,u, "
              "output unit per g, e.g. a tumble's K1) to tie the lowest rate to."),
+    gaps: str = GAPS, max_fill: int = MAX_FILL,
     fmt: str = _FORMAT,
     plot: Path | None = _PLOT,
     record_out: Path | None = _RECORD,
@@ -227,7 +231,8 @@ def reduce(
             raise AccelcalError("--static-scale-factor: give value,u")
     info = _lab_info(record_out, files, serial, operator)
     red = _reduced(files, reference, reference_frequency, method=method, segment=segment,
-                   min_coherence=min_coherence, static_scale_factor=tie)
+                   min_coherence=min_coherence, static_scale_factor=tie, gaps=gaps,
+                   max_fill=max_fill)
     _plot(red, plot)
     _save(red, info, record_out, files)
     title = f"frequency response, {red.method} ({len(files)} record(s))"
@@ -254,6 +259,7 @@ def fit(
     reference: Path | None = _REFERENCE,
     phase_at: str = typer.Option("", "--phase-at",
                                  help="Frequencies at which to give the phase, Hz (list)."),
+    gaps: str = GAPS, max_fill: int = MAX_FILL,
     fmt: str = _FORMAT,
     plot: Path | None = _PLOT,
     record_out: Path | None = _RECORD,
@@ -272,7 +278,7 @@ def fit(
     parse_model(model)
     at = parse_grid(phase_at, "--phase-at") if phase_at else []
     info = _lab_info(record_out, [file], serial, operator)
-    result = fit_model(_reduced([file], reference, None), model)
+    result = fit_model(_reduced([file], reference, None, gaps=gaps, max_fill=max_fill), model)
     _plot(result, plot)
     _save(result, info, record_out, [file])
     emit(fit_rows(result, at), fmt, title=f"{model} fit of {file.name}")
