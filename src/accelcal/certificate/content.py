@@ -243,12 +243,21 @@ def _scale_factor(record):
     return float(record.model.K1) if record.model is not None else None
 
 
-def _inputs_of(records) -> set[str]:
-    """The lab inputs the records' methods' measurement models take (their descriptors')."""
-    from accelcal.catalog import METHODS
+def _inputs_in(records, stated) -> set[str]:
+    """The lab inputs whose due dates a certificate checks.
 
-    families = {r.method.partition("/")[0] for r in records}
-    return {q for m in METHODS if m.family in families for q in m.budget_inputs}
+    Every input of each record's measurement model (its test's own, for a
+    family whose tests differ: :func:`accelcal.budget.model_inputs`), and
+    every lab input that enters the stated budgets.
+    """
+    from types import SimpleNamespace
+
+    from accelcal.budget import model_inputs
+
+    taken = {q for r in records for q in model_inputs(SimpleNamespace(
+        family=r.method.partition("/")[0], method=r.method, provenance={}, observations={}))}
+    return taken | {row["quantity"] for budgets_of in stated for b in budgets_of
+                    for row in b["rows"] if row.get("source") == "lab"}
 
 
 def _method(record) -> dict:
@@ -370,10 +379,11 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
         With it, a statement of conformity per limited result by ``rule``
         (default the spec's).
     allow_expired : bool
-        Issue even when a standard that the records' methods take as an
-        input (:attr:`accelcal.catalog.Method.budget_inputs`) was past its
-        due date on a calibration date (the certificate says so); otherwise
-        refuse. The lab's other standards do not stop a certificate.
+        Issue even when a standard that enters the records' budgets (a
+        row of the lab's) was past its due date on a calibration date (the
+        certificate says so); otherwise refuse. The lab's other standards,
+        those of other methods or of a family's other tests, do not stop a
+        certificate.
     software : str
         ``"accelcal <version>"``.
     country : str
@@ -423,7 +433,12 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
     if item.received and item.received > dates[0].isoformat():
         raise AccelcalError(f"date of receipt {item.received} is after the calibration of "
                             f"{dates[0].isoformat()}", parameter="received")
-    inputs = _inputs_of(records)
+    rule = (rule or spec.decision_rule) if spec is not None else None
+    from accelcal.certificate import response
+
+    all_budgets, serials = [], {}
+    stated = record_budgets(records, lab, budgets)
+    inputs = _inputs_in(records, stated)
     expired = [s for s in lab.expired(used_on) if s.quantity in inputs]
     if expired and not allow_expired:
         names = ", ".join(f"{s.quantity} (certificate {s.certificate or '?'}, due {s.due})"
@@ -432,11 +447,6 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
                             f"{used_on.isoformat()}: {names}; recalibrate them, or give "
                             "--allow-expired to issue a certificate that says so",
                             parameter="lab")
-    rule = (rule or spec.decision_rule) if spec is not None else None
-    from accelcal.certificate import response
-
-    all_budgets, serials = [], {}
-    stated = record_budgets(records, lab, budgets)
     for rec, budgets_of in sorted(zip(records, stated, strict=True),
                                   key=lambda p: (p[0].serial, p[0].method, p[0].date)):
         by_name = {b["coefficient"]: b for b in budgets_of}

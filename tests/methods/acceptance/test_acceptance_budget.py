@@ -285,3 +285,38 @@ def test_a_record_without_its_data_keeps_the_closed_forms_of_its_results(thresho
         b["estimate"] * 1e-4 / 9.81, rel=1e-9)
     assert "head_angle" not in rows
     assert any(n.startswith("head_angle: the input data were not found") for n in b["notes"])
+
+
+def _expire(text: str, quantity: str) -> str:
+    """The lab file ``text`` with ``quantity``'s standard due in 2020."""
+    import re
+
+    at = text.index(f'quantity = "{quantity}"')
+    due = re.compile(r"due = \d{4}").search(text, at)
+    return text[:due.start()] + "due = 2020" + text[due.end():]
+
+
+def test_a_certificate_checks_the_due_dates_of_its_tests_own_inputs(threshold, tmp_path):
+    # coil_constant is an input of the family's magnetic test, head_angle of the threshold's
+    import dataclasses
+
+    from accelcal.calibration import lab_info
+    from accelcal.certificate.content import build
+    from accelcal.errors import AccelcalError
+    from accelcal.io.formats import acceptance as steps_format
+    from helpers.certificates import LAB
+
+    rec, _ = threshold
+    data = tmp_path / "steps.csv"
+    meta = {"serial": "SN-7", "operator": "op", "date": "2026-11-20T10:00:00+00:00"}
+    steps_format.write(data, dataclasses.replace(rec, metadata={**rec.metadata, **meta}))
+    (record,) = acceptance.reduce(data).to_records(lab_info([data]), input_files=[data])
+    text = LAB.read_text(encoding="utf-8")
+    coil = tmp_path / "coil.toml"
+    coil.write_text(_expire(text, "coil_constant"), encoding="utf-8")
+    doc = build([record], load_lab(coil), issued="2026-11-26")
+    assert doc["expired_standards"] == []
+    head = tmp_path / "head.toml"
+    head.write_text(_expire(text, "head_angle"), encoding="utf-8")
+    with pytest.raises(AccelcalError, match="head_angle"):
+        build([record], load_lab(head), issued="2026-11-26")
