@@ -132,7 +132,7 @@ def _residuals(x, names, f, data, w) -> np.ndarray:
     return w(np.stack([d.real, d.imag], axis=1))
 
 
-def fit_model(reduction, model: str = "second-order") -> Reduction:
+def fit_model(reduction, model: str = "second-order", *, start=None) -> Reduction:
     """Weighted complex least squares of the transfer function on a measured response.
 
     Parameters
@@ -142,6 +142,10 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
         complex points with their ``[Re, Im]`` covariance and ``frequency_hz``.
     model : str
         ``second-order``, optionally with ``,pole`` and ``,delay``.
+    start : sequence of float, optional
+        The parameters (``S0, fn, zeta`` and the terms') to start from
+        instead of the best of the grid: a fit of points near those of a
+        known fit (the re-fits of a budget's perturbed points).
 
     Returns
     -------
@@ -178,7 +182,7 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
         raise AccelcalError(f"{f.size} frequencies give {2 * f.size} real data, too few for "
                             f"the {len(names)} parameters of {model}", parameter="model")
     w = _Whitener(data, est.covariance)
-    x0 = _start(f, data, w, names)
+    x0 = _start(f, data, w, names) if start is None else np.asarray(start, dtype=float)
     lower = [-np.inf, 0.0, 0.0] + [0.0] * ("pole" in names) + [-np.inf] * ("delay" in names)
     scale = np.abs(x0) + np.array([0, 0, 0] + [0] * ("pole" in names) +
                                   [1e-6] * ("delay" in names))
