@@ -140,3 +140,23 @@ def test_every_comparison_input_enters_the_fit(base, example):
     # S0's U covers the reference's relative U (0.5 %, k = 2): 500 times the fit's own
     assert bs[0].U / fit.estimate.values[0] >= 0.005
     assert bs[0].U / (2 * fit.estimate.std[0]) > 100
+
+
+def test_the_full_models_linear_inputs_move_each_row_by_its_contribution(base, example):
+    """A row's standard of its own (the reference's table at 80 Hz, u = 0.25 mV/g where the
+    lab states 0.025 mV/g of its 10 mV/g) enters the Monte Carlo per the lab's u."""
+    from accelcal.budget.full import model_of
+    from accelcal.methods.response.budget import data_model
+
+    rec, _, fit = base
+    lab = load_lab(LAB)
+    study, _ = model_of(example, fit, lab, data_model(fit, rec))
+    linear = {q: (u, sens) for q, _, u, _, sens in study.linear}
+    for q in ("reference_sensitivity", "reference_phase", "sensor_temperature"):
+        u, sens = linear[q]
+        assert u == lab.standards[q].u
+        for b, c in zip(example, sens, strict=True):
+            assert c * u == pytest.approx(_row(b, q).sensitivity * _row(b, q).u, rel=1e-12,
+                                          abs=1e-300)
+    u, sens = linear["reference_sensitivity"]
+    assert sens[0] * u / fit.estimate.values[0] == pytest.approx(0.0025, rel=REFIT)

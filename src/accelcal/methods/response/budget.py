@@ -304,7 +304,7 @@ def data_model(reduction, records):
     if reduction.method == FIT:  # the inputs through the points it was fitted to
         from accelcal.methods.response.budget_fit import data_model as of_fit
 
-        return of_fit(reduction, records)
+        return of_fit(reduction, records, data_model)
     if reduction.method not in (METHOD, BROADBAND):
         from accelcal.catalog import method
 

@@ -228,38 +228,40 @@ def per_row_inputs(refit: Refit, comparison) -> dict:
     return {q: make(q) for q in sorted(names)}
 
 
-def data_model(fit, records):
-    """A :class:`~accelcal.budget.engine.DataModel` of a model-fit reduction (module docs)."""
+ROUTES = {"stepped": "response/comparison", "random": "response/broadband",
+          "swept": "response/broadband", "laser": "response/laser",
+          "gravity": "response/gravity"}
+"""Method id of the points by the excitation of their records."""
+
+
+def data_model(fit, records, comparison):
+    """A :class:`~accelcal.budget.engine.DataModel` of a model-fit reduction (module docs).
+
+    ``comparison(points, records)`` is the points' own measurement model
+    (:func:`accelcal.methods.response.budget.data_model`).
+    """
     from os import PathLike
 
     from accelcal.budget.engine import DataModel
-    from accelcal.methods.response import budget
-    from accelcal.methods.response.broadband import METHOD as BROADBAND
-    from accelcal.methods.response.stepped import METHOD
 
     items = [] if records is None else (
         list(records) if isinstance(records, list | tuple) else [records])
-    method = METHOD
+    method = ROUTES["stepped"]
     if items:
         from accelcal.io.formats.response import read
         from accelcal.methods.response import excitation_of
 
-        kind = excitation_of(items[0])
-        if kind not in ("stepped", "random", "swept"):
-            from accelcal.catalog import method as descriptor
-
-            return DataModel(None, 0, "V", per_row=dict.fromkeys(
-                descriptor("response").budget_inputs, budget._not_of(
-                    "an input of the comparison", f"a fit to {kind} points")))
-        method = METHOD if kind == "stepped" else BROADBAND
+        method = ROUTES.get(excitation_of(items[0]), method)
+        if method not in (ROUTES["stepped"], ROUTES["random"]):  # no comparison's inputs
+            return comparison(points_of(fit, method), None)
         items = [read(r) if isinstance(r, str | PathLike) else r for r in items]
     points = points_of(fit, method)
-    comparison = budget.data_model(points, items or None)
+    model = comparison(points, items or None)
     refit = Refit(fit, points)
     rerun = None
-    if comparison.reduce is not None:
+    if model.reduce is not None:
         def rerun(**shift):
-            return refit.again(comparison.reduce(**shift))
+            return refit.again(model.reduce(**shift))
 
-    return DataModel(rerun, 0, comparison.output_unit, parameters=comparison.parameters,
-                     per_row=per_row_inputs(refit, comparison))
+    return DataModel(rerun, 0, model.output_unit, parameters=model.parameters,
+                     per_row=per_row_inputs(refit, model))
