@@ -160,3 +160,13 @@ def test_the_full_models_linear_inputs_move_each_row_by_its_contribution(base, e
                                           abs=1e-300)
     u, sens = linear["reference_sensitivity"]
     assert sens[0] * u / fit.estimate.values[0] == pytest.approx(0.0025, rel=REFIT)
+
+
+def test_a_fit_to_laser_points_has_none_of_the_comparisons_inputs():
+    from accelcal.rigs.response_routes import LaserRig
+
+    rec = LaserRig().simulate(seed=2)
+    bs = budgets(fit_model(reduce(rec)), load_lab(LAB), records=rec)
+    assert {r.quantity for b in bs for r in b.rows} == {"Type A"}
+    assert any(n.startswith("reference_sensitivity: an input of the comparison, not of "
+                            "response/laser") for n in bs[0].notes)
