@@ -170,3 +170,17 @@ def test_a_fit_to_laser_points_has_none_of_the_comparisons_inputs():
     assert {r.quantity for b in bs for r in b.rows} == {"Type A"}
     assert any(n.startswith("reference_sensitivity: an input of the comparison, not of "
                             "response/laser") for n in bs[0].notes)
+
+
+def test_without_the_points_the_common_gains_enter_s0_in_closed_form(base):
+    """A record's numbers alone (its input files not found): ``S0 d``, the rest named."""
+    fit = dataclasses.replace(base[2], observations={})
+    lab = load_lab(LAB)
+    s0, fn = budgets(fit, lab)[:2]
+    ref = lab.standards["reference_sensitivity"]  # 10 mV/g, u 0.025 mV/g
+    assert _row(s0, "reference_sensitivity").contribution / s0.estimate == pytest.approx(
+        ref.u / ref.value, rel=1e-12)
+    assert _row(fn, "reference_sensitivity").sensitivity == 0.0
+    assert "reference_phase" not in {r.quantity for r in s0.rows}
+    assert any(n.startswith("reference_phase: the points the fit was made from were not "
+                            "found") for n in s0.notes)

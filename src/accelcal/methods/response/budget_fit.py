@@ -36,6 +36,11 @@ the fit started from its own solution:
   fitted again (a common gain on both channels cancels); without them
   ``distortion`` is 0 and the DAQ's gain and linearity are left out.
 
+Without the points (a calibration record whose input files were not found
+holds the fit's numbers alone) the common gains enter in closed form,
+``S0 d`` on ``S0`` and nothing on the rest, and the other inputs are named
+as left out.
+
 Correlation between the points: each input is one error common to every
 point (one reference calibration, one DAQ, one mounting, one sensor
 temperature), fully correlated across the points. The reference's
@@ -75,26 +80,30 @@ COMMON = ("reference_sensitivity", "reference_phase")
 frequency's applies to every point."""
 
 
-def points_of(fit, method: str):
+def points_of(fit, method: str, points=None):
     """The complex points a model-fit reduction was fitted to, as a reduction of ``method``.
 
     The names are ``S(f Hz)`` (``S(f Hz) #k`` for a repeated frequency), the
     covariance the points' own, the reference frequency the fit's.
+    ``points``: ``(frequency_hz, response, covariance)`` instead of the fit's
+    observations.
     """
     import numpy as np
 
     from accelcal.results import Assumption, Estimate, Reduction
 
     obs = fit.observations
-    f = np.asarray(obs["frequency_hz"], dtype=float)
-    values = np.asarray(obs["response"], dtype=complex)
+    f, values, covariance = points or (obs["frequency_hz"], obs["response"],
+                                       obs["covariance"])
+    f = np.asarray(f, dtype=float)
     names, seen = [], {}
     for fi in f.tolist():
         seen[fi] = seen.get(fi, 0) + 1
         names.append(f"S({fi:g} Hz)" + (f" #{seen[fi]}" if seen[fi] > 1 else ""))
     unit = fit.estimate.units.get("S0", "")
-    est = Estimate(tuple(names), values, np.asarray(obs["covariance"], dtype=float),
-                   dict.fromkeys(names, unit), method, dof=0)
+    est = Estimate(tuple(names), np.asarray(values, dtype=complex),
+                   np.asarray(covariance, dtype=float), dict.fromkeys(names, unit), method,
+                   dof=0)
     assumed = tuple(a for a in fit.assumptions if a.name == "reference_frequency") or (
         Assumption("reference_frequency", float(f[0]), "Hz", ""),)
     return Reduction(family=fit.family, method=method, sensors=(est,), sensor_names=("dut",),
@@ -234,6 +243,43 @@ ROUTES = {"stepped": "response/comparison", "random": "response/broadband",
 """Method id of the points by the excitation of their records."""
 
 
+GAINS = ("reference_sensitivity", "daq_gain_mismatch", "sensor_temperature",
+         "sensitivity_tc")
+"""Inputs that are a common relative factor on every point: ``S0 d`` without the points."""
+
+
+def _without_points(fit, comparison):
+    """A fit whose points are not at hand: the common gains alone, ``c = S0 d`` on ``S0``.
+
+    The comparison's closed forms at one point at the reference frequency
+    give ``d`` per unit of each; the other inputs need the points and are
+    named as left out.
+    """
+    from accelcal.budget.engine import DataModel, _rows
+    from accelcal.methods.response.stepped import REFERENCE_FREQUENCY
+
+    f_ref = float(fit.assumed("reference_frequency", REFERENCE_FREQUENCY))
+    s0 = complex(fit.estimate.values[fit.estimate.names.index("S0")])
+    one = points_of(fit, ROUTES["stepped"], ([f_ref], [s0], [[0.0, 0.0], [0.0, 0.0]]))
+    model, rows = comparison(one, None), _rows(one)
+
+    def make(q):
+        def per_row(row, std, lab):
+            if q not in GAINS:
+                return ("the points the fit was made from were not found (the common gains "
+                        "alone enter, in closed form)")
+            found = _per_point(model, rows, q, std, lab)
+            if isinstance(found, str):
+                return found
+            here, mag, _ = found[0]
+            return here, (row.base * mag / 100.0 if row.label == "S0" else 0.0)
+
+        return per_row
+
+    return DataModel(None, 0, "V", per_row={q: make(q) for q in sorted(
+        set(model.per_row) | set(model.analytic))})
+
+
 def data_model(fit, records, comparison):
     """A :class:`~accelcal.budget.engine.DataModel` of a model-fit reduction (module docs).
 
@@ -244,6 +290,8 @@ def data_model(fit, records, comparison):
 
     from accelcal.budget.engine import DataModel
 
+    if "response" not in fit.observations:  # a record's numbers, without the points
+        return _without_points(fit, comparison)
     items = [] if records is None else (
         list(records) if isinstance(records, list | tuple) else [records])
     method = ROUTES["stepped"]
