@@ -75,7 +75,7 @@ import math
 COMPONENTS = ("relative_motion", "transverse_motion", "transverse_sensitivity")
 """Complex inputs: each component independent with the lab's ``u`` (re-fitted one at a time)."""
 
-COMMON = ("reference_sensitivity", "reference_phase")
+TABLE_INPUTS = ("reference_sensitivity", "reference_phase")
 """Inputs whose standard the reference's table gives per frequency: the reference
 frequency's applies to every point."""
 
@@ -206,7 +206,7 @@ def per_row_inputs(refit: Refit, comparison) -> dict:
         found = _per_point(comparison, rows, q, std, lab)
         if isinstance(found, str):
             return found
-        if q in COMMON:  # one error of the reference, its value at the reference frequency
+        if q in TABLE_INPUTS:  # one error of the reference, its value at the reference frequency
             found = [found[i_ref]] * len(found)
         here = found[i_ref][0]
         mag = np.array([m for _, m, _ in found]) / 100.0
