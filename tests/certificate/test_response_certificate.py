@@ -83,7 +83,7 @@ def test_points_carry_the_budgets_magnitude_and_phase(issued):
         assert p["magnitude_U"] == pytest.approx(budget["U"] * p["magnitude"] / 100, rel=1e-12)
 
 
-def test_deviation_leaves_out_the_common_reference_sensitivity(issued):
+def test_deviation_leaves_out_the_inputs_common_to_every_step(issued):
     points = _item(issued.doc)["response"][0]["points"]
     ref = next(p for p in points if p["frequency_hz"] == 80)
     assert (ref["deviation_pct"], ref["deviation_u"]) == (0.0, 0.0)
@@ -93,10 +93,13 @@ def test_deviation_leaves_out_the_common_reference_sensitivity(issued):
         assert p["deviation_db"] == pytest.approx(20 * math.log10(ratio), rel=1e-12, abs=1e-12)
         if p is ref:
             continue
-        # the two steps' budgets less reference_sensitivity, in quadrature, scaled by the ratio
+        # the two steps' budgets less the inputs of one coefficient at every step (the
+        # reference's sensitivity, the channels' gain ratio, the DUT's temperature and its
+        # coefficient: they cancel in the ratio), in quadrature, scaled by the ratio
         rows = [r for name in (p["coefficient"], ref["coefficient"])
                 for r in _budget(issued.doc, f"{name} magnitude")["rows"]
-                if r["quantity"] != "reference_sensitivity"]
+                if r["quantity"] not in ("reference_sensitivity", "daq_gain_mismatch",
+                                         "sensor_temperature", "sensitivity_tc")]
         expected = ratio * math.sqrt(sum(r["contribution"] ** 2 for r in rows))
         assert p["deviation_u"] == pytest.approx(expected, rel=1e-9)
         # below the 0.25 % of either magnitude: the relative and transverse motion of the
@@ -110,7 +113,16 @@ def test_model_phase_and_group_delay_follow_the_closed_form(issued):
     par = model["parameters"]
     for key, truth in RESPONSE_TRUTH.items():
         assert par[key] == pytest.approx(truth, rel=1e-3)
-    assert [r["coefficient"] for r in item["results"]] == ["S0", "fn", "zeta", "f_3dB"]
+    results = {r["coefficient"]: r for r in item["results"]}
+    assert list(results) == ["S0", "fn", "zeta", "f_3dB"]
+    # S0 inherits every point's reference sensitivity (U = 0.5 %, k = 2): its U is at
+    # least that, not the fit's own scatter (10 ppm)
+    s0 = results["S0"]
+    assert s0["U"] / s0["estimate"] >= 0.005
+    s0_budget = next(b for b in issued.doc["budgets"] if b["coefficient"] == "S0")
+    top = s0_budget["rows"][0]
+    assert top["quantity"] == "reference_sensitivity"
+    assert top["contribution"] / s0["estimate"] == pytest.approx(0.0025, rel=1e-4)
     (at,) = model["at"]  # default: the measured response's reference frequency
     assert at["frequency_hz"] == 80
     # second order: phi = -atan2(2 zeta wn w, wn^2 - w^2),

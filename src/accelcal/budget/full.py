@@ -25,8 +25,10 @@ of :func:`accelcal.montecarlo.run`) whose every trial
   sensor's temperature through its temperature polynomial;
 - adds the Type A part (a scaled and shifted t, JCGM 101 6.4.9.7), the
   priors of unestimated terms and a method's closed-form inputs
-  (:attr:`DataModel.analytic`) with the budget's sensitivities: the
-  reductions are linear in the data they stand for.
+  (:attr:`DataModel.analytic` and ``per_row``) with the budget's
+  sensitivities, per the lab's ``u`` (a row whose standard is its own, a
+  reference's table at its frequency, moves by its contribution per
+  standard draw): the reductions are linear in the data they stand for.
 
 A trial whose reduction fails gives NaN (counted, left out of the
 intervals). Each trial also gives the budgets' linearised model
@@ -271,7 +273,8 @@ def model_of(budgets, reduction, lab, data_model, *, model=None) -> tuple[Study,
         for r in b.rows:
             if r.source == "lab" and r.quantity not in in_budget:
                 in_budget.append(r.quantity)
-    sens = {q: [_row_sensitivity(b, q) for b in budgets] for q in in_budget}
+    # per the lab's u: a row's standard may be its own (a table's)
+    sens = {q: [_per_lab(b, q, lab.standards[q].u) for b in budgets] for q in in_budget}
     notes, entries, linear = [], [], []
     for q in in_budget:
         std = lab.standards[q]
@@ -341,13 +344,26 @@ def _row_sensitivity(budget, quantity: str) -> float:
     return next((r.sensitivity for r in budget.rows if r.quantity == quantity), 0.0)
 
 
+def _per_lab(budget, quantity: str, u: float) -> float:
+    """The row's sensitivity per the lab's ``u``.
+
+    ``c u_row / u`` where the row's standard is its own (a reference's table at
+    the row's frequency), so that a draw of the lab's input moves the row by
+    its contribution.
+    """
+    row = next((r for r in budget.rows if r.quantity == quantity), None)
+    if row is None:
+        return 0.0
+    return row.sensitivity if row.u == u or not u > 0 else row.sensitivity * row.u / u
+
+
 def _entry(q, std, data_model, lab) -> Entry:
     """How the lab's input ``q`` enters (the branches of :func:`engine.sensitivities`)."""
     def entry(route, keyword="", per=1.0, value=0.0):
         return Entry(q, route, std.distribution, std.u, std.dof, keyword, per, value)
 
     rerun = data_model is not None and data_model.reduce is not None
-    if data_model is not None and q in data_model.analytic:
+    if data_model is not None and (q in data_model.analytic or q in data_model.per_row):
         return entry("linear")
     if rerun and q in data_model.parameters:
         keyword, unit = data_model.parameters[q][std.dimension]

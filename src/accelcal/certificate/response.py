@@ -11,16 +11,19 @@ certificate's points [ISO16063-21]_:
 - the deviation from the reference frequency's magnitude,
   ``100 (|S(f)| / |S(f_ref)| - 1)`` in % and ``20 log10(|S(f)| / |S(f_ref)|)``
   in dB, with the uncertainty of the difference of the two steps' budgets
-  less the inputs common to every step (the reference accelerometer's
-  sensitivity, which cancels in the ratio), the remaining inputs of the two
-  steps taken as independent, ``k`` for its Welch-Satterthwaite degrees of
-  freedom [GUM]_;
+  less the inputs common to every step with the same coefficient
+  (:data:`COMMON`: the reference accelerometer's sensitivity, the DAQ's
+  channel gain mismatch, the DUT's temperature and its coefficient, which
+  cancel in the ratio), the remaining inputs of the two steps taken as
+  independent, ``k`` for its Welch-Satterthwaite degrees of freedom [GUM]_;
 - the phase in degrees (negative: the output lags the input) with its
   budget's ``U`` and ``k``.
 
 A model-fit record (``response/model-fit``: ``S0``, ``fn``, ``zeta``,
 ``f_3dB`` and the extra pole or delay where fitted) is certified as other
-records are (its results); :func:`model` adds the fitted model's phase and
+records are (its results, with the budgets of the comparison's inputs
+through the points it was fitted to,
+:mod:`accelcal.methods.response.budget_fit`); :func:`model` adds the fitted model's phase and
 group delay ``tau_g = -d phi / d omega`` at stated frequencies, propagated
 from the record's covariance by numerical gradients, the phase's budget
 with the reference accelerometer's phase (a common offset of every step,
@@ -39,9 +42,11 @@ import re
 
 FAMILY = "response"
 FIT = "response/model-fit"
-COMMON = ("reference_sensitivity",)
-"""Inputs common to every step's magnitude with the same sensitivity: they cancel in the
-deviation from the reference frequency."""
+COMMON = ("reference_sensitivity", "daq_gain_mismatch", "sensor_temperature",
+          "sensitivity_tc")
+"""Inputs common to every step's magnitude with the same sensitivity (1 % per % of the
+reference's sensitivity and of the channels' gain ratio, ``alpha`` per degC, ``dT`` per
+unit of the coefficient): they cancel in the deviation from the reference frequency."""
 
 _NAME = re.compile(r"^S\((?P<f>[^ ,]+) Hz(?:, (?P<a>[^ ]+) g)?\)$")
 _REFERENCE = re.compile(r"deviations from the sensitivity at (S\(.+\))$")

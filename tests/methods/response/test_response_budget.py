@@ -232,13 +232,17 @@ def test_a_delay_in_hertz_is_refused(write_lab):
         load_lab(write_lab(lab_text(standard("daq_delay_mismatch", 0.0, "Hz", u=1.0))))
 
 
-def test_the_fit_and_the_laser_are_not_comparisons(base):
+def test_the_laser_is_not_a_comparison_and_the_fit_takes_its_points(base):
     from accelcal.methods.response import fit_model
 
     rec, red = base
-    bs = budgets(fit_model(red), load_lab(LAB), records=rec)
+    laser = dataclasses.replace(red, method="response/laser")
+    bs = budgets(laser, load_lab(LAB))
     assert {r.quantity for b in bs for r in b.rows} <= {"Type A"}
-    assert any("not of response/model-fit" in n for n in bs[0].notes)
+    assert any("not of response/laser" in n for n in bs[0].notes)
+    # the fit: the comparison's inputs through its points (test_response_fit_budget.py)
+    bs = budgets(fit_model(red), load_lab(LAB), records=rec)
+    assert "reference_sensitivity" in {r.quantity for r in bs[0].rows}
 
 
 def test_the_rigs_mounting_multiplies_the_dut_by_its_factor(base):

@@ -58,8 +58,10 @@ the model (``S`` is proportional to ``S_ref``). With the influence
 quantities' estimates zero and their distributions symmetric, the signs
 change no budget.
 
-Laser, gravity and model-fit reductions are not comparisons: these inputs
-are named as not entering them. Each closed form is checked against the
+Laser and gravity reductions are not comparisons: these inputs are named as
+not entering them. A model-fit reduction takes them through the points it
+was fitted to, re-fitted (:mod:`accelcal.methods.response.budget_fit`).
+Each closed form is checked against the
 reduction of re-simulated data (central differences) in
 ``tests/methods/response/test_response_budget.py``.
 
@@ -296,8 +298,13 @@ def data_model(reduction, records):
 
     from accelcal.budget.engine import DataModel
     from accelcal.methods.response.broadband import METHOD as BROADBAND
+    from accelcal.methods.response.model import METHOD as FIT
     from accelcal.methods.response.stepped import METHOD
 
+    if reduction.method == FIT:  # the inputs through the points it was fitted to
+        from accelcal.methods.response.budget_fit import data_model as of_fit
+
+        return of_fit(reduction, records, data_model)
     if reduction.method not in (METHOD, BROADBAND):
         from accelcal.catalog import method
 

@@ -157,7 +157,7 @@ def _residuals(x, names, f, data, w, *, kernel) -> np.ndarray:
     return w(np.stack([d.real, d.imag], axis=1))
 
 
-def fit_model(reduction, model: str = "second-order") -> Reduction:
+def fit_model(reduction, model: str = "second-order", *, start=None) -> Reduction:
     """Weighted complex least squares of the transfer function on a measured response.
 
     Parameters
@@ -169,6 +169,10 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
         a broadband reduction's).
     model : str
         ``second-order``, optionally with ``,pole`` and ``,delay``.
+    start : sequence of float, optional
+        The parameters (``S0, fn, zeta`` and the terms') to start from
+        instead of the best of the grid: a fit of points near those of a
+        known fit (the re-fits of a budget's perturbed points).
 
     Returns
     -------
@@ -206,7 +210,8 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
                             f"the {len(names)} parameters of {model}", parameter="model")
     w = _Whitener(data, est.covariance)
     kernel = _kernel(reduction.observations)
-    x0 = _start(f, data, w, names, kernel)
+    x0 = (_start(f, data, w, names, kernel) if start is None
+          else np.asarray(start, dtype=float))
     lower = [-np.inf, 0.0, 0.0] + [0.0] * ("pole" in names) + [-np.inf] * ("delay" in names)
     scale = np.abs(x0) + np.array([0, 0, 0] + [0] * ("pole" in names) +
                                   [1e-6] * ("delay" in names))
