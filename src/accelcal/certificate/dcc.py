@@ -32,8 +32,8 @@ code for an unknown country) when it is not stated.
 
 D-SI has SI units only: a result in µg is written in ``\\micro\\metre
 \\second\\tothe{-2}`` (times g_n = 9.806 65 m/s²), in ppm as ``\\ppm``, in
-µrad as ``\\micro\\radian``, in µg/g² as ``\\micro\\second\\tothe{2}\\metre
-\\tothe{-1}`` (divided by g_n), and so on (:data:`DSI_UNITS`); the
+µrad as ``\\micro\\radian``, in µg/g² as ``\\second\\tothe{2}\\metre\\tothe{-1}``
+(times 1e-6 / g_n: a D-SI prefix is raised with its unit), and so on (:data:`DSI_UNITS`); the
 certificate's own unit is kept as the quantity's name. A result whose unit
 has no D-SI form here (an output unit, V/g) is written in its record's unit
 as ``dcc:text``.
@@ -72,16 +72,21 @@ DSI_UNITS = {
     "urad": (r"\micro\radian", 1.0),
     "arcsec": (r"\micro\radian", 4.84813681109536),
     "mg/g": (r"\one", 1e-3),
-    "ug/g^2": (r"\micro\second\tothe{2}\metre\tothe{-1}", 1.0 / _G),
-    "ug/g^3": (r"\micro\second\tothe{4}\metre\tothe{-2}", 1.0 / _G**2),
-    "ug/g^4": (r"\micro\second\tothe{6}\metre\tothe{-3}", 1.0 / _G**3),
+    "ug/g^2": (r"\second\tothe{2}\metre\tothe{-1}", 1e-6 / _G),
+    "ug/g^3": (r"\second\tothe{4}\metre\tothe{-2}", 1e-6 / _G**2),
+    "ug/g^4": (r"\second\tothe{6}\metre\tothe{-3}", 1e-6 / _G**3),
     "ug/degC": (r"\micro\metre\second\tothe{-2}\kelvin\tothe{-1}", _G),
     "ppm/degC": (r"\ppm\kelvin\tothe{-1}", 1.0),
     "urad/degC": (r"\micro\radian\kelvin\tothe{-1}", 1.0),
     "1": (r"\one", 1.0),
     "g/g": (r"\one", 1.0),
 }
-"""Certificate unit -> (D-SI unit, factor from the certificate's value to the D-SI one)."""
+"""Certificate unit -> (D-SI unit, factor from the certificate's value to the D-SI one).
+
+A prefix in D-SI belongs to its unit and is raised with it (``\\micro\\second\\tothe{2}``
+is (µs)² = 1e-12 s²), so the nonlinearity coefficients, µg/g^n, are written in coherent
+units, s^(2n-2)/m^(n-1), times 1e-6 / g_n^(n-1).
+"""
 
 RESPONSE_UNITS = {
     "V/g": (r"\volt\second\tothe{2}\metre\tothe{-1}", 1.0 / _G),
