@@ -202,6 +202,24 @@ def test_dcc_lists_the_quantities_per_frequency(issued):
                                                                r"\second"]
 
 
+def test_dcc_of_a_response_keeps_the_schemas_structure(issued):
+    from lxml import etree
+
+    from helpers.dcc import CERT_UNITS, dsi_unit, violations
+
+    root = etree.parse(str(issued.dir / "c.xml")).getroot()
+    assert violations(root) == []
+    ns = {"dcc": DCC_NS, "si": SI_NS}
+    point = root.xpath(".//dcc:list[@refType='accelcal_response_point']", namespaces=ns)[0]
+    assert [etree.QName(e).localname for e in point] == ["name"] + ["quantity"] * 4
+    # the magnitude's D-SI unit is the certificate's V/g: same dimension, scale 1/g_n
+    (unit,) = set(root.xpath(".//dcc:quantity[@refType='accelcal_magnitude']/si:real/si:unit/"
+                             "text()", namespaces=ns))
+    scale, dimension = dsi_unit(unit)
+    assert dimension == CERT_UNITS["V/g"][1]
+    assert scale / 9.80665 == pytest.approx(CERT_UNITS["V/g"][0], rel=1e-12)
+
+
 def test_html_states_the_method_traceability_and_the_bode_figure(issued):
     html = (issued.dir / "c.html").read_text(encoding="utf-8")
     assert "Frequency response: comparison with a reference accelerometer" in html

@@ -21,7 +21,7 @@ def certificate(
         "accelcal/certificate/schema/certificate.schema.json)."),
     xml: Path | None = typer.Option(
         None, "--xml", help="Also write it as XML in the structure of PTB's Digital "
-        "Calibration Certificate (DCC 3.2)."),
+        "Calibration Certificate (DCC 3.3)."),
     spec: Path | None = typer.Option(
         None, "--spec", help="Specification file (TOML) with tolerance limits: adds a "
         "statement of conformity per limited result."),
