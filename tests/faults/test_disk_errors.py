@@ -86,3 +86,32 @@ def test_certificate_on_a_full_disk_leaves_nothing(monkeypatch, tmp_path, capsys
     assert "Traceback" not in err
     assert err.strip().splitlines()[-1].startswith("accelcal: error: ")
     assert sorted(p.name for p in out_dir.iterdir()) == []
+
+
+def test_store_add_under_a_file_size_limit_keeps_what_was_committed(tmp_path):
+    """SQLite's own writes under RLIMIT_FSIZE (EFBIG, as a full disk would fail them): the
+    add is one line and exit 2; the records committed before are all there, the chain holds."""
+    from helpers.faults import run
+    from helpers.records import records
+
+    work, tmpdir = tmp_path / "w", tmp_path / "t"
+    work.mkdir()
+    paths = []
+    for i, rec in enumerate(records(40)):
+        paths.append(work / f"r{i}.json")
+        rec.save(paths[-1])
+    db = work / "s.sqlite"
+    first = run(["records", "add", paths[0], "--db", db], cwd=work, tmpdir=tmpdir)
+    assert first.code == 0, first.err
+    size = db.stat().st_size
+    full = run(["records", "add", *paths[1:], "--db", db], cwd=work, tmpdir=tmpdir,
+               file_size=size)
+    assert full.one_line_error(), full.err
+    assert "s.sqlite" in full.err
+    check = run(["records", "verify", "--db", db], cwd=work, tmpdir=tmpdir)
+    assert check.code == 0, check.out + check.err
+    assert "chain verified: yes (1 record)" in check.out
+    new = run(["records", "add", paths[0], "--db", work / "new.sqlite"], cwd=work,
+              tmpdir=tmpdir, file_size=4096)
+    assert new.one_line_error(), new.err
+    assert sorted(p.name for p in work.iterdir() if "new.sqlite" in p.name) == []
