@@ -19,7 +19,10 @@ process's temporaries, prints the line and ends the process itself.
 A local Dask cluster's workers are started with SIGINT and SIGHUP blocked
 (:func:`accelcal.parallel.shielded_children`): the terminal sends those to
 the whole process group, and the workers, stopped by the main process as it
-ends, would each print a traceback.
+ends, would each print a traceback. While the cluster starts, a signal is
+recorded and delivered again once it has started
+(:func:`accelcal.parallel.deferred_signals`), so that it can be closed; the
+watcher waits for that instead of ending the process.
 
 pyarrow's own handler, which turns a signal into a cancelled read and can
 lose it, is switched off when pyarrow is first imported.
@@ -40,6 +43,7 @@ References
 """
 
 import _thread
+import atexit
 import contextlib
 import os
 import signal
@@ -116,8 +120,23 @@ def install() -> None:
         return
     threading.Thread(target=_watch, args=(read_end,), daemon=True,
                      name="accelcal-signals").start()
+    atexit.register(_settle)
     sys.unraisablehook = _unraisable(sys.unraisablehook)
     _quiet_arrow()
+
+
+def _settle() -> None:
+    """At exit, the run's outcome is decided: a late signal no longer changes it.
+
+    Python's finalisation puts its handlers back to the system's default, so
+    a signal in the last moments of a run that had written everything would
+    kill it, and the shell would see a run ended by the signal. Registered
+    first, this runs after every other exit handler.
+    """
+    for sig in SIGNALS:
+        with contextlib.suppress(OSError, ValueError):
+            if signal.getsignal(sig) is _handler:
+                signal.signal(sig, signal.SIG_IGN)
 
 
 def _handler(signum, frame):
@@ -158,8 +177,13 @@ def _watch(read_end: int) -> None:
         ending = [s for s in data if s in SIGNALS]
         if not ending:
             continue
-        if not _taken.wait(GRACE):
-            _force(ending[0])
+        waited = 0.0
+        while not _taken.wait(GRACE):
+            waited += GRACE
+            # a handler standing in for ours (accelcal.parallel.deferred_signals, while a
+            # cluster starts) delivers the signal again soon: wait for it, within ENDING
+            if signal.getsignal(ending[0]) is _handler or waited >= ENDING:
+                _force(ending[0])
         threading.Event().wait(ENDING)
         _force(received() or ending[0])
 
