@@ -65,3 +65,24 @@ def test_simulated_samples_bounded_by_time_and_disk(tiny_bound, tmp_path, capsys
     refused(["noise", "simulate", "--out", tmp_path / "big.csv", "--rate", "1e6", "--duration",
              "1e4", "--force"], capsys, "--duration", "1e+10 samples of CSV would write about",
             "free")
+
+
+def test_a_long_run_prints_plain_progress_lines_off_a_terminal(monkeypatch, capsys):
+    """Standard error not a terminal (a pipe, a log): after 10 s, a line every 10 s."""
+    from types import SimpleNamespace
+
+    from accelcal.cli import progress as module
+
+    now = [0.0]
+    monkeypatch.setattr(module, "time", SimpleNamespace(monotonic=lambda: now[0]))
+    with module.DelayedProgress("Monte Carlo trials") as bar:
+        for t, done in [(1, 10), (9, 90), (12, 120), (15, 150), (23, 230)]:
+            now[0] = t
+            bar(done, 1000)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [
+        ("accelcal: progress: Monte Carlo trials: 120 of 1,000 (12.0 %), 12 s elapsed, "
+        "about 88 s left"),
+        ("accelcal: progress: Monte Carlo trials: 230 of 1,000 (23.0 %), 23 s elapsed, "
+        "about 77 s left"),
+    ]
