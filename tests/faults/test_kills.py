@@ -71,7 +71,11 @@ def test_killed_at_a_random_point(command, sig, inputs, tmp_path):
     elif sig == signal.SIGKILL:
         expected = {-signal.SIGKILL}
     else:
-        expected = {EXIT[sig]} | ({-sig} if not killed.err.strip() else set())
+        # -sig: killed before Python ran accelcal's code, or as the process exited after
+        # its work (Python's finalisation puts the system's default action back; the
+        # output is then whole, as checked below)
+        expected = {EXIT[sig]} | ({-sig} if not killed.err.strip()
+                                  or "wrote " in killed.out + killed.err else set())
         said = [line for line in killed.err.splitlines()  # what the run said before the signal
                 if line.strip() and not line.startswith(("note:", "accelcal: note:", "wrote "))]
         assert len(said) <= 1, killed.err

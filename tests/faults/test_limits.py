@@ -226,7 +226,8 @@ def test_ctrl_c_during_a_csv_read_is_never_lost(dirs, inputs, delay):
                                 tmpdir=tmpdir)
     assert not result.traceback, result.err
     if ending is not None:  # the signal came while it ran: never a success
-        assert result.code == 130, (delay, result.code, result.err)
+        # (-SIGINT: it came as the process exited after its work, its handlers gone)
+        assert result.code in (130, -signal.SIGINT), (delay, result.code, result.err)
 
 
 @pytest.mark.parametrize("delay", [0.1, 0.7, 1.5, 2.5, 3.5, 5.0, 8.0])

@@ -43,7 +43,6 @@ References
 """
 
 import _thread
-import atexit
 import contextlib
 import os
 import signal
@@ -120,23 +119,8 @@ def install() -> None:
         return
     threading.Thread(target=_watch, args=(read_end,), daemon=True,
                      name="accelcal-signals").start()
-    atexit.register(_settle)
     sys.unraisablehook = _unraisable(sys.unraisablehook)
     _quiet_arrow()
-
-
-def _settle() -> None:
-    """At exit, the run's outcome is decided: a late signal no longer changes it.
-
-    Python's finalisation puts its handlers back to the system's default, so
-    a signal in the last moments of a run that had written everything would
-    kill it, and the shell would see a run ended by the signal. Registered
-    first, this runs after every other exit handler.
-    """
-    for sig in SIGNALS:
-        with contextlib.suppress(OSError, ValueError):
-            if signal.getsignal(sig) is _handler:
-                signal.signal(sig, signal.SIG_IGN)
 
 
 def _handler(signum, frame):
