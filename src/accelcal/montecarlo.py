@@ -312,10 +312,11 @@ def run(
     first = 0
     if max_seconds is not None and scheduler is None:
         start = time.monotonic()
-        merger.add(0, spec(tasks[0]))
-        first = 1
+        timed = spec(tasks[0])
         _check_time((time.monotonic() - start) * (len(tasks) - 1) / (workers or 1),
                     trials, min(trials, block_size * blocks_per_task), max_seconds)
+        merger.add(0, timed)  # progress only once the run is accepted
+        first = 1
     if workers is None and scheduler is None:
         for index in range(first, len(tasks)):
             merger.add(index, spec(tasks[index]))
@@ -460,11 +461,12 @@ class _Tasks(Sequence):
 
 
 def _check_time(seconds: float, trials: int, timed: int, bound: float) -> None:
-    if seconds > bound:
-        raise AccelcalError(
-            f"{trials:,} trials would take about {seconds:,.0f} s more (from the first "
-            f"{timed:,}, timed); the bound is {bound:g} s: give fewer trials or more workers, "
-            "or --force (force=True) to run it anyway", parameter="trials")
+    from accelcal import work
+
+    work.check(work.Estimate(f"{trials:,} trials", seconds,
+                             basis=f"the rest, from the first {timed:,}, timed"),
+               parameter="trials", bound=bound,
+               hint="give fewer trials or more workers")
 
 
 def check_trials(trials) -> None:

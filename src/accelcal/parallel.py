@@ -2,9 +2,10 @@
 
 :func:`run_dask` is :func:`accelcal.montecarlo.run`'s engine when it is given
 ``workers`` or a ``scheduler``: a bounded window of tasks in flight, results
-merged in order. A local cluster's workers are started ignoring the
-terminal's Ctrl-C and hang-up (:func:`shielded_children`), and log critical
-errors only, so that a run ended by Ctrl-C prints one line.
+merged in order. A local cluster's workers are started with the
+terminal's Ctrl-C and hang-up blocked (:func:`shielded_children`), and log
+critical errors only, so that a run ended by Ctrl-C, even while the cluster
+starts, prints one line and leaves no process behind.
 
 References
 ----------
@@ -16,6 +17,7 @@ References
 
 import contextlib
 import itertools
+import logging
 import os
 import signal
 import threading
@@ -74,8 +76,10 @@ def local_cluster(workers: int):
 
     The workers log critical errors only (a cluster stopped by Ctrl-C would
     print a warning per cancelled task; read from the environment when each
-    worker process imports distributed) and ignore the terminal's Ctrl-C
-    (:func:`shielded_children`). Its ``scheduler_address`` serves several
+    worker process imports distributed) and leave the terminal's Ctrl-C to
+    this process (:func:`shielded_children`), which takes one that comes
+    while the cluster starts once it has started (:func:`deferred_signals`)
+    and then ends the workers at once. Its ``scheduler_address`` serves several
     runs in turn (:func:`accelcal.montecarlo.run` with ``scheduler=``).
     """
     try:
@@ -85,39 +89,95 @@ def local_cluster(workers: int):
             "running on several workers needs Dask: pip install 'accelcal[dask]'"
         ) from None
     os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "critical")
-    with shielded_children(), warnings.catch_warnings():
-        # the scheduler's HTTP server moves off a port in use, with a warning
-        warnings.filterwarnings("ignore", message="Port .* is already in use")
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
-    try:
-        yield cluster
-    finally:
-        cluster.close()
+    # and so does this process's scheduler (a task cancelled as the run ends)
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
+    with shielded_children():
+        cluster = None
+        try:
+            with deferred_signals(), warnings.catch_warnings():
+                # the scheduler's HTTP server moves off a port in use, with a warning
+                warnings.filterwarnings("ignore", message="Port .* is already in use")
+                cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
+                                       processes=True, dashboard_address=None)
+            yield cluster
+        except KeyboardInterrupt:
+            if cluster is not None:  # the run ends: its workers' results are not wanted
+                _stop_workers()
+            raise
+        finally:
+            if cluster is not None:
+                cluster.close()
+
+
+def _stop_workers() -> None:
+    """End this process's worker processes at once (an interrupted run: no graceful close)."""
+    import multiprocessing
+
+    for child in multiprocessing.active_children():
+        child.terminate()
 
 
 @contextlib.contextmanager
 def shielded_children():
-    """Processes started in the block ignore SIGINT and have SIGHUP blocked.
+    """Processes started in the block have SIGINT and SIGHUP blocked.
 
     A terminal's Ctrl-C (and hang-up) goes to every process of its group:
-    the workers of a local cluster would each end with a traceback. An
-    ignored signal stays ignored across ``exec`` (and Python then installs
-    no handler of its own for SIGINT), a blocked one stays blocked (Python
-    unblocks SIGINT at start-up, so it is ignored instead); the workers
-    leave the signals to the main process, which stops the cluster as it
-    ends. The main process itself ignores Ctrl-C while the block runs (the
-    cluster's start, a few seconds), and takes it again after.
+    the workers of a local cluster would each end with a traceback. A
+    blocked signal stays blocked across ``exec``, so the workers leave the
+    signals to the main process, which stops the cluster as it ends. The
+    signals are blocked in the thread that starts each process (Dask starts
+    its workers from its own threads), just while it starts it
+    (``multiprocessing.util.spawnv_passfds``); the main process keeps taking
+    them (:func:`deferred_signals` holds one back while the cluster starts).
     """
-    if (not hasattr(signal, "pthread_sigmask")
-            or threading.current_thread() is not threading.main_thread()):
+    import multiprocessing.util as mp_util
+
+    if not hasattr(signal, "pthread_sigmask"):
         yield
         return
-    saved = signal.getsignal(signal.SIGINT)
-    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP})
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    spawn = mp_util.spawnv_passfds
+
+    def shielded_spawn(path, args, passfds):
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGHUP})
+        try:
+            return spawn(path, args, passfds)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+    mp_util.spawnv_passfds = shielded_spawn
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, saved)
-        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        mp_util.spawnv_passfds = spawn
+
+
+@contextlib.contextmanager
+def deferred_signals():
+    """SIGINT, SIGTERM and SIGHUP taken in the block are delivered again as it ends.
+
+    A local cluster's start (a few seconds) interrupted half-way would be
+    lost with its workers running, and Dask's own clean-up at exit would fail
+    with a traceback; a signal in the block is recorded and raised again once
+    the cluster exists and can be closed. A signal the process ignores stays
+    ignored. (A handler that watches for signals not taken, as the command
+    line's does, sees that this one stands in for it.)
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got = []
+
+    def record(signum, frame):
+        got.append(signum)
+
+    saved = {}
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(sig) not in (signal.SIG_IGN, None):
+            saved[sig] = signal.signal(sig, record)
+    try:
+        yield
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
+        if got:
+            signal.raise_signal(got[0])

@@ -271,14 +271,16 @@ def _report(out: Path, store, outcomes, title: str, subtitle: str,  # noqa: PLR0
     sections = []
     for o in outcomes:
         sections += reduction_sections(o.reduction, o.records, **o.context)
+    chain = store.verify().status_line()  # the records reported were just stored
     if history_serial is not None and outcomes:
         history = history_section(store, history_serial, method=outcomes[0].reduction.method,
-                                  chain=store.verify().status_line())
+                                  chain=chain)
         if history is not None:
             sections.append(history)
     report = out / "report.html"
     write_report(report, sections, title=title, subtitle=subtitle,
-                 budgets={key: [b.as_dict() for b in items] for key, items in budgets.items()})
+                 budgets={key: [b.as_dict() for b in items] for key, items in budgets.items()},
+                 records_chain=chain)
     figures = []
     main = [s for s in sections if not s.appendix]  # numbered as in the report
     for i, section in enumerate(main, 1):

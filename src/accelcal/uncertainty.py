@@ -174,6 +174,7 @@ def propagate(
     progress: Callable[[int, int], None] | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
+    force: bool = False,
 ) -> McUncertainty:
     """Monte Carlo uncertainty of a reduction (GUM-S1).
 
@@ -204,6 +205,10 @@ def propagate(
         Description of the propagated inputs (kept in the result).
     progress, workers, scheduler
         Passed to :func:`accelcal.montecarlo.run`.
+    force : bool
+        Run even when the trials are estimated to take more than
+        :data:`accelcal.work.MAX_SECONDS` (the first task is timed; refused
+        otherwise, with the estimate).
 
     Returns
     -------
@@ -228,8 +233,11 @@ def propagate(
         )
     if not 0.0 < coverage < 1.0:
         raise AccelcalError(f"coverage probability {coverage} must be between 0 and 1")
+    from accelcal.work import MAX_SECONDS
+
     result = run(sampler, trials, names=names, seed=seed, keep_samples=True, progress=progress,
-                 workers=workers, scheduler=scheduler)
+                 workers=workers, scheduler=scheduler,
+                 max_seconds=None if force else MAX_SECONDS)
     err = result.coverage_interval(coverage, shortest=shortest)  # GUM-S1 7.7
     # Y = y_hat - E: the interval of Y is y_hat minus the reversed interval of E.
     low, high = y - err[:, 1], y - err[:, 0]

@@ -124,10 +124,11 @@ def test_same_seed_same_draws_another_seed_others(record, write_lab):
 def test_a_long_run_is_refused_with_its_estimate(record, write_lab):
     from accelcal.budget.mc import MAX_SECONDS
     from accelcal.errors import AccelcalError
+    from accelcal.work import shown_seconds
 
     rec, red = record
     lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=10.0))))
-    with pytest.raises(AccelcalError, match=f"the bound is {MAX_SECONDS:g} s"):
+    with pytest.raises(AccelcalError, match=f"the bound is {shown_seconds(MAX_SECONDS)}"):
         budgets(red, lab, records=rec, check={"trials": 1_000_000, "seed": 1})
 
 

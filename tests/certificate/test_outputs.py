@@ -27,6 +27,8 @@ def test_json_certificate_is_valid_against_its_published_schema(tmp_path):
     validator = jsonschema.Draft202012Validator(schema(),
                                                 format_checker=jsonschema.FormatChecker())
     assert list(validator.iter_errors(doc)) == []
+    assert doc["records_chain"].startswith("not from a store")  # record files
+    assert "Records: not from a store" in (tmp_path / "c.html").read_text(encoding="utf-8")
     broken = dict(doc, issued="26.11.2026")
     assert any(e.path and e.path[0] == "issued" for e in validator.iter_errors(broken))
     broken = dict(doc, items=[dict(doc["items"][0], serial="")])

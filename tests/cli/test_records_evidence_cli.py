@@ -92,7 +92,13 @@ def test_report_history_prints_and_writes_the_chain_status(capsys, tmp_path):
     code, stdout, err = run(capsys, "report", paths[0], "--out", out, "--history", "--db", db)
     assert code == 0, err
     assert "chain verified: yes (3 records)" in stdout
-    assert "chain verified: yes (3 records)" in out.read_text()
+    html = out.read_text()
+    assert "chain verified: yes (3 records)" in html
+    assert ("Records: record files (not from a store); the history&#39;s store: chain verified: "
+            "yes (3 records).") in html  # under the heading, besides the history section
+    code, _, err = run(capsys, "report", paths[0], "--out", out)
+    assert code == 0, err
+    assert "Records: not from a store" in out.read_text()
     code, _, err = run(capsys, "report", paths[0], "--out", out, "--skip-bad")
     assert_one_line_error(code, err, "--skip-bad goes with --history")
 

@@ -6,7 +6,7 @@ inside functions is resolved relative to the package. The floors, bottom up
 (docs/api.md, "Floors"):
 
 1. ground: the package root, ``errors``, ``validation`` (standard library only);
-2. base: ``units``, ``terms``, ``formatting``, ``resources``, ``identifiability``, and the
+2. base: ``units``, ``terms``, ``formatting``, ``resources``, ``work``, ``identifiability``, and the
    method descriptors and ids (``catalog``, ``method_ids``), plain data every floor reads;
 3. ``physics``: frames, positions, geometry, normal gravity;
 4. the domain model: ``model``, ``results`` and the numeric helpers beside them;
@@ -33,7 +33,8 @@ import pytest
 FLOORS = (
     ("ground", ("accelcal", "accelcal.errors", "accelcal.validation")),
     ("base", ("accelcal.units", "accelcal.terms", "accelcal.formatting", "accelcal.resources",
-              "accelcal.identifiability", "accelcal.catalog", "accelcal.method_ids")),
+              "accelcal.work", "accelcal.identifiability", "accelcal.catalog",
+              "accelcal.method_ids")),
     ("physics", ("accelcal.physics",)),
     ("domain model", ("accelcal.model", "accelcal.defaults", "accelcal.engineering",
                       "accelcal.aliasing", "accelcal.outputs", "accelcal.results",

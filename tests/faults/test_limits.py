@@ -226,15 +226,19 @@ def test_ctrl_c_during_a_csv_read_is_never_lost(dirs, inputs, delay):
                                 tmpdir=tmpdir)
     assert not result.traceback, result.err
     if ending is not None:  # the signal came while it ran: never a success
-        assert result.code == 130, (delay, result.code, result.err)
+        # (-SIGINT: it came as the process exited after its work, its handlers gone)
+        assert result.code in (130, -signal.SIGINT), (delay, result.code, result.err)
 
 
-def test_ctrl_c_to_dask_workers_is_one_line(dirs):
-    """Ctrl-C to the terminal's process group: the workers leave it to the main process.
+@pytest.mark.parametrize("delay", [0.1, 0.7, 1.5, 2.5, 3.5, 5.0, 8.0])
+def test_ctrl_c_to_dask_workers_is_one_line(dirs, delay):
+    """One Ctrl-C to the terminal's process group, from start-up to the run on the workers.
 
-    The main process ignores Ctrl-C while the cluster starts (so that the
-    workers inherit the ignoring); a second Ctrl-C, as a user would press,
-    ends a run whose first fell in that window.
+    The workers are started with SIGINT blocked (they leave it to the main
+    process); a Ctrl-C while the cluster starts is taken once it has
+    started, and the cluster closed. Whatever the moment: one line, exit
+    status 130, no traceback (of the main process or a worker), and no
+    process of the run left behind.
     """
     import subprocess
     import time
@@ -244,20 +248,15 @@ def test_ctrl_c_to_dask_workers_is_one_line(dirs):
     work, tmpdir = dirs
     proc = start(["dividing-head", "study", "--trials", "20000000", "--workers", "2"],
                  cwd=work, tmpdir=tmpdir, group=True)
-    presses = 0
     try:
-        for wait in (8.0, 6.0, 6.0):
-            try:
-                proc.wait(timeout=wait)
-                break
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGINT)
-                presses += 1
+        try:
+            proc.wait(timeout=delay)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGINT)
         _, err = proc.communicate(timeout=30)
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-    assert presses >= 1
     assert "Traceback" not in err, err
     assert proc.returncode == 130, err
     assert err.strip().splitlines() == ["accelcal: interrupted; nothing was left half-written"]

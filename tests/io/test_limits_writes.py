@@ -186,6 +186,7 @@ def test_taus_all_is_refused_with_its_estimate():
     assert work_seconds(n, tau_grid(n, "all", kind="mdev"), "mdev") > MAX_SECONDS
     assert work_seconds(n, tau_grid(n, "octave", kind="mdev"), "mdev") < 1
     y = np.random.default_rng(0).normal(size=n)
-    with pytest.raises(AccelcalError, match=r"would take about [\d,]+ s") as exc:
+    took = r"would take about [\d.,e+]+ (s|min|h|days|years) "
+    with pytest.raises(AccelcalError, match=took) as exc:
         deviation(y, 100.0, kind="mdev", taus="all")
     assert exc.value.parameter == "taus"

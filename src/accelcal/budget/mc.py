@@ -395,14 +395,11 @@ def _bound(study, planned: int, workers: int | None) -> None:
 
     import numpy as np
 
-    from accelcal.errors import AccelcalError
+    from accelcal import work
 
     start = time.monotonic()
     study(np.random.default_rng(0), PROBE)
     seconds = (time.monotonic() - start) / PROBE * planned / (workers or 1)
-    if seconds > MAX_SECONDS:
-        raise AccelcalError(
-            f"{planned:,} trials of the full model (each a reduction) would take about "
-            f"{seconds:,.0f} s (from {PROBE}, timed); the bound is {MAX_SECONDS:g} s: give "
-            "fewer trials or more workers, or --force (force=True) to run it anyway",
-            parameter="trials")
+    work.check(work.Estimate(f"{planned:,} trials of the full model (each a reduction)",
+                             seconds, basis=f"from {PROBE}, timed"),
+               parameter="trials", bound=MAX_SECONDS, hint="give fewer trials or more workers")

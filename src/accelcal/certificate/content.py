@@ -359,9 +359,14 @@ def _date(text: str) -> str:
     return _dt.datetime.fromisoformat(text).date().isoformat()
 
 
+NOT_FROM_A_STORE = "not from a store (record files: their SHA-256 is stated)"
+"""What a certificate says of its records' hash chain when they are files."""
+
+
 def build(records, lab, *, issued: str, number: str | None = None, item: Item | None = None,
           spec=None, rule: str | None = None, allow_expired: bool = False,
-          software: str = "", country: str = "", budgets=None, phase_at=()) -> dict:
+          software: str = "", country: str = "", budgets=None, phase_at=(),
+          records_chain: str = NOT_FROM_A_STORE) -> dict:
     """The certificate document (``schema/certificate.schema.json``).
 
     Parameters
@@ -395,6 +400,10 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
         Frequencies (Hz) of a fitted frequency-response model's phase and
         group delay (default: the reference frequency of the serial's
         measured response, else 80 Hz; :mod:`accelcal.certificate.response`).
+    records_chain : str
+        Whether the records verified in their store's hash chain
+        (:meth:`accelcal.store.chain.ChainReport.status_line`), or
+        :data:`NOT_FROM_A_STORE` for record files.
 
     Raises
     ------
@@ -492,7 +501,7 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
     return {
         "format_version": FORMAT_VERSION, "kind": KIND, "title": TITLE,
         "number": number or certificate_number(records, lab), "issued": issued,
-        "software": software,
+        "software": software, "records_chain": records_chain,
         "laboratory": {"name": lab.laboratory.name, "address": lab.laboratory.address,
                        "accreditation": lab.laboratory.accreditation, "country": country},
         "lab_file": {"name": lab.path.name, "sha256": lab.sha256},

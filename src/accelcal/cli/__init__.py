@@ -6,7 +6,8 @@ one line, ``accelcal: error: ...``, on standard error and exits with
 status 2, with no traceback; so does any failure of the system to read or
 write a file (an :class:`OSError`: the line names the file). SIGINT, SIGTERM
 and SIGHUP end a run with one line and the status ``128 + signal``
-(:mod:`accelcal.cli.signals`), at any moment from start-up on. Command
+(:mod:`accelcal.cli.signals`), at any moment from start-up on; once its
+work is over and its outputs are written, by the signal's default action. Command
 modules import numpy-heavy code inside their functions so that
 ``accelcal --help`` starts quickly.
 """
@@ -41,6 +42,7 @@ def main(argv: list[str] | None = None) -> None:
         _interrupted(signals.received())  # an interrupt an import wrapped in its own error
     if signals.received():  # a signal a library took for its own and did not raise
         _interrupted(signals.received())
+    signals.done()
     sys.exit(code if isinstance(code, int) else 0)
 
 

@@ -278,6 +278,7 @@ def reduce_cmd(
     uncertainty: str = uncertainty_options.UNCERTAINTY,
     trials: int = uncertainty_options.TRIALS,
     seed: int = uncertainty_options.SEED,
+    force: bool = uncertainty_options.FORCE,
     angle_error_level: str | None = typer.Option(
         None, "--angle-error-level",
         help="--uncertainty mc: bound of the head's angle error at each position (rectangular "
@@ -319,7 +320,8 @@ def reduce_cmd(
                 data, result, trials=trials, seed=seed, angle_error_level=level,
                 first_harmonic=options.get("first_harmonic"),
                 first_harmonic_sd=options.get("first_harmonic_sd", 0.0),
-                autocollimator_sd=options.get("autocollimator_sd"), progress=progress)
+                autocollimator_sd=options.get("autocollimator_sd"), progress=progress,
+                force=force)
         rows = uncertainty_options.merge(rows, mc)
     if plot is not None:
         result.plot(plot, truth=_true_angle_error(record))

@@ -345,14 +345,29 @@ def simulate(
     seed: int = typer.Option(0, "--seed", help="Seed of the random generator."),
     unit: str = typer.Option("g", "--unit", help="Unit of the samples: g, m/s^2, V, mV."),
     serial: str | None = typer.Option(None, "--serial", help="Serial number written."),
+    force: bool = typer.Option(
+        False, "--force", help="Write a record estimated to take more than an hour (refused "
+        "otherwise, with the estimate; a record larger than the free disk is always refused)."),
 ) -> None:
-    """Write a simulated still recording with known coefficients (streamed: any length)."""
+    """Write a simulated still recording with known coefficients (streamed: any length).
+
+    Its samples (rate x duration) are estimated in time and disk space first.
+    """
+    from accelcal import work
     from accelcal.io.formats.noise import check_header, write_blocks
     from accelcal.rigs.noise import check_settings, simulate_blocks, truth_metadata
 
     check_header(rate, unit, "--rate/--unit")
     coefs = {"N": white, "B": instability, "K": walk, "Q": quantisation, "R": ramp}
     check_settings(**coefs, rate=rate, duration=duration, bias=bias)
+    kind = "parquet" if out.suffix.lower() == ".parquet" else "csv"
+    samples = rate * duration
+    work.check(work.estimate(f"{samples:.3g} samples of {kind.upper()}", samples,
+                             work.SECONDS_PER_SAMPLE_STREAMED[kind],
+                             disk_per_unit=work.BYTES_PER_SAMPLE_STREAMED[kind],
+                             basis="measured per sample"),
+               force=force, parameter="duration", directory=out.parent,
+               hint="shorten --duration or lower --rate")
     blocks = simulate_blocks(**coefs, rate=rate, duration=duration, seed=seed, bias=bias)
     meta = truth_metadata(**coefs, bias=bias, seed=seed, b_range=None)
     if serial is not None:

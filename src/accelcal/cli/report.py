@@ -57,6 +57,7 @@ def report(
 
         raise AccelcalError(f"{'--db' if db is not None else '--skip-bad'} goes with --history")
     sections = report_sections(records, search=data)
+    chain = None
     budgets = None
     if lab is not None:
         from accelcal.budget.lab import load_lab
@@ -79,5 +80,7 @@ def report(
         typer.echo(chain)
         if skipped:
             typer.echo(f"skipped {skipped} bad row{'s' * (skipped != 1)}", err=True)
-    write_report(out, sections, title=title, budgets=budgets)
+    kept = {} if chain is None else {
+        "records_chain": f"record files (not from a store); the history's store: {chain}"}
+    write_report(out, sections, title=title, budgets=budgets, **kept)
     typer.echo(f"wrote {out}")

@@ -19,7 +19,10 @@ process's temporaries, prints the line and ends the process itself.
 A local Dask cluster's workers are started with SIGINT and SIGHUP blocked
 (:func:`accelcal.parallel.shielded_children`): the terminal sends those to
 the whole process group, and the workers, stopped by the main process as it
-ends, would each print a traceback.
+ends, would each print a traceback. While the cluster starts, a signal is
+recorded and delivered again once it has started
+(:func:`accelcal.parallel.deferred_signals`), so that it can be closed; the
+watcher waits for that instead of ending the process.
 
 pyarrow's own handler, which turns a signal into a cancelled read and can
 lose it, is switched off when pyarrow is first imported.
@@ -63,6 +66,7 @@ _taken = threading.Event()
 _printed = threading.Lock()
 _received: list[int] = []
 _installed: list[bool] = []
+_done: list[bool] = []
 
 
 class Interrupted(KeyboardInterrupt):
@@ -99,6 +103,7 @@ def install() -> None:
     Once per process (a program calling :func:`accelcal.cli.main` many times
     gets one watcher).
     """
+    _done.clear()  # a new run (a program may call accelcal.cli.main many times)
     if _installed or threading.current_thread() is not threading.main_thread():
         return
     _installed.append(True)
@@ -120,9 +125,28 @@ def install() -> None:
     _quiet_arrow()
 
 
+def done() -> None:
+    """The run's work is over (its outputs written): a signal now ends the process at once.
+
+    As the interpreter exits, an :class:`Interrupted` raised in an exit
+    handler would be swallowed there, and its signal, delivered again, would
+    come too late: the run would exit 0 although a signal came. From here
+    on a signal ends the process by the signal's default action (the shell
+    sees it killed by the signal; its outputs, standard output flushed here, are whole).
+    """
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    _done.append(True)
+
+
 def _handler(signum, frame):
     if _received:
         return  # the run is ending: its cleanup is not interrupted
+    if _done:
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)
+        return
     _received.append(signum)
     _taken.set()
     raise Interrupted(signum)
@@ -158,8 +182,15 @@ def _watch(read_end: int) -> None:
         ending = [s for s in data if s in SIGNALS]
         if not ending:
             continue
-        if not _taken.wait(GRACE):
-            _force(ending[0])
+        waited = 0.0
+        while not _taken.wait(GRACE):
+            if _done:  # the main thread ends the process by the signal (see done)
+                break
+            waited += GRACE
+            # a handler standing in for ours (accelcal.parallel.deferred_signals, while a
+            # cluster starts) delivers the signal again soon: wait for it, within ENDING
+            if signal.getsignal(ending[0]) is _handler or waited >= ENDING:
+                _force(ending[0])
         threading.Event().wait(ENDING)
         _force(received() or ending[0])
 

@@ -280,6 +280,7 @@ def fit_cmd(
     uncertainty: str = uncertainty_options.UNCERTAINTY,
     trials: int = uncertainty_options.TRIALS,
     seed: int = uncertainty_options.SEED,
+    force: bool = uncertainty_options.FORCE,
     reference_uncertainty: float = typer.Option(
         0.0, "--reference-uncertainty",
         help="--uncertainty mc: relative standard uncertainty of the reference accelerometer's "
@@ -315,7 +316,8 @@ def fit_cmd(
         if monte_carlo:
             with uncertainty_options.progress_bar() as progress:
                 mc = transverse.uncertainty(red, rec, trials=trials, seed=seed,
-                                            reference_sd=reference_sd, progress=progress)
+                                            reference_sd=reference_sd, progress=progress,
+                                            force=force)
             fitted = len(red.estimate.names)  # the fixed terms' rows follow, without MC columns
             held = dict.fromkeys(mc.columns(0), float("nan"))
             red_rows = (uncertainty_options.merge(red_rows[:fitted], mc)

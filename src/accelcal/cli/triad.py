@@ -178,6 +178,7 @@ def calibrate(
     uncertainty: str = uncertainty_options.UNCERTAINTY,
     trials: int = uncertainty_options.TRIALS,
     seed: int = uncertainty_options.SEED,
+    force: bool = uncertainty_options.FORCE,
     priors: str = typer.Option(
         "none", "--priors",
         help="Each axis's pendulous error terms the triad model leaves out (K2, K3, Koo, Kpp, "
@@ -227,7 +228,8 @@ def calibrate(
         from accelcal.methods.triad.mc import triad_uncertainty
 
         with uncertainty_options.progress_bar() as progress:
-            mc = triad_uncertainty(red, trials=trials, seed=seed, progress=progress)
+            mc = triad_uncertainty(red, trials=trials, seed=seed, progress=progress,
+                                   force=force)
         rows = uncertainty_options.merge(rows, mc)
     cal = calibration_of(red)
     if plot is not None:  # figures first: a bad directory stops before any file is written

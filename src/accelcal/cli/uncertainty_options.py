@@ -11,8 +11,13 @@ UNCERTAINTY = typer.Option(
 TRIALS = typer.Option(
     10_000, "--trials",
     help="Monte Carlo trials for --uncertainty mc (> 0). Trials stream in blocks, so memory "
-         "stays bounded for any count: a huge count is a long run with a progress bar.")
+         "stays bounded for any count; a count estimated to take over an hour is refused "
+         "with the estimate (--force runs it), a long run shows its progress.")
 SEED = typer.Option(0, "--seed", help="Seed of the Monte Carlo generator (integer >= 0).")
+FORCE = typer.Option(
+    False, "--force",
+    help="Run Monte Carlo trials estimated to take more than an hour (the first task is "
+         "timed; refused otherwise, with the estimate).")
 
 
 def check(kind: str, trials: int, seed: int) -> bool:

@@ -181,6 +181,7 @@ def fit(
     uncertainty: str = uncertainty_options.UNCERTAINTY,
     trials: int = uncertainty_options.TRIALS,
     seed: int = uncertainty_options.SEED,
+    force: bool = uncertainty_options.FORCE,
     amplitude_uncertainty: float = typer.Option(
         0.0, "--amplitude-uncertainty",
         help="--uncertainty mc: relative standard uncertainty of the amplitude calibration, "
@@ -223,7 +224,7 @@ def fit(
     if monte_carlo:
         with uncertainty_options.progress_bar() as progress:
             mc = vre.uncertainty(result, trials=trials, seed=seed, amplitude_sd=amplitude_sd,
-                                 overload_sd=overload_sd, progress=progress)
+                                 overload_sd=overload_sd, progress=progress, force=force)
         p = len(mc.names)
         rows = [*uncertainty_options.merge(rows[:p], mc),
                 *({**r, "mc_std": 0.0, "ci95_low": r["estimate"], "ci95_high": r["estimate"]}

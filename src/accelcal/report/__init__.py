@@ -101,8 +101,12 @@ def figure_svg(fig) -> str:
     return text[text.index("<svg"):]
 
 
+NOT_FROM_A_STORE = "not from a store (record files: each section names its file's SHA-256)"
+"""What a report says of its records' hash chain when they are files."""
+
+
 def render_report(sections, *, title: str, subtitle: str = "", generated: str | None = None,
-                  budgets=None) -> str:
+                  budgets=None, records_chain: str = NOT_FROM_A_STORE) -> str:
     """The report as one HTML document.
 
     Parameters
@@ -118,6 +122,10 @@ def render_report(sections, *, title: str, subtitle: str = "", generated: str | 
         into the summary and their rows into the appendix
         (:func:`accelcal.report.summary.budget_views`). Without them U is
         2 standard uncertainties and there is no budget annex.
+    records_chain : str
+        Whether the records verified in their store's hash chain
+        (:meth:`accelcal.store.chain.ChainReport.status_line`), or
+        :data:`NOT_FROM_A_STORE`; shown under the heading.
     """
     import jinja2
 
@@ -161,7 +169,7 @@ def render_report(sections, *, title: str, subtitle: str = "", generated: str | 
         sections=views, details=details,
         errata=[{"title": v["title"], "anchor": v["anchor"], "notes": list(e)}
                 for e, v in errata.items()],
-        budgets=budget_views(budgets),
+        budgets=budget_views(budgets), records_chain=records_chain,
     )
 
 

@@ -318,6 +318,7 @@ def head_uncertainty(
     sensor_names=None,
     shortest: bool = False,
     progress=None,
+    force: bool = False,
 ) -> McUncertainty:
     """Monte Carlo uncertainty of an indexing-head reduction of measured data.
 
@@ -342,6 +343,8 @@ def head_uncertainty(
         Shortest coverage interval instead of the symmetric one.
     progress : callable, optional
         ``progress(done, total)``.
+    force : bool
+        Run past the time bound (:func:`accelcal.uncertainty.propagate`).
 
     Returns
     -------
@@ -391,7 +394,7 @@ def head_uncertainty(
                           for p in result.priors if "@" not in p.name))
     return propagate(sampler, np.concatenate([e.values for e in result.sensors]), std,
                      names=labels, trials=trials, seed=seed, units=units, shortest=shortest,
-                     inputs=inputs, progress=progress)
+                     inputs=inputs, progress=progress, force=force)
 
 
 def prior_columns(data: HeadData, result: Reduction) -> tuple:

@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from accelcal import montecarlo
+from accelcal import montecarlo, work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD
 from accelcal.methods.dividing_head.four import FourOperator
@@ -127,10 +127,6 @@ class StudyResult:
         return rows
 
 
-MAX_SECONDS = 3600.0
-"""Longest estimated local study run without ``force``, s (an hour: progress is shown)."""
-
-
 def run_study(
     rig: DividingHeadRig,
     trials: int,
@@ -183,7 +179,7 @@ def run_study(
         Seconds to wait for ``scheduler`` to answer (positive, at most one day).
     force : bool
         Run a study estimated (from its first task, timed) to take longer
-        than :data:`MAX_SECONDS` locally; refused otherwise.
+        than :data:`accelcal.work.MAX_SECONDS` locally; refused otherwise.
 
     Returns
     -------
@@ -225,7 +221,7 @@ def run_study(
         study, int(trials), names=study.names, seed=seed, block_size=block_size,
         blocks_per_task=blocks_per_task, covariance=False,
         workers=workers, scheduler=scheduler, progress=progress, timeout=timeout,
-        max_seconds=None if force else MAX_SECONDS,
+        max_seconds=None if force else work.MAX_SECONDS,
     )
     rms_error, mean_sd = study.summarise(result.rms, result.mean)
     unit = rig.models[0].output_unit

@@ -152,6 +152,7 @@ def transverse_uncertainty(
     reference_sd: float = 0.0,
     shortest: bool = False,
     progress=None,
+    force: bool = False,
 ) -> McUncertainty:
     """Monte Carlo uncertainty of :func:`~accelcal.methods.transverse.identification.identify`.
 
@@ -171,6 +172,8 @@ def transverse_uncertainty(
         Shortest coverage interval instead of the symmetric one.
     progress : callable, optional
         ``progress(done, total)``.
+    force : bool
+        Run past the time bound (:func:`accelcal.uncertainty.propagate`).
 
     Returns
     -------
@@ -231,4 +234,4 @@ def transverse_uncertainty(
             f"{p.name} {p.distribution} {p.value:.3g} {p.unit}".rstrip() for p in priors))
     return propagate(sampler, estimate.values, estimate.std, names=terms, trials=trials,
                      seed=seed, units=dict(estimate.units), shortest=shortest, inputs=inputs,
-                     progress=progress)
+                     progress=progress, force=force)

@@ -183,7 +183,8 @@ def _prior_fields(reduction, means, up) -> dict:
 
 
 def triad_uncertainty(reduction, *, trials: int, seed: int, shortest: bool = False,
-                      progress=None, workers=None, scheduler=None) -> McUncertainty:
+                      progress=None, workers=None, scheduler=None,
+                      force: bool = False) -> McUncertainty:
     """Monte Carlo uncertainty of a triad calibration (either route).
 
     Parameters
@@ -195,7 +196,7 @@ def triad_uncertainty(reduction, *, trials: int, seed: int, shortest: bool = Fal
         Monte Carlo trials (> 0) and root seed.
     shortest : bool
         Shortest coverage interval instead of the symmetric one.
-    progress, workers, scheduler
+    progress, workers, scheduler, force
         Passed to :func:`accelcal.uncertainty.propagate`.
 
     Returns
@@ -222,4 +223,4 @@ def triad_uncertainty(reduction, *, trials: int, seed: int, shortest: bool = Fal
                           f"{p.value:.3g} {p.unit}" for p in sampler.priors)))
     return propagate(sampler, est.values, est.std, names=est.names, trials=trials, seed=seed,
                      units=dict(est.units), shortest=shortest, inputs=inputs, progress=progress,
-                     workers=workers, scheduler=scheduler)
+                     workers=workers, scheduler=scheduler, force=force)

@@ -139,6 +139,7 @@ def vre_uncertainty(
     overload_sd: float = 0.0,
     shortest: bool = False,
     progress=None,
+    force: bool = False,
 ) -> McUncertainty:
     """Monte Carlo uncertainty of an identification by :func:`accelcal.methods.vre.identify`.
 
@@ -157,6 +158,8 @@ def vre_uncertainty(
         Shortest coverage interval instead of the symmetric one.
     progress : callable, optional
         ``progress(done, total)``.
+    force : bool
+        Run past the time bound (:func:`accelcal.uncertainty.propagate`).
 
     Returns
     -------
@@ -213,4 +216,5 @@ def vre_uncertainty(
         inputs.append("terms left out drawn from their priors: " + ", ".join(
             f"{p.name} {p.distribution} {p.value:.3g} {p.unit}".rstrip() for p in priors))
     return propagate(sampler, est.values, est.std, names=terms, trials=trials, seed=seed,
-                     units=dict(est.units), shortest=shortest, inputs=inputs, progress=progress)
+                     units=dict(est.units), shortest=shortest, inputs=inputs, progress=progress,
+                     force=force)

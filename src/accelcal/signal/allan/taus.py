@@ -133,13 +133,13 @@ def check_work(n: int, m, kind: str, *, force: bool = False) -> float:
     AccelcalError
         Naming ``taus`` with the estimate and the bound.
     """
-    seconds = work_seconds(n, m, kind)
-    if seconds > MAX_SECONDS and not force:
-        raise AccelcalError(
-            f"{kind} at {np.size(m):,} taus of {int(n):,} samples would take about "
-            f"{seconds:,.0f} s (the bound is {MAX_SECONDS:g} s); use the octave or decade tau "
-            "set, fewer taus, or --force (force=True) to run it anyway", parameter="taus")
-    return seconds
+    from accelcal import work
+
+    est = work.Estimate(f"{kind} at {np.size(m):,} taus of {int(n):,} samples",
+                        work_seconds(n, m, kind), basis="measured per term")
+    work.check(est, force=force, parameter="taus", bound=MAX_SECONDS,
+               hint="use the octave or decade tau set or fewer taus")
+    return est.seconds
 
 
 def max_m(n: int, kind: str) -> int:
