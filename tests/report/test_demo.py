@@ -281,6 +281,57 @@ def _laid_out_for_readers(html, tmp_path):
         assert kind in printed["shown"]
 
 
+@pytest.mark.slow  # Chromium prints the 95-page report in ~6 s
+def test_demo_report_printed_to_a4_pdf_keeps_every_summary_line_whole(demo_campaign, tmp_path):
+    """Printed to PDF by Chromium, on A4 landscape: every key coefficient of the summary
+    is on the pages, its estimate and U on one line of text (none wrapped), and the text is
+    printed at the print style's sizes (at least 8 pt). Chromium shrinks the whole document
+    to fit a page its widest table overflows: with the wide summary (1,155 px on a
+    1,032 px page) every page printed at 0.89 of its size, 7.1 pt for 8 pt."""
+    import html as markup
+    import subprocess
+    import unicodedata
+
+    from pypdf import PdfReader
+
+    if shutil.which("chromium") is None:
+        pytest.skip("Debian's chromium is not installed")
+    report = demo_campaign.result.report.read_text(encoding="utf-8")
+    table = report[report.index('<table class="serials">'):]
+    table = table[:table.index("</table>")]
+    rows = [[markup.unescape(re.sub(r"<[^>]+>", "", c)).strip() for c in cells]
+            for cells in (re.findall(r"<td[^>]*>(.*?)</td>", row, flags=re.S)
+                          for row in re.findall(r"<tr>(.*?)</tr>", table, flags=re.S))
+            if cells]
+    assert len(rows) > 40  # 26 key coefficients of ACC-0001, 5 of each other, 18 of the triad
+    pdf = tmp_path / "report.pdf"
+    proc = subprocess.run(
+        [shutil.which("chromium"), "--headless", "--no-sandbox", "--disable-gpu",
+         f"--user-data-dir={tmp_path / 'print-profile'}", "--no-pdf-header-footer",
+         f"--print-to-pdf={pdf}", demo_campaign.result.report.resolve().as_uri()],
+        capture_output=True, text=True, timeout=120, check=False)
+    assert pdf.is_file(), proc.stderr[-2000:]
+    reader = PdfReader(pdf)
+    box = reader.pages[0].mediabox
+    assert (float(box.width), float(box.height)) == pytest.approx((841.9, 595.3), abs=1)
+    text, sizes = "", []
+
+    def size(chunk, cm, tm, font, font_size):  # in pt, as printed
+        if chunk.strip():
+            sizes.append(font_size * tm[3] * cm[3])
+
+    for page in reader.pages:  # the summary's pages, up to the first test's section
+        text += page.extract_text(visitor_text=size) + "\n"
+        if "1. Indexing head" in text:
+            break
+    assert min(sizes) > 7.95  # the print style's smallest, 8 pt: not shrunk to fit
+    text = unicodedata.normalize("NFKC", text[:text.index("1. Indexing head")])
+    lines = text.splitlines()
+    for _, coefficient, estimate, expanded, _ in rows:
+        wanted = unicodedata.normalize("NFKC", f"{coefficient} {estimate} {expanded}")
+        assert any(wanted in line for line in lines), wanted
+
+
 def test_demo_command_prints_where_everything_is_and_never_touches_the_users_store(
         tmp_path, capsys, monkeypatch):
     # The lab's store (by $ACCELCAL_DB or the XDG default) must stay untouched: the
