@@ -183,36 +183,79 @@ def test_demo_report_renders_in_headless_chromium(demo_campaign, tmp_path, chrom
 
 
 MEASURE = """<script>addEventListener('load', () => {
-  let wrapped = [];
-  for (const td of document.querySelectorAll('td')) {
-    const walk = document.createTreeWalker(td, NodeFilter.SHOW_TEXT);
-    for (let n = walk.nextNode(); n; n = walk.nextNode()) {
-      if (!n.textContent.trim() || n.textContent.includes('\\n')) continue;
-      const r = document.createRange(); r.selectNodeContents(n);
-      const tops = new Set(Array.from(r.getClientRects()).map(x => Math.round(x.top)));
-      if (tops.size > 1) wrapped.push(n.textContent);
+  function wrappedTexts() {
+    let wrapped = [];
+    for (const td of document.querySelectorAll('td')) {
+      const walk = document.createTreeWalker(td, NodeFilter.SHOW_TEXT);
+      for (let n = walk.nextNode(); n; n = walk.nextNode()) {
+        if (!n.textContent.trim() || n.textContent.includes('\\n')) continue;
+        const r = document.createRange(); r.selectNodeContents(n);
+        const tops = new Set(Array.from(r.getClientRects()).map(x => Math.round(x.top)));
+        if (tops.size > 1) wrapped.push(n.textContent);
+      }
+    }
+    return wrapped;
+  }
+  const screen = {height: document.documentElement.scrollHeight,
+    summaryBottom: document.querySelector('#summary table').getBoundingClientRect().bottom,
+    wrapped: wrappedTexts()};
+  for (const sheet of Array.from(document.styleSheets)) {
+    for (const rule of Array.from(sheet.cssRules)) {
+      if (rule instanceof CSSMediaRule && rule.media.mediaText.includes('print')) {
+        for (const inner of Array.from(rule.cssRules)) {
+          sheet.insertRule(inner.cssText, sheet.cssRules.length);
+        }
+      }
     }
   }
+  for (const d of document.querySelectorAll('details')) d.open = true;
+  document.body.style.width = 'PAGE_WIDTH'; document.body.style.margin = '0';
+  const right = document.body.getBoundingClientRect().right;
+  const wide = Array.from(document.querySelectorAll('table'))
+    .filter(t => t.getBoundingClientRect().right > right + 0.5)
+    .map(t => [t.className, t.closest('[id]').id, Math.round(t.getBoundingClientRect().width)]);
+  const shown = Array.from(document.querySelectorAll('table'))
+    .filter(t => t.getBoundingClientRect().height > 0).map(t => t.className);
   const pre = document.createElement('pre'); pre.id = 'measured';
-  pre.textContent = JSON.stringify({height: document.documentElement.scrollHeight,
-    summaryBottom: document.querySelector('#summary table').getBoundingClientRect().bottom,
-    wrapped: wrapped});
+  pre.textContent = JSON.stringify({...screen, print: {width: document.body.clientWidth,
+    wide: wide, shown: shown, wrapped: wrappedTexts()}});
   document.body.appendChild(pre);
 });</script>"""
 """Measures the page once laid out: its height, where the summary table ends, and every
-text of a table cell that the browser broke over more than one line."""
+text of a table cell that the browser broke over more than one line; then the same in
+print media, emulated (the ``@media print`` rules applied, every ``<details>`` open as a
+print shows it, the body as wide as the ``@page`` box's content, ``PAGE_WIDTH``): the
+tables shown, those that reach past the page's right edge, the wrapped cell texts."""
+
+PAPER_MM = {"A4": (210.0, 297.0)}
+"""Paper sizes (width, height) in portrait, mm."""
+
+
+def _page_content_width_mm(css: str) -> float:
+    """The width of the ``@page`` box's content in mm: its paper and orientation less
+    the left and right margins (one margin in mm for all four sides)."""
+    page = re.search(r"@page\s*{([^}]*)}", css).group(1)
+    paper, *orientation = re.search(r"size:\s*([^;]+);", page).group(1).split()
+    width, height = PAPER_MM[paper]
+    if orientation == ["landscape"]:
+        width, height = height, width
+    margin = float(re.search(r"margin:\s*([\d.]+)mm", page).group(1))
+    return width - 2 * margin
 
 
 def _laid_out_for_readers(html, tmp_path):
     """The demo's report in Chromium at 1200 x 1000 px: the summary table ends within the
     first screen, no number in a table cell is wrapped, and the page is far shorter than
-    the 32,757 px of the report before the summary and the appendix (seed 1)."""
+    the 32,757 px of the report before the summary and the appendix (seed 1). Printed on
+    its A4 page, every table fits the page's width and no cell's text wraps."""
     import json
     import shutil
     import subprocess
 
+    width_mm = _page_content_width_mm(html[html.index("<style>"):html.index("</style>")])
+    measure = MEASURE.replace("PAGE_WIDTH", f"{width_mm:g}mm")
     page = tmp_path / "measured.html"
-    page.write_text(html.replace("</body>", MEASURE + "</body>"), encoding="utf-8")
+    page.write_text(html.replace("</body>", measure + "</body>"), encoding="utf-8")
     proc = subprocess.run(
         [shutil.which("chromium"), "--headless", "--no-sandbox", "--disable-gpu",
          f"--user-data-dir={tmp_path / 'measure-profile'}", "--window-size=1200,1000",
@@ -226,6 +269,67 @@ def _laid_out_for_readers(html, tmp_path):
     # 32,757 px before, for the same campaign; 24,118 px with the frequency response's
     # budgets in the annex (each step's magnitude and phase, folded under one line each)
     assert measured["height"] < 25_000
+    printed = measured["print"]
+    assert printed["width"] == pytest.approx(width_mm / 25.4 * 96, abs=1)  # CSS px
+    assert printed["wide"] == []
+    assert printed["wrapped"] == []
+    # the summary's wide layout (1,155 px against the page's 1,032) gives way to one
+    # block per serial; the estimate tables, correlations and budgets are all printed
+    assert "results" not in printed["shown"]
+    assert "serials" in printed["shown"]
+    for kind in ("coef", "corr", "budget"):
+        assert kind in printed["shown"]
+
+
+@pytest.mark.slow  # Chromium prints the 95-page report in ~6 s
+def test_demo_report_printed_to_a4_pdf_keeps_every_summary_line_whole(demo_campaign, tmp_path):
+    """Printed to PDF by Chromium, on A4 landscape: every key coefficient of the summary
+    is on the pages, its estimate and U on one line of text (none wrapped), and the text is
+    printed at the print style's sizes (at least 8 pt). Chromium shrinks the whole document
+    to fit a page its widest table overflows: with the wide summary (1,155 px on a
+    1,032 px page) every page printed at 0.89 of its size, 7.1 pt for 8 pt."""
+    import html as markup
+    import subprocess
+    import unicodedata
+
+    from pypdf import PdfReader
+
+    if shutil.which("chromium") is None:
+        pytest.skip("Debian's chromium is not installed")
+    report = demo_campaign.result.report.read_text(encoding="utf-8")
+    table = report[report.index('<table class="serials">'):]
+    table = table[:table.index("</table>")]
+    rows = [[markup.unescape(re.sub(r"<[^>]+>", "", c)).strip() for c in cells]
+            for cells in (re.findall(r"<td[^>]*>(.*?)</td>", row, flags=re.S)
+                          for row in re.findall(r"<tr>(.*?)</tr>", table, flags=re.S))
+            if cells]
+    assert len(rows) > 40  # 26 key coefficients of ACC-0001, 5 of each other, 18 of the triad
+    pdf = tmp_path / "report.pdf"
+    proc = subprocess.run(
+        [shutil.which("chromium"), "--headless", "--no-sandbox", "--disable-gpu",
+         f"--user-data-dir={tmp_path / 'print-profile'}", "--no-pdf-header-footer",
+         f"--print-to-pdf={pdf}", demo_campaign.result.report.resolve().as_uri()],
+        capture_output=True, text=True, timeout=120, check=False)
+    assert pdf.is_file(), proc.stderr[-2000:]
+    reader = PdfReader(pdf)
+    box = reader.pages[0].mediabox
+    assert (float(box.width), float(box.height)) == pytest.approx((841.9, 595.3), abs=1)
+    text, sizes = "", []
+
+    def size(chunk, cm, tm, font, font_size):  # in pt, as printed
+        if chunk.strip():
+            sizes.append(font_size * tm[3] * cm[3])
+
+    for page in reader.pages:  # the summary's pages, up to the first test's section
+        text += page.extract_text(visitor_text=size) + "\n"
+        if "1. Indexing head" in text:
+            break
+    assert min(sizes) > 7.95  # the print style's smallest, 8 pt: not shrunk to fit
+    text = unicodedata.normalize("NFKC", text[:text.index("1. Indexing head")])
+    lines = text.splitlines()
+    for _, coefficient, estimate, expanded, _ in rows:
+        wanted = unicodedata.normalize("NFKC", f"{coefficient} {estimate} {expanded}")
+        assert any(wanted in line for line in lines), wanted
 
 
 def test_demo_command_prints_where_everything_is_and_never_touches_the_users_store(

@@ -8,7 +8,7 @@ import pytest
 from accelcal.formatting import format_date, format_text, format_unit
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.report import Section, render_report
-from accelcal.report.summary import summary_rows
+from accelcal.report.summary import GROUPS, summary_rows
 from accelcal.report.units import field_values, quantity_of, record_field_values
 from accelcal.results import Estimate
 from helpers.records import make_record
@@ -179,3 +179,34 @@ def test_print_css_keeps_figures_and_tables_whole_and_legible():
     assert re.search(r"figure svg\s*{[^}]*max-width: 100%", printed)
     # screen: numbers never wrap in a cell
     assert re.search(r"th, td\s*{[^}]*white-space: nowrap", css)
+
+
+def test_printed_summary_is_one_block_per_serial_that_fits_a_page():
+    recs = [make_record(serial="SN-1"), make_record(serial="SN-2", shift=1e-6),
+            make_record(serial="SN-1", method="dividing-head/four")]
+    html = render_report([Section(f"{r.serial} {r.method}", r) for r in recs], title="T")
+    summary = html[html.index('<section id="summary">'):html.index("</section>")]
+    table = summary[summary.index('<table class="serials">'):]
+    table = table[:table.index("</table>")]
+    blocks = re.findall(r"<tbody>(.*?)</tbody>", table, flags=re.S)
+    assert len(blocks) == 2  # a block per serial number, SN-1's two tests in one
+    assert "SN-1" in blocks[0]
+    assert "SN-2" in blocks[1]
+    rows = [re.findall(r"<td[^>]*>(.*?)</td>", row, flags=re.S)
+            for row in re.findall(r"<tr>(.*?)</tr>", blocks[0], flags=re.S)]
+    wide = next(row for row in summary_rows(recs) if row["serial"] == "SN-1")
+    lines = [line for key, _ in GROUPS for line in wide["cells"][key]]
+    assert len(rows) == len(lines) >= 6  # every key coefficient of both tests, one a row
+    for cells, line in zip(rows, lines, strict=True):
+        assert cells[1:4] == [line.coefficient, line.estimate, line.expanded]
+    # the group's heading on its first row only: bias, then scale factor, ...
+    headings = [cells[0] for cells in rows if cells[0]]
+    assert headings == [h for key, h in GROUPS if wide["cells"][key]]
+    assert "-638.77 µg" in blocks[0]
+    css = html[html.index("<style>"):html.index("</style>")]
+    screen, printed = css[:css.index("@media print")], css[css.index("@media print"):]
+    assert re.search(r"table\.serials\s*{\s*display: none", screen)
+    assert re.search(r"\.screen\s*{\s*display: none", printed)  # the wide layout, on screen only
+    assert re.search(r"table\.serials\s*{\s*display: table", printed)
+    assert re.search(r"table\.serials tbody\s*{[^}]*break-inside: avoid", printed)
+    assert 'class="scroll screen"' in summary
