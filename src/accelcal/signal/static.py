@@ -110,13 +110,17 @@ class StaticIntervals:
 def moving_variance(values: np.ndarray, w: int) -> np.ndarray:
     """Variance (ddof 1) of each column over a centred window of ``w`` samples.
 
-    Windows are cut at the ends of the record (fewer samples there). O(n):
-    the samples are split in blocks of ``w``, each shifted by its first
-    sample; window sums are differences of cumulative sums within a block,
-    and a window spanning two blocks is brought to the first block's shift
-    exactly (``sum (y + d)^2 = sum y^2 + 2 d sum y + m d^2``). The rounding
-    error is that of summing ``w`` deviations from a nearby sample, whatever
-    the offset of the signal or the length of the record.
+    Windows are cut at the ends of the record (fewer samples there). O(n),
+    one column at a time, no index arrays: the samples are split in blocks
+    of ``w``, each shifted by its first sample, and the cumulative sums of
+    the shifted values and of their squares are taken within each block.
+    A full window starting ``r`` samples into block ``b`` is the tail of
+    block ``b`` and the head of block ``b + 1``, the latter brought to block
+    ``b``'s shift exactly (``sum (y + d)^2 = sum y^2 + 2 d sum y + m d^2``),
+    so every full window comes from whole-array operations on the
+    ``(blocks, w)`` sums. The rounding error is that of summing ``w``
+    deviations from a nearby sample, whatever the offset of the signal or
+    the length of the record.
 
     Parameters
     ----------
@@ -130,33 +134,106 @@ def moving_variance(values: np.ndarray, w: int) -> np.ndarray:
     numpy.ndarray
         Shape ``(n, m)``.
     """
-    n, m = values.shape
-    half = w // 2
-    idx = np.arange(n)
+    values = np.asarray(values, dtype=float)
+    out = np.empty(values.shape)
+    for c in range(values.shape[1]):
+        out[:, c] = _column_variance(values[:, c], w)
+    return out
+
+
+def variance_magnitude(values: np.ndarray, w: int) -> np.ndarray:
+    """ς of every sample: the norm of the columns' moving variances (Eq. (9) [1]_).
+
+    :func:`moving_variance` one column at a time, squared and summed in
+    place: the working memory is a few copies of one column, never of
+    ``(n, m)`` arrays.
+    """
+    values = np.asarray(values, dtype=float)
+    total = np.zeros(len(values))
+    for c in range(values.shape[1]):
+        var = _column_variance(values[:, c], w)
+        np.square(var, out=var)
+        total += var
+    return np.sqrt(total, out=total)
+
+
+def _column_variance(x: np.ndarray, w: int) -> np.ndarray:
+    """:func:`moving_variance` of one column ``x`` (n,)."""
+    n, half = len(x), w // 2
+    out = np.empty(n)
+    if n >= w:
+        full = n - w + 1  # windows [lo, lo + w) with lo = 0 .. n - w
+        out[half:half + full] = _full_windows(x, w)[:full]
+        edges = (np.arange(half), np.arange(half + full, n))
+    else:
+        edges = (np.arange(n),)
+    for idx in edges:
+        if len(idx):
+            out[idx] = _clipped_variance(x, idx, w)
+    return np.maximum(out, 0.0, out=out)
+
+
+def _full_windows(x: np.ndarray, w: int) -> np.ndarray:
+    """Variance of the windows ``x[lo:lo + w]``, ``lo = 0, 1, ...``: keep the first ``n - w + 1``.
+
+    The rest run into padding and are to be dropped.
+    Block ``b`` holds ``x[b w:(b + 1) w]`` less its first sample ``ref_b``; ``S`` and ``Q``
+    are the cumulative sums of the shifted values and of their squares within each block.
+    The window starting ``r`` samples into block ``b`` takes the tail of block ``b`` and
+    ``r`` samples of block ``b + 1``, whose shift differs by ``d_b = ref_{b+1} - ref_b``:
+
+        s1 = S_b[w] - S_b[r] + (S_{b+1}[r] + r d_b)
+        s2 = Q_b[w] - Q_b[r] + Q_{b+1}[r] + d_b (2 S_{b+1}[r] + r d_b)
+        var = (s2 - s1^2 / w) / (w - 1)
+    """
+    n = len(x)
+    blocks = n // w + 1  # blocks * w > n: every whole window starts in a block but the last
+    whole = (n // w) * w
+    ref = np.empty(blocks)
+    ref[:-1] = x[:whole:w]
+    ref[-1] = x[whole] if whole < n else x[n - 1]
+    y = np.empty((blocks, w))
+    np.subtract(x[:whole].reshape(-1, w), ref[:-1, None], out=y[:-1])
+    y[-1, :n - whole] = x[whole:] - ref[-1]
+    y[-1, n - whole:] = x[n - 1] - ref[-1]  # padding
+    s = np.empty((blocks, w + 1))
+    s[:, 0] = 0.0
+    np.cumsum(y, axis=1, out=s[:, 1:])
+    np.square(y, out=y)
+    q = np.empty((blocks, w + 1))
+    q[:, 0] = 0.0
+    np.cumsum(y, axis=1, out=q[:, 1:])
+    d = (ref[1:] - ref[:-1])[:, None]
+    head = s[1:, :w]  # S_{b+1}[r]
+    h = np.arange(w, dtype=float) * d  # r d
+    h += head  # the head's sum in block b's shift
+    s1 = s[:-1, w:] - s[:-1, :w]
+    s1 += h
+    h += head
+    h *= d  # d (2 S_{b+1}[r] + r d)
+    s2 = q[:-1, w:] - q[:-1, :w]
+    s2 += q[1:, :w]
+    s2 += h
+    np.square(s1, out=s1)
+    s1 *= 1.0 / w
+    s2 -= s1
+    s2 *= 1.0 / (w - 1)
+    return s2.reshape(-1)
+
+
+def _clipped_variance(x: np.ndarray, idx: np.ndarray, w: int) -> np.ndarray:
+    """Variance of the windows of samples ``idx`` (consecutive), cut at the record's ends."""
+    n, half = len(x), w // 2
     lo = np.clip(idx - half, 0, n)
     hi = np.clip(idx - half + w, 0, n)
-    blocks = n // w + 2
-    padded = np.zeros((blocks * w, m))
-    padded[:n] = values
-    padded = padded.reshape(blocks, w, m)
-    ref = padded[:, 0].copy()
-    y = padded - ref[:, None]
-    s1 = np.zeros((blocks, w + 1, m))
-    s2 = np.zeros((blocks, w + 1, m))
-    np.cumsum(y, axis=1, out=s1[:, 1:])
-    np.cumsum(y * y, axis=1, out=s2[:, 1:])
-    bl, bh = lo // w, hi // w
-    span = (bh > bl)[:, None]
-    end_l = np.where(bh > bl, w, hi % w)
-    n_h = np.where(span, (hi % w)[:, None], 0).astype(float)
-    d = ref[bh] - ref[bl]
-    part1_h = np.where(span, s1[bh, hi % w], 0.0)
-    sum1 = s1[bl, end_l] - s1[bl, lo % w] + part1_h + n_h * d
-    sum2 = (s2[bl, end_l] - s2[bl, lo % w] + np.where(span, s2[bh, hi % w], 0.0)
-            + 2.0 * d * part1_h + n_h * d * d)
-    count = (hi - lo)[:, None].astype(float)
-    var = (sum2 - sum1 * sum1 / count) / np.maximum(count - 1.0, 1.0)
-    return np.maximum(var, 0.0)
+    a = int(lo[0])
+    seg = x[a:int(hi[-1])] - x[a]  # at most w + len(idx) samples, shifted by the first
+    s1 = np.concatenate(([0.0], np.cumsum(seg)))
+    s2 = np.concatenate(([0.0], np.cumsum(seg * seg)))
+    count = (hi - lo).astype(float)
+    sum1 = s1[hi - a] - s1[lo - a]
+    sum2 = s2[hi - a] - s2[lo - a]
+    return (sum2 - sum1 * sum1 / count) / np.maximum(count - 1.0, 1.0)
 
 
 def detect_static(values, rate: float, *, init_static: float = 30.0, window: float = 1.0,
@@ -217,7 +294,7 @@ def detect_static(values, rate: float, *, init_static: float = 30.0, window: flo
             f"({duration:.4g} s); give a shorter one", parameter="init_static")
     if n_init < w:
         raise init_shorter_than_window(init_static, window)
-    stat = np.linalg.norm(moving_variance(u, w), axis=1)  # Eq. (9) [Tedaldi2014]
+    stat = variance_magnitude(u, w)  # Eq. (9) [Tedaldi2014]
     init = initial_variance(u[:n_init], stat[:n_init], w, init_static, window)
     threshold = factor * init
     starts, stops = _runs(stat < threshold)
