@@ -251,6 +251,10 @@ def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, 
     return done, sums.result()
 
 
+_SUM_CHUNK = 1 << 15
+"""Samples of a column shifted at a time by :class:`_Sums` (256 KiB: stays in cache)."""
+
+
 class _Sums:
     """Whole-period mean and SD (ddof 1) of each column, in one pass.
 
@@ -267,9 +271,10 @@ class _Sums:
             if name not in self.ref:
                 self.ref[name], self.s1[name], self.s2[name] = float(x[0]), 0.0, 0.0
             with np.errstate(over="ignore", invalid="ignore"):  # the reader refuses such values
-                d = x - self.ref[name]
-                self.s1[name] += float(d.sum())
-                self.s2[name] += float(d @ d)
+                for a in range(0, len(x), _SUM_CHUNK):  # shifted in cache-sized pieces
+                    d = x[a:a + _SUM_CHUNK] - self.ref[name]
+                    self.s1[name] += float(d.sum())
+                    self.s2[name] += float(np.einsum("i,i->", d, d))  # no BLAS threads
         self.n += len(next(iter(cols.values())))
 
     def result(self) -> dict:
@@ -306,20 +311,26 @@ def _writer(path: Path, schema, header: dict):
             yield lambda table: sink.write_table(table.replace_schema_metadata(None))
 
 
+PROBE_ROWS = 1 << 16
+"""Rows of the probe record through which a long stream record's reader checks it."""
+
+
 def _validate(staged: Path, out: Path, plan: Layout, samples: int, rows: int) -> None:
     """Read the staged record back with its kind's reader; errors name ``out``.
 
-    A stream kind's record longer than a block: the reader reads its first
-    block (a probe record with the same metadata), and the whole is streamed
-    back through :func:`~accelcal.io.recordings.iter_blocks`, so the memory
-    stays one block. Other kinds are read whole by their reader, as their
-    methods read them.
+    A stream kind's record longer than :data:`PROBE_ROWS`: the reader reads
+    its first rows (a probe record with the same metadata), and the rows the
+    file holds are counted from its metadata (a Parquet footer) or, for a
+    CSV record, by streaming it back through
+    :func:`~accelcal.io.recordings.iter_blocks`: no second read of a
+    Parquet record's samples, the memory one block. Other kinds are read
+    whole by their reader, as their methods read them.
     """
     from accelcal.io.records import MAX_RECORD_VALUES
 
     values = samples * len(plan.columns)
     try:
-        if plan.stream and samples > rows:
+        if plan.stream and samples > PROBE_ROWS:
             _validate_long(staged, plan, samples, rows)
         elif values <= MAX_RECORD_VALUES:
             validator(plan.kind)(staged)
@@ -337,14 +348,19 @@ def _validate_long(staged: Path, plan: Layout, samples: int, rows: int) -> None:
 
     meta = open_source(staged, "record", None).metadata
     opts = InputOptions(input_format="record", columns=tuple(plan.columns))
-    blocks = iter_blocks(staged, opts, rows=rows, need_rate=False)
-    first = next(blocks)
+    first = next(iter_blocks(staged, opts, rows=PROBE_ROWS, need_rate=False))
     probe = staged.with_name("probe-" + staged.name)
     write_record(probe, plan.kind, {k: v for k, v in meta.items()
                                     if k not in ("format_version", "kind")},
                  {c: first.values[:, k] for k, c in enumerate(plan.columns)})
     validator(plan.kind)(probe)
     probe.unlink()
-    read = first.values.shape[0] + sum(b.values.shape[0] for b in blocks)
+    if staged.suffix.lower() == ".parquet":
+        from accelcal.io.recordings.sources import parquet_rows
+
+        read = parquet_rows(staged)
+    else:
+        read = sum(b.values.shape[0] for b in iter_blocks(staged, opts, rows=rows,
+                                                           need_rate=False))
     if read != samples:
         raise AccelcalError(f"{read} samples read back of {samples} written")
