@@ -126,7 +126,7 @@ def test_cumulative_sum_kernels_match_the_definitions(kind):
 def test_mdev_moving_sums_carried_or_cumulated_give_the_definition(monkeypatch):
     """Factors reached by carrying the phase's moving sums (doublings, single steps, a
     restart from A_1) and factors too far from any (255: seven doublings and seven steps;
-    300) that take the cumulative sum of second differences: all as the definition."""
+    300; 320) that take the cumulative sum of second differences: all as the definition."""
     from accelcal.signal.allan import kernels
 
     far = []
