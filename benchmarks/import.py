@@ -21,6 +21,14 @@ g, written once by pyarrow) is, in the section ``speed``,
   SHA-256 of the source, Parquet row groups, the record streamed back to
   validate it).
 
+The same section then writes the four channels to a TDMS file (npTDMS,
+segments of 65,536 rows, ``wf_increment`` 1 ms, no time column) and times,
+interleaved, ``nptdms.TdmsFile.read`` of the four channels (the floor: the
+file read whole into arrays, no checks), that read plus the file's SHA-256
+plus a Parquet write of the arrays with the record's options (the least an
+import that states the source's digest does), ``iter_blocks`` of it and
+``import -> parquet`` of it, in the same blocks.
+
 Each figure is the median of ``--repeats`` runs (default 5; ``--repeat`` is
 the same option) timed interleaved by :func:`common.interleaved` (A, B, C,
 D, A, ...), with its ratio to the floor, its rows per second, the 1-minute
@@ -55,6 +63,7 @@ against the targets (at most 2x the read, under 300 MiB at any length).
 import common  # noqa: I001  (first: it pins BLAS to one thread before numpy loads)
 
 import argparse
+import dataclasses
 import functools
 import os
 import tempfile
@@ -118,6 +127,89 @@ def bench_speed(report: common.Report, src: Path, rows: int, block_rows: int,
         ("a 24 h, 1 kHz recording (86.4 M rows) at that speed (extrapolated)",
          f"{DAY_ROWS / rows * seconds / 60:.2g} min"),
     ], "Import speed: summary"))
+
+
+TDMS_SEGMENT = 1 << 16
+"""Rows per segment of the benchmark's TDMS file (a DAQ writes one segment per buffer)."""
+
+
+def write_tdms(path: Path, rows: int) -> None:
+    """The CSV's four channels (no time column: ``wf_increment`` 1 ms) in a TDMS file."""
+    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+
+    rng = np.random.default_rng(0)
+    with TdmsWriter(path) as writer:
+        for a in range(0, rows, TDMS_SEGMENT):
+            n = min(TDMS_SEGMENT, rows - a)
+            objs = [RootObject({"title": "benchmark"}), GroupObject("DAQ", {})] if not a else []
+            for k in range(4):
+                props = {"wf_increment": 1e-3, "unit_string": "g"} if not a else {}
+                objs.append(ChannelObject("DAQ", f"a{k}", rng.normal(0.0, 1e-3, n) + (k == 2),
+                                          properties=props))
+            writer.write_segment(objs)
+
+
+def bench_tdms(report: common.Report, src: Path, rows: int, block_rows: int,
+               repeats: int) -> None:
+    """A TDMS file read by npTDMS, streamed and imported, interleaved."""
+    from nptdms import TdmsFile
+
+    from accelcal.io.recordings import InputOptions, iter_blocks
+    from accelcal.io.recordings.convert import import_recording
+
+    opts = InputOptions(input_format="tdms")
+    channels = {f"c{k}": f"DAQ/a{k}" for k in range(4)}
+    out = src.with_name("tdms-rec.parquet")
+
+    def read():
+        tdms = TdmsFile.read(src)
+        return [tdms["DAQ"][f"a{k}"][:] for k in range(4)]
+
+    def streamed():
+        for _ in iter_blocks(src, dataclasses.replace(opts, columns=tuple(channels.values())),
+                             rows=block_rows):
+            pass
+
+    def digest_and_write():
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        from accelcal.io.recordings.read import sha256
+        from accelcal.io.records import parquet_options
+
+        sha256(src)
+        table = pa.table(dict(zip(channels, read(), strict=True)))
+        with pq.ParquetWriter(out, table.schema, **parquet_options(table.schema)) as sink:
+            for batch in table.to_batches(max_chunksize=block_rows):
+                sink.write_table(pa.Table.from_batches([batch]))
+
+    floor, imported = "nptdms.TdmsFile.read (floor)", "import -> parquet"
+    least = "read + SHA-256 + Parquet write (no checks)"
+    detail: dict = {}
+    runs = common.interleaved({
+        floor: read,
+        least: digest_and_write,
+        "iter_blocks": streamed,
+        imported: lambda: import_recording(src, opts, kind="noise", channels=channels, out=out,
+                                           rows=block_rows),
+    }, repeats, detail=detail)
+    notes = {name: f"{rows / common.median(t) / 1e6:.3g} M rows/s" for name, t in runs.items()}
+    by_name = {r.name: r for r in common.figures(runs, detail, floor=floor, notes=notes)}
+    size = src.stat().st_size / 2**20
+    report.add(common.markdown(
+        list(by_name.values()), f"A TDMS file of {rows:,} rows x 4 channels ({size:.0f} MiB, "
+        f"segments of {TDMS_SEGMENT:,} rows), blocks of {block_rows:,} rows "
+        f"(median of {repeats})", floor_name="npTDMS"))
+    report.add(common.pairs([
+        ("import -> parquet / nptdms.TdmsFile.read, median wall times",
+         f"{by_name[imported].ratio:.2f}"),
+        ("read + SHA-256 + Parquet write (the least an import does) / nptdms.TdmsFile.read",
+         f"{by_name[least].ratio:.2f}"),
+        ("import -> parquet / (read + SHA-256 + Parquet write), median wall times",
+         f"{common.median(runs[imported]) / common.median(runs[least]):.2f}"),
+        ("import -> parquet / nptdms.TdmsFile.read, median CPU times",
+         f"{by_name[imported].cpu_ratio:.2f}"),
+    ], "TDMS import speed: summary"))
 
 
 _CHILD = """
@@ -273,6 +365,9 @@ def main(argv=None) -> None:
             write_csv(src, args.rows)
             if "speed" in sections:
                 bench_speed(report, src, args.rows, args.block_rows, args.repeats)
+                tdms = Path(tmp) / "daq.tdms"
+                write_tdms(tdms, args.rows)
+                bench_tdms(report, tdms, args.rows, args.block_rows, args.repeats)
             if "memory" in sections:
                 bench_memory(report, src, args.rows, args.block_rows)
             report.finish(args.update_docs)

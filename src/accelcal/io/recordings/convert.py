@@ -117,18 +117,19 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
         with temp_directory(out.parent, "import") as stage:
             staged = stage / out.name
             repairs = Repairs()
-            samples, stats = _write(staged, header, plan,
-                                    iter_blocks(path, opts, rows=rows, need_rate=timed,
-                                                repairs=repairs),
+            samples, stats, first = _write(staged, header, plan,
+                                           iter_blocks(path, opts, rows=rows, need_rate=timed,
+                                                       repairs=repairs),
                                     rate=rate, progress=progress,
                                     infos=prov.get("channels", {}))
             if repairs:  # known at the end: written again with them in the provenance
                 prov["repairs"] = repairs.to_dict()
-                samples, stats = _write(staged, header, plan,
-                                        iter_blocks(path, opts, rows=rows, need_rate=timed),
+                samples, stats, first = _write(staged, header, plan,
+                                               iter_blocks(path, opts, rows=rows,
+                                                           need_rate=timed),
                                         rate=rate, progress=progress,
                                         infos=prov.get("channels", {}))
-            _validate(staged, out, plan, samples, rows)
+            _validate(staged, out, plan, samples, rows, first=first)
             with atomic_path(out) as tmp:
                 os.replace(staged, tmp)
     except OSError as exc:
@@ -229,7 +230,12 @@ def _point_starts(point: np.ndarray, start: int, state: dict) -> np.ndarray:
     return firsts
 
 
-def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, infos) -> int:
+def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, infos):
+    """Write the record; return its samples, its columns' statistics and its first rows.
+
+    The first rows (at most :data:`PROBE_ROWS`, copied) are what :func:`_validate` gives a
+    long stream record's reader.
+    """
     import pyarrow as pa
 
     names = list(plan.columns)
@@ -237,18 +243,20 @@ def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, 
                        metadata={"accelcal": json.dumps(header, allow_nan=False)})
     lengths = {i.get("length") for i in infos.values()}
     total = lengths.pop() if len(lengths) == 1 else None
-    done, state, sums = 0, {}, _Sums()
+    done, state, sums, first = 0, {}, _Sums(), None
     with _writer(staged, schema, header) as write:
         for block in blocks:
             cols = _columns(plan, block, rate, state)
             write(pa.table(cols, schema=schema))
+            if first is None:
+                first = {c: v[:PROBE_ROWS].copy() for c, v in cols.items()}
             sums.add(cols)
             done += block.values.shape[0]
             if progress is not None:
                 progress(done, max(done, total or done))
     if not done:
         raise AccelcalError("the recording has no samples")
-    return done, sums.result()
+    return done, sums.result(), first
 
 
 _SUM_CHUNK = 1 << 15
@@ -315,13 +323,15 @@ PROBE_ROWS = 1 << 16
 """Rows of the probe record through which a long stream record's reader checks it."""
 
 
-def _validate(staged: Path, out: Path, plan: Layout, samples: int, rows: int) -> None:
+def _validate(staged: Path, out: Path, plan: Layout, samples: int, rows: int, *,
+              first: dict) -> None:
     """Read the staged record back with its kind's reader; errors name ``out``.
 
-    A stream kind's record longer than :data:`PROBE_ROWS`: the reader reads
-    its first rows (a probe record with the same metadata), and the rows the
-    file holds are counted from its metadata (a Parquet footer) or, for a
-    CSV record, by streaming it back through
+    A stream kind's record longer than :data:`PROBE_ROWS`: its metadata is
+    read back from the staged file (a Parquet footer, a CSV record's header),
+    the reader reads a probe record of that metadata and the record's
+    ``first`` rows (as written), and the rows the file holds are counted from
+    the footer or, for a CSV record, by streaming it back through
     :func:`~accelcal.io.recordings.iter_blocks`: no second read of a
     Parquet record's samples, the memory one block. Other kinds are read
     whole by their reader, as their methods read them.
@@ -331,7 +341,7 @@ def _validate(staged: Path, out: Path, plan: Layout, samples: int, rows: int) ->
     values = samples * len(plan.columns)
     try:
         if plan.stream and samples > PROBE_ROWS:
-            _validate_long(staged, plan, samples, rows)
+            _validate_long(staged, plan, samples, rows, first)
         elif values <= MAX_RECORD_VALUES:
             validator(plan.kind)(staged)
         else:
@@ -342,17 +352,14 @@ def _validate(staged: Path, out: Path, plan: Layout, samples: int, rows: int) ->
         raise AccelcalError(f"the {plan.kind} record would not be valid: {text}") from None
 
 
-def _validate_long(staged: Path, plan: Layout, samples: int, rows: int) -> None:
+def _validate_long(staged: Path, plan: Layout, samples: int, rows: int, first: dict) -> None:
     from accelcal.io.recordings.sources import open_source
     from accelcal.io.records import write_record
 
     meta = open_source(staged, "record", None).metadata
-    opts = InputOptions(input_format="record", columns=tuple(plan.columns))
-    first = next(iter_blocks(staged, opts, rows=PROBE_ROWS, need_rate=False))
     probe = staged.with_name("probe-" + staged.name)
     write_record(probe, plan.kind, {k: v for k, v in meta.items()
-                                    if k not in ("format_version", "kind")},
-                 {c: first.values[:, k] for k, c in enumerate(plan.columns)})
+                                    if k not in ("format_version", "kind")}, first)
     validator(plan.kind)(probe)
     probe.unlink()
     if staged.suffix.lower() == ".parquet":
@@ -360,6 +367,7 @@ def _validate_long(staged: Path, plan: Layout, samples: int, rows: int) -> None:
 
         read = parquet_rows(staged)
     else:
+        opts = InputOptions(input_format="record", columns=tuple(plan.columns))
         read = sum(b.values.shape[0] for b in iter_blocks(staged, opts, rows=rows,
                                                            need_rate=False))
     if read != samples:
