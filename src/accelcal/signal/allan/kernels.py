@@ -180,8 +180,9 @@ class MovingSums:
     one vectorised addition each (``A_1 = x``). Octave factors double ``a``
     each time: one addition per tau and no cumulative sum (a cumulative sum
     is sequential, about eight additions' time). The sums are of at most
-    ``m`` phase points, pairwise as the doublings go, so their rounding
-    errors stay at the size of the phase's, as in :func:`mdev_sumsq`.
+    ``m`` phase points, added pairwise as the doublings go: their rounding
+    errors are those of the phase values (times about log2 m), never those
+    of a cumulated phase.
     ``work`` is two float64 buffers of ``len(x)`` samples (ping-pong).
     """
 
@@ -301,7 +302,7 @@ def _fill(x, m_values, kind, out, progress) -> None:
     npts = len(x)
     work = (np.empty(npts + 1), np.empty(npts + 1)) if kind == "mdev" else None
     chain = MovingSums(x, work) if kind == "mdev" else None
-    chunk = (np.empty(min(CHUNK, npts)), None)
+    chunk = (np.empty(min(CHUNK, npts)), None) if kind == "mdev" else None
     pad = int(max(m_values)) if kind == "totdev" else 0
     ext = reflected(x, pad) if kind == "totdev" else None
     for k, m in enumerate(int(v) for v in m_values):
