@@ -6,6 +6,7 @@ the DAQ file holds (values exactly, or through the stated unit factor to
 leave nothing behind.
 """
 
+import hashlib
 import json
 import tracemalloc
 
@@ -309,7 +310,14 @@ def test_long_stream_record_is_checked_by_a_probe_and_its_row_count(tmp_path, mo
     done = import_recording(path, InputOptions(), kind="noise", channels=channels, out=out,
                             rows=20_000)
     assert done["samples"] == n
-    np.testing.assert_array_equal(read(out).values, acc)
+    rec = read(out)
+    np.testing.assert_array_equal(rec.values, acc)
+    # the digest, read in a thread, is in the header: a CSV record's first lines, a Parquet
+    # record's footer (written after the last row group)
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    assert done["provenance"]["sha256"] == digest
+    assert rec.metadata["provenance"]["sha256"] == digest
+    assert list(rec.metadata["provenance"])[:2] == ["file", "sha256"]
     if suffix == ".parquet":  # the footer is what is counted
         monkeypatch.setattr(sources, "parquet_rows", lambda p: n - 1)
         with pytest.raises(AccelcalError, match=f"{n - 1} samples read back of {n} written"):

@@ -30,6 +30,7 @@ import contextlib
 import dataclasses
 import json
 import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -101,7 +102,12 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
     spec = declared(kind)
     timed = spec.stream or spec.time
     opts = dataclasses.replace(options, columns=tuple(channels.values()), refuse_gaps=timed)
-    prov, rate = describe(path, opts, need_rate=timed, what=f"{kind} record")
+    prov, rate = describe(path, opts, need_rate=timed, what=f"{kind} record", digest=False)
+    digest = _Digest(path)  # read on another core while the record is written
+    prov = {"file": prov.pop("file"), "sha256": None, **prov}
+
+    def complete() -> None:
+        prov["sha256"] = digest.result()
     source_units = prov.get("units") or dict.fromkeys(channels.values(), prov["unit"])
     plan = layout(kind, channels, source_units, rate)
     prov["channel_map"] = channels
@@ -120,15 +126,16 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
             samples, stats, first = _write(staged, header, plan,
                                            iter_blocks(path, opts, rows=rows, need_rate=timed,
                                                        repairs=repairs),
-                                    rate=rate, progress=progress,
-                                    infos=prov.get("channels", {}))
+                                           rate=rate, progress=progress,
+                                           infos=prov.get("channels", {}), complete=complete)
             if repairs:  # known at the end: written again with them in the provenance
                 prov["repairs"] = repairs.to_dict()
                 samples, stats, first = _write(staged, header, plan,
                                                iter_blocks(path, opts, rows=rows,
                                                            need_rate=timed),
-                                        rate=rate, progress=progress,
-                                        infos=prov.get("channels", {}))
+                                               rate=rate, progress=progress,
+                                               infos=prov.get("channels", {}),
+                                               complete=complete)
             _validate(staged, out, plan, samples, rows, first=first)
             with atomic_path(out) as tmp:
                 os.replace(staged, tmp)
@@ -230,11 +237,14 @@ def _point_starts(point: np.ndarray, start: int, state: dict) -> np.ndarray:
     return firsts
 
 
-def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, infos):
+def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, infos,
+           complete):
     """Write the record; return its samples, its columns' statistics and its first rows.
 
     The first rows (at most :data:`PROBE_ROWS`, copied) are what :func:`_validate` gives a
-    long stream record's reader.
+    long stream record's reader. ``complete()`` completes ``header`` (the source's
+    digest): before the first row of a CSV record, after the last of a Parquet one
+    (:func:`_writer`).
     """
     import pyarrow as pa
 
@@ -244,7 +254,7 @@ def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, 
     lengths = {i.get("length") for i in infos.values()}
     total = lengths.pop() if len(lengths) == 1 else None
     done, state, sums, first = 0, {}, _Sums(), None
-    with _writer(staged, schema, header) as write:
+    with _writer(staged, schema, header, complete) as write:
         for block in blocks:
             cols = _columns(plan, block, rate, state)
             write(pa.table(cols, schema=schema))
@@ -299,17 +309,28 @@ MAX_BLOCK_ROWS = 1 << 26
 
 
 @contextlib.contextmanager
-def _writer(path: Path, schema, header: dict):
-    """Yield ``write(table)``: Parquet row groups, or CSV rows after the record's header."""
+def _writer(path: Path, schema, header: dict, complete):
+    """Yield ``write(table)``: Parquet row groups, or CSV rows after the record's header.
+
+    A Parquet record's header is the footer's: ``complete()`` is called after the last
+    row group and the completed header replaces the one the writer was opened with
+    (``add_key_value_metadata``; the Arrow schema is not stored beside it, where it
+    would carry the first header: the columns are plain float64). A CSV record's header
+    is its first lines: ``complete()`` is called before they are written.
+    """
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
     from accelcal.io.records import MARKER, parquet_options
 
     if path.suffix.lower() == ".parquet":
-        with pq.ParquetWriter(path, schema, **parquet_options(schema)) as sink:
+        with pq.ParquetWriter(path, schema, store_schema=False,
+                              **parquet_options(schema)) as sink:
             yield sink.write_table
+            complete()
+            sink.add_key_value_metadata({"accelcal": json.dumps(header, allow_nan=False)})
         return
+    complete()
     with open(path, "wb") as fh:
         fh.write(f"{MARKER}\n# {json.dumps(header, allow_nan=False)}\n"
                  f"{','.join(schema.names)}\n".encode())
@@ -317,6 +338,31 @@ def _writer(path: Path, schema, header: dict):
         with pacsv.CSVWriter(fh, bare, write_options=pacsv.WriteOptions(
                 include_header=False)) as sink:
             yield lambda table: sink.write_table(table.replace_schema_metadata(None))
+
+
+class _Digest:
+    """The SHA-256 of a file, read in a thread (``hashlib`` releases the GIL as it hashes)."""
+
+    def __init__(self, path):
+        from accelcal.io.recordings.read import sha256
+
+        self._value, self._error = None, None
+
+        def run():
+            try:
+                self._value = sha256(path)
+            except OSError as exc:  # raised by result(), in the caller's thread
+                self._error = exc
+
+        self._thread = threading.Thread(target=run, name="sha256", daemon=True)
+        self._thread.start()
+
+    def result(self) -> str:
+        """The hex digest, once the whole file is read."""
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._value
 
 
 PROBE_ROWS = 1 << 16
