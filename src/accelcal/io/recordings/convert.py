@@ -403,7 +403,8 @@ def _validate_long(staged: Path, plan: Layout, samples: int, rows: int, first: d
     from accelcal.io.records import write_record
 
     meta = open_source(staged, "record", None).metadata
-    probe = staged.with_name("probe-" + staged.name)
+    # a short name beside the staged record (its own name may take a file name's 255 bytes)
+    probe = staged.with_name(("p" if staged.stem != "p" else "q") + staged.suffix)
     write_record(probe, plan.kind, {k: v for k, v in meta.items()
                                     if k not in ("format_version", "kind")}, first)
     validator(plan.kind)(probe)
