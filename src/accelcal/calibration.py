@@ -26,6 +26,7 @@ References
 
 import dataclasses
 import datetime as dt
+import math
 import os
 import stat
 from pathlib import Path
@@ -216,6 +217,8 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
         )
         plain = {lab: est.names[j] for lab, j in zip(labels, keep, strict=True)
                  if lab != est.names[j]}
+        type_b = {} if est.is_complex else _type_b_of(reduction, i, labels,
+                                                      [est.names[j] for j in keep])
         head = ([f"sensor column {name} of {k}; reduction {reduction.method}"] if k > 1 else [])
         notes = [*head, *common, *(n for n in est.notes if n not in common),
                  *_dof_notes(reduction.dof, k_cov), *_lab_notes(info)]
@@ -227,8 +230,23 @@ def records(reduction, info: LabInfo, *, input_files=(), date: str | None = None
             record, notes=tuple(dict.fromkeys(notes)), coverage_factor=k_cov,
             dof=reduction.dof if reduction.dof > 0 else None,
             simulated=info.simulated or bool(reduction.provenance.get("simulated")),
-            plain=plain,
+            plain=plain, type_b=type_b,
         ))
+    return out
+
+
+def _type_b_of(reduction, sensor: int, labels, names) -> dict:
+    """Row label -> its combined Type B standard uncertainty, for the rows that have one.
+
+    The root sum of squares of the row's itemised contributions
+    (:meth:`accelcal.results.Reduction.contributions`; the priors are
+    independent, so this is the Type B part of the row's variance, GUM 5.1.2).
+    """
+    out = {}
+    for label, name in zip(labels, names, strict=True):
+        parts = reduction.contributions(name, sensor)
+        if parts:
+            out[label] = math.sqrt(sum(c.contribution**2 for c in parts))
     return out
 
 

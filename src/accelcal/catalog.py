@@ -242,7 +242,10 @@ METHODS: tuple[Method, ...] = (
         verbs=("simulate", "reduce"),
         report="accelcal.methods.acceptance.report_text", docs="docs/acceptance.md",
         paper="IEEE1293", demo="accelcal.methods.acceptance.demo", demo_order=8,
-        demo_sensors="one", demo_test="acceptance tests"),
+        demo_sensors="one", demo_test="acceptance tests",
+        budget_inputs=("local_gravity", "head_angle", "head_repeatability", "centrifuge_radius",
+                       "centrifuge_rate", "coil_constant", "daq_gain", "daq_offset",
+                       "daq_linearity", "daq_resolution", "sensor_temperature")),
     Method(
         name="response", family="response", title="frequency response",
         package=_m("response"), kinds=("response",), formats=("accelcal.io.formats.response",),
@@ -256,8 +259,11 @@ METHODS: tuple[Method, ...] = (
         report="accelcal.methods.response.report_text", docs="docs/response.md",
         paper="ISO16063-21", demo="accelcal.methods.response.demo", demo_order=9,
         demo_sensors="one", demo_test="shaker frequency response",
-        budget_inputs=("reference_sensitivity", "reference_phase", "frequency", "daq_gain",
-                       "daq_linearity")),
+        budget_inputs=("reference_sensitivity", "reference_phase", "daq_gain",
+                       "daq_linearity", "daq_gain_mismatch", "daq_delay_mismatch",
+                       "transverse_motion", "transverse_sensitivity", "distortion",
+                       "relative_motion", "sensor_temperature", "sensitivity_tc",
+                       "frequency")),
 )
 """Every test method, in the order ``accelcal --help`` lists their groups."""
 

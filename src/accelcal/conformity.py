@@ -19,6 +19,13 @@ tests' pass/fail:
     method = "tumble"                  # optional: only records of this method
     guard = 100                        # optional guard band w, in unit (default U)
 
+    [[limit]]                          # a frequency response's magnitude band
+    quantity = "magnitude deviation"   # from the magnitude at the reference frequency
+    lower = -5.0
+    upper = 5.0
+    unit = "%"                         # % or ppm
+    band_hz = [10, 500]                # optional: the frequencies it holds over (Hz)
+
 :func:`load_spec` reads and checks it (one-line errors); :func:`decide`
 makes the decision for one estimate; :func:`evaluate` for rows
 ``quantity, estimate, std, unit``.
@@ -88,6 +95,7 @@ QUANTITY_DIMENSIONS: dict[str, tuple[str, ...]] = {
     "bias repeatability": ("acceleration",), "scale-factor repeatability": ("ratio",),
     "bias drift": ("acceleration/time",),
     "magnetic sensitivity": ("acceleration/field",),
+    "magnitude deviation": ("ratio",),
 }
 """Dimensions (keys of :data:`accelcal.units.UNIT_SIZES`, with ``/degC^k``) a
 limit's unit may have, per quantity: the model's coefficients (a scale
@@ -96,7 +104,13 @@ shift) and the acceptance tests' quantities. A limit on ``Q`` also applies
 to the rows ``Q at ...`` and ``Q (...)`` (``hysteresis at +0.5 g``, ``input range
 (+)``, ``bias repeatability (K_F)``)."""
 
-_LIMIT_KEYS = ("quantity", "lower", "upper", "unit", "serial", "method", "guard")
+_LIMIT_KEYS = ("quantity", "lower", "upper", "unit", "serial", "method", "guard", "band_hz")
+
+BAND_QUANTITY = "magnitude deviation"
+"""The quantity a limit may hold over a frequency band (``band_hz``): a frequency
+response's deviation from its magnitude at the reference frequency."""
+
+_BAND_UNITS = ("%", "ppm")
 _SPEC_KEYS = ("title", "document", "decision_rule", "limit")
 
 
@@ -112,6 +126,15 @@ class Limit:
     method: str | None = None
     guard: float | None = None
     """Guard band w in ``unit`` for the guarded rule (None: w = U)."""
+    band_hz: tuple[float, float] | None = None
+    """The frequencies (Hz, both included) a frequency response's limit holds over (None:
+    every frequency)."""
+
+    def covers(self, frequency_hz: float) -> bool:
+        """True when the limit holds at ``frequency_hz`` (always, without a band)."""
+        if self.band_hz is None:
+            return True
+        return self.band_hz[0] <= frequency_hz <= self.band_hz[1]
 
     def matches(self, quantity: str) -> bool:
         """True for the quantity itself and its rows ``<quantity> at ...``, ``<quantity> (...)``."""
@@ -382,5 +405,24 @@ def _limit(table, number: int, fail) -> Limit:
     for key in ("serial", "method"):
         if not isinstance(table.get(key, ""), str):
             fail(f"limit {number} ({quantity}): {key} must be text")
+    if quantity == BAND_QUANTITY and unit not in _BAND_UNITS:
+        fail(f"limit {number} ({quantity}): unit {shown(unit)} does not fit the quantity; "
+             f"use one of {', '.join(_BAND_UNITS)}")
     return Limit(quantity=quantity, unit=unit, serial=table.get("serial"),
-                 method=table.get("method"), **values)
+                 method=table.get("method"), band_hz=_band(table, quantity, number, fail),
+                 **values)
+
+
+def _band(table, quantity: str, number: int, fail) -> tuple[float, float] | None:
+    """A limit's ``band_hz = [from, to]`` (None when not given)."""
+    band = table.get("band_hz")
+    if band is None:
+        return None
+    if quantity != BAND_QUANTITY:
+        fail(f"limit {number} ({quantity}): band_hz applies to {BAND_QUANTITY} only")
+    if not (isinstance(band, list) and len(band) == 2 and all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            and v > 0 for v in band) and band[0] <= band[1]):
+        fail(f"limit {number} ({quantity}): band_hz must be [from, to], two frequencies in "
+             f"Hz above 0, from <= to; got {shown(band)}")
+    return float(band[0]), float(band[1])

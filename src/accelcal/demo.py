@@ -33,12 +33,14 @@ The stages, each in its method's package:
    kHz, and the second-order fit (|S(80 Hz)| and the bandwidth in the
    store's history).
 
-Before the report, :func:`head_budgets` writes the demo's lab file (a copy
+Before the report, :func:`demo_budgets` writes the demo's lab file (a copy
 of examples/lab.toml kept in the package) and makes the uncertainty budgets
-of the indexing-head sensors: the report states them (the summary's U and
-k, an annex). After the campaign, :func:`certify` shows the budget of one
-result and writes a calibration certificate of the indexing-head sensors
-(HTML, JSON, and PDF where WeasyPrint is installed) from the same budgets.
+of the indexing-head sensors (:func:`head_budgets`) and of the frequency
+response (each step's magnitude and phase, the fitted model): the report
+states them (the summary's U and k, an annex). After the campaign,
+:func:`certify` shows the budget of one result and writes a calibration
+certificate of the indexing-head sensors and the frequency response (HTML,
+JSON, and PDF where WeasyPrint is installed) from the same budgets.
 
 Every run is stamped with the current time (microseconds), which goes into
 the files' ``date`` and so into the records: running the demo twice adds
@@ -128,7 +130,7 @@ def run(out="accelcal-demo", *, db=None, seed: int | None = None, progress: bool
         subtitle=(f"Simulated campaign of {', '.join(SERIALS)} and the triad {TRIAD_SERIAL}: "
                   f"{listed((m.demo_test for m in demo_methods()), 'and')}; "
                   f"operator {OPERATOR}, date {{date}}, seed {{seed}}."),
-        history_serial=SERIALS[0], budgets=head_budgets,
+        history_serial=SERIALS[0], budgets=demo_budgets,
     )
 
 
@@ -169,6 +171,46 @@ def head_budgets(out, outcomes, data) -> dict:
     return made
 
 
+RESPONSE_DATA = "response.parquet"
+"""The frequency response stage's record file (:mod:`accelcal.methods.response.demo`)."""
+
+
+def demo_budgets(out, outcomes, data) -> dict:
+    """:func:`head_budgets`, then the frequency response's budgets (when the campaign has it).
+
+    The stepped-sine comparison's (magnitude in % and phase in degrees of
+    each step) and the model fit's, from the response record file and the
+    lab file :func:`head_budgets` wrote; same return as it.
+    """
+    from accelcal.budget import budgets
+    from accelcal.budget.lab import load_lab
+
+    made = head_budgets(out, outcomes, data)
+    files = [p for p in data if Path(p).name == RESPONSE_DATA]
+    if not files:
+        return made
+    lab_file = load_lab(Path(out) / "lab.toml")
+    for outcome in outcomes:
+        if outcome.reduction.family != "response":
+            continue
+        for b in budgets(outcome.reduction, lab_file, records=files[0]):
+            record = outcome.records[b.sensor]
+            made.setdefault((record.serial, record.method), []).append(
+                replace(b, serial=record.serial))
+    return made
+
+
+def _certified_records(result: CampaignResult):
+    """The records the demo's certificate states: the indexing head's, the response's."""
+    out, start = [], 0
+    for outcome in result.outcomes:
+        n = len(outcome.records)
+        if outcome.reduction.family in ("dividing-head", "response"):
+            out += zip(result.records[start:start + n], outcome.records, strict=True)
+        start += n
+    return out
+
+
 @dataclass(frozen=True)
 class Certified:
     """What :func:`certify` wrote: the lab file, one budget as text, the certificate's files."""
@@ -180,10 +222,12 @@ class Certified:
 
 
 def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
-    """The demo's lab file, the budget of the first bias, and the indexing head's certificate.
+    """The demo's lab file, the budget of the first bias, and the campaign's certificate.
 
-    The budgets are the result's (:func:`head_budgets`, made for the
-    report), made here only for a result without them.
+    The certificate states the indexing head's sensors and the frequency
+    response (when the campaign has it). The budgets are the result's
+    (:func:`demo_budgets`, made for the report), made here only for a
+    result without them.
 
     Parameters
     ----------
@@ -204,13 +248,12 @@ def certify(result: CampaignResult, *, pdf: bool = True) -> Certified:
 
     out = Path(result.out)
     lab_path = out / "lab.toml"
-    made = result.budgets or head_budgets(out, result.outcomes, result.data)
-    head, start = next((o, sum(len(p.records) for p in result.outcomes[:i]))
-                       for i, o in enumerate(result.outcomes)
-                       if o.reduction.family == "dividing-head")
-    paths = result.records[start:start + len(head.records)]
+    made = result.budgets or demo_budgets(out, result.outcomes, result.data)
+    head = next(o for o in result.outcomes if o.reduction.family == "dividing-head")
+    certified = _certified_records(result)
+    paths = [path for path, _ in certified]
     by_record = [[b.as_dict() for b in made.get((r.serial, r.method), ())]
-                 for r in head.records]
+                 for _, r in certified]
     with_pdf = pdf and pdf_available()
     issued = issue(paths, lab_path, out=out / "certificate.html",
                    pdf=out / "certificate.pdf" if with_pdf else None,

@@ -31,13 +31,12 @@ targets; it bounds the memory of futures and of results merged in order)."""
 def run_dask(spec, tasks, merger, *, workers, scheduler, timeout, first=0):
     """Evaluate ``tasks[first:]`` with ``spec`` on Dask; merge each result into ``merger``."""
     try:
-        from distributed import Client, LocalCluster, as_completed
+        from distributed import Client, as_completed
     except ImportError:
         raise AccelcalError(
             "running on several workers needs Dask: pip install 'accelcal[dask]'"
         ) from None
-    cluster = None
-    try:
+    with contextlib.ExitStack() as stack:
         if scheduler is not None:
             try:
                 client = Client(scheduler, timeout=f"{timeout}s")
@@ -48,18 +47,7 @@ def run_dask(spec, tasks, merger, *, workers, scheduler, timeout, first=0):
                     "and that 'dask scheduler' is running there"
                 ) from None
         else:
-            # The workers log critical errors only: a cluster stopped by Ctrl-C
-            # would print a warning per cancelled task (read from the environment
-            # when each worker process imports distributed).
-            os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "critical")
-            with shielded_children(), warnings.catch_warnings():
-                # the scheduler's HTTP server moves off a port in use, with a warning
-                warnings.filterwarnings("ignore", message="Port .* is already in use")
-                cluster = LocalCluster(
-                    n_workers=workers, threads_per_worker=1, processes=True,
-                    dashboard_address=None
-                )
-            client = Client(cluster)
+            client = Client(stack.enter_context(local_cluster(workers)))
         with client:
             # A bounded window of tasks in flight: memory (futures, and results
             # waiting for their predecessors) stays constant for any trial count.
@@ -78,9 +66,34 @@ def run_dask(spec, tasks, merger, *, workers, scheduler, timeout, first=0):
                     nxt = client.submit(spec, following[1], pure=False)
                     index[nxt.key] = following[0]
                     running.add(nxt)
+
+
+@contextlib.contextmanager
+def local_cluster(workers: int):
+    """A Dask local cluster of ``workers`` processes (one thread each), closed on leaving.
+
+    The workers log critical errors only (a cluster stopped by Ctrl-C would
+    print a warning per cancelled task; read from the environment when each
+    worker process imports distributed) and ignore the terminal's Ctrl-C
+    (:func:`shielded_children`). Its ``scheduler_address`` serves several
+    runs in turn (:func:`accelcal.montecarlo.run` with ``scheduler=``).
+    """
+    try:
+        from distributed import LocalCluster
+    except ImportError:
+        raise AccelcalError(
+            "running on several workers needs Dask: pip install 'accelcal[dask]'"
+        ) from None
+    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "critical")
+    with shielded_children(), warnings.catch_warnings():
+        # the scheduler's HTTP server moves off a port in use, with a warning
+        warnings.filterwarnings("ignore", message="Port .* is already in use")
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+    try:
+        yield cluster
     finally:
-        if cluster is not None:
-            cluster.close()
+        cluster.close()
 
 
 @contextlib.contextmanager

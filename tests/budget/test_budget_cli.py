@@ -78,7 +78,8 @@ def test_without_a_lab_the_type_a_and_priors(tumble_file, capsys):
 
 def test_check_mc_reports_both_intervals(tumble_file, capsys):
     code, out, _ = run_cli(["budget", tumble_file, "--lab", LAB, "--coefficient", "K1",
-                            "--check", "mc", "--trials", "20000", "--format", "json"], capsys)
+                            "--check", "mc", "--mc-model", "linear", "--trials", "20000",
+                            "--format", "json"], capsys)
     assert code == 0
     c = json.loads(out)[0]["check"]
     assert c["model"] == "linearised"
@@ -87,14 +88,20 @@ def test_check_mc_reports_both_intervals(tumble_file, capsys):
     assert c["gum_low"] < c["gum_high"]
     assert isinstance(c["validated"], bool)
     code, out, _ = run_cli(["budget", tumble_file, "--lab", LAB, "--coefficient", "K1",
-                            "--check", "mc", "--trials", "20000"], capsys)
+                            "--check", "mc", "--mc-model", "linear", "--trials", "20000"],
+                           capsys)
     assert "Monte Carlo (20000 trials, linearised model): 95.45 % interval" in out
 
 
 @pytest.mark.parametrize(("args", "needle"), [
     (["--check", "bootstrap"], "--check"),
     (["--trials", "5000"], "go with --check mc"),
-    (["--check", "mc", "--trials", "10"], "at least 1000"),
+    (["--check", "mc", "--trials", "10"], "at least 100"),
+    (["--check", "mc", "--mc-model", "linear", "--trials", "500"], "at least 1000"),
+    (["--check", "mc", "--mc-model", "exact"], "--mc-model"),
+    (["--check", "mc", "--mc-model", "linear", "--workers", "2"], "go with --mc-model reduction"),
+    (["--workers", "2"], "go with --check mc"),
+    (["--timeout", "nan"], "timeout"),
     (["--coefficient", "K9"], "no reported coefficient"),
     (["--format", "xml"], "--format"),
     (["--data", "no-such-directory"], "--data"),
@@ -136,3 +143,28 @@ def test_model_file_gives_the_temperature_sensitivity(tumble_file, write_lab, tm
     row = next(r for r in json.loads(out)[0]["rows"] if r["quantity"] == "sensor_temperature")
     assert row["sensitivity"] == pytest.approx(5.0)  # ug/degC
     assert row["contribution"] == pytest.approx(1.0)
+
+
+def test_a_response_record_one_budget_per_point_and_part(tmp_path, write_lab, capsys):
+    from accelcal.io.formats.response import write
+    from accelcal.methods import response
+
+    path = tmp_path / "response.csv"
+    write(path, response.simulate(seed=2, frequencies=(20.0, 160.0)))
+    code, out, err = run_cli(["budget", path, "--lab", LAB, "--format", "json"], capsys)
+    assert code == 0, err
+    doc = json.loads(out)
+    assert [b["coefficient"] for b in doc] == ["S(20 Hz) magnitude", "S(20 Hz) phase",
+                                               "S(160 Hz) magnitude", "S(160 Hz) phase"]
+    assert [b["unit"] for b in doc] == ["%", "deg"] * 2
+    assert "warning" not in err  # the example lab declares every input
+    code, out, _ = run_cli(["budget", path, "--lab", LAB, "--coefficient", "S(160 Hz)",
+                            "--format", "json"], capsys)
+    assert [b["coefficient"] for b in json.loads(out)] == ["S(160 Hz) magnitude",
+                                                          "S(160 Hz) phase"]
+    bare = write_lab(lab_text(standard("reference_sensitivity", 10.0, "mV/g", u=0.05)))
+    code, out, err = run_cli(["budget", path, "--lab", bare, "--format", "json"], capsys)
+    warning = [line for line in err.splitlines() if line.startswith("warning:")]
+    assert len(warning) == 1
+    assert "daq_delay_mismatch" in warning[0]
+    assert "relative_motion" in warning[0]

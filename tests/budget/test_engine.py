@@ -140,7 +140,7 @@ def test_a_method_without_a_model_keeps_type_a_and_priors(write_lab):
     import dataclasses
 
     red = tumble.reduce(linear_tumble(8), terms=["K0", "K1"], sigma=1e-6)
-    other = dataclasses.replace(red, family="acceptance")
+    other = dataclasses.replace(red, family="unmodelled")
     lab = load_lab(write_lab(lab_text(standard("daq_gain", 0.0, "ppm", u=10.0))))
     b = _by(budgets(other, lab), "K1")
     assert "no lab inputs modelled for this method" in b.notes

@@ -107,8 +107,10 @@ def test_response_reference_in_closed_form_and_a_common_gain_cancels(tmp_path, w
     mag = _by(bs, "S(160 Hz) magnitude")
     phase = _by(bs, "S(160 Hz) phase")
     assert mag.unit == "%"
-    assert _row(mag, "reference_sensitivity").contribution == pytest.approx(0.25)  # 0.5 %, k=2
-    assert _row(phase, "reference_phase").contribution == pytest.approx(0.2)
+    # the record's reference table states U (0.5 % and 0.5 deg, k = 2): it replaces the
+    # lab's u (0.2 deg), interpolated at the step's frequency
+    assert _row(mag, "reference_sensitivity").contribution == pytest.approx(0.25)
+    assert _row(phase, "reference_phase").contribution == pytest.approx(0.25)
     assert _row(mag, "reference_phase").contribution == 0.0
     assert abs(_row(mag, "daq_gain").sensitivity) < 1e-9  # the same DAQ on both channels
 

@@ -102,6 +102,13 @@ def test_spec_file_round_trip_and_matching(tmp_path):
     ("decision_rule = 'lenient'\n[[limit]]\nquantity = 'K0'\nupper = 1\nunit = 'ug'",
      "decision_rule"),
     ("[[limit]\n", "not TOML"),
+    ("[[limit]]\nquantity = 'K0'\nupper = 1\nunit = 'ug'\nband_hz = [10, 20]",
+     "band_hz applies to magnitude deviation only"),
+    ("[[limit]]\nquantity = 'magnitude deviation'\nupper = 1\nunit = '%'\nband_hz = [20, 10]",
+     "band_hz must be [from, to]"),
+    ("[[limit]]\nquantity = 'magnitude deviation'\nupper = 1\nunit = '%'\nband_hz = [0, 10]",
+     "band_hz must be [from, to]"),
+    ("[[limit]]\nquantity = 'magnitude deviation'\nupper = 1\nunit = 'deg'", "use one of %"),
 ])
 def test_bad_spec_files_give_one_line(tmp_path, text, needle):
     path = tmp_path / "bad.toml"
@@ -120,3 +127,16 @@ def test_bad_decisions_are_refused():
     with pytest.raises(AccelcalError):
         parse_spec({"limit": [{"quantity": "K0", "upper": 1, "unit": "ug"}],
                     "decision_rule": 3})
+
+
+def test_a_magnitude_band_holds_over_its_frequencies():
+    spec = parse_spec({"limit": [{"quantity": "magnitude deviation", "lower": -5, "upper": 5,
+                                  "unit": "%", "band_hz": [10, 500]},
+                                 {"quantity": "magnitude deviation", "upper": 1,
+                                  "unit": "ppm"}]})
+    banded, everywhere = spec.limits
+    assert banded.band_hz == (10.0, 500.0)
+    assert [banded.covers(f) for f in (9.99, 10, 500, 500.01)] == [False, True, True, False]
+    assert everywhere.band_hz is None
+    assert everywhere.covers(1e6)
+    assert len(spec.limits_for("magnitude deviation at 80 Hz")) == 2

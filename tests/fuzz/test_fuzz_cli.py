@@ -117,6 +117,7 @@ BASE: dict[str, list[str]] = {
     "records list": ["--db", "{store}"],
     "records history": ["ACC-0001", "--db", "{store}"],
     "records stats": ["ACC-0001", "--db", "{store}"],
+    "records show": ["1", "--db", "{store}"],
     "records verify": ["--db", "{store}"],
     "records supersede": ["1", "--by", "{fixed}", "--who", "A. Tester", "--why", "a test",
                           "--db", "{store}"],

@@ -223,7 +223,9 @@ def _laid_out_for_readers(html, tmp_path):
     measured = json.loads(found.group(1).replace("&quot;", '"').replace("&amp;", "&"))
     assert measured["summaryBottom"] < 1000
     assert measured["wrapped"] == []
-    assert measured["height"] < 24_000  # 32,757 px before, for the same campaign
+    # 32,757 px before, for the same campaign; 24,118 px with the frequency response's
+    # budgets in the annex (each step's magnitude and phase, folded under one line each)
+    assert measured["height"] < 25_000
 
 
 def test_demo_command_prints_where_everything_is_and_never_touches_the_users_store(

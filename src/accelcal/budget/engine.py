@@ -45,6 +45,7 @@ import math
 from dataclasses import dataclass, field
 
 from accelcal.budget.gum import Input, combine
+from accelcal.errors import AccelcalError
 
 ORDER_EXPONENT = {"bias": 1, "scale": -1, "ratio": 0, "misalignment": 0, "transverse": 0,
                   "second": -1, "third": -2, "fourth": -3}
@@ -52,9 +53,10 @@ ORDER_EXPONENT = {"bias": 1, "scale": -1, "ratio": 0, "misalignment": 0, "transv
 
 NO_MODEL = "no lab inputs modelled for this method"
 
-CORRECTIONS = ("head_angle", "head_axis_tilt", "autocollimator", "daq_gain", "daq_offset",
-               "daq_linearity", "load_resistor", "centrifuge_rate", "frequency",
-               "reference_phase")
+CORRECTIONS = ("head_angle", "head_repeatability", "head_axis_tilt", "autocollimator",
+               "daq_gain", "daq_offset", "daq_linearity", "daq_resolution", "load_resistor",
+               "centrifuge_rate", "frequency", "reference_phase", "daq_gain_mismatch",
+               "daq_delay_mismatch", "transverse_motion", "relative_motion")
 """Inputs whose value is an error (zero when none is known): a non-zero value is a
 correction, which the budget names but does not apply."""
 
@@ -83,7 +85,16 @@ class DataModel:
     analytic : dict
         Inputs whose sensitivity the method states in closed form:
         ``quantity -> f(reported, standard)``, the coefficient of one
-        :class:`Reported` per unit of the standard.
+        :class:`Reported` per unit of the standard (an
+        :class:`~accelcal.errors.AccelcalError` from it: the declaration
+        does not enter the model, noted).
+    per_row : dict
+        Inputs whose standard or closed-form coefficient depends on the
+        row and on the lab's other inputs: ``quantity -> f(reported,
+        standard, lab) -> (Standard, c)``, the standard as it applies to
+        the row (e.g. a reference's certificate interpolated at the row's
+        frequency) and the coefficient per unit of it; a string instead
+        says why the input is not in the budget.
     parameters : dict
         Inputs that enter through the reduction's parameters, perturbed
         and re-run rather than analytic: ``quantity -> {dimension:
@@ -99,6 +110,7 @@ class DataModel:
     vectors: dict = field(default_factory=dict)
     parameters: dict = field(default_factory=dict)
     analytic: dict = field(default_factory=dict)
+    per_row: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -238,8 +250,6 @@ def _run(model: DataModel, rows, **shift) -> list[float]:
     """The rows' values in the reduction of the perturbed data (NaN where it fails)."""
     import numpy as np
 
-    from accelcal.errors import AccelcalError
-
     try:
         return _values(model.reduce(**shift), rows)
     except (AccelcalError, ValueError, ArithmeticError, np.linalg.LinAlgError):
@@ -270,8 +280,14 @@ def per_position(model: DataModel, rows, step_rad: float, key: str = "angles"):
     return out
 
 
-def _temperature_slope(row: Reported, model, temperature: float) -> float | None:
-    """``dy/dT`` of a coefficient from the sensor's temperature terms (None: none apply)."""
+def temperature_polynomial(row: Reported, model):
+    """The sensor's temperature terms of a coefficient: ``(reference, {k: c_k}, scale)`` or None.
+
+    The coefficient moves by ``scale * sum_k c_k (T - reference)^k``
+    (``k = 1, 2, 3``; ``scale`` 1e6 for a budget in µg, ppm, µrad or
+    µg/g²); None when the model has no temperature terms or the quantity
+    none that apply.
+    """
     terms = getattr(model, "temperature", None)
     if terms is None or row.kind not in ("bias", "scale", "ratio", "misalignment", "second"):
         return None
@@ -279,9 +295,18 @@ def _temperature_slope(row: Reported, model, temperature: float) -> float | None
     if row.kind == "misalignment":
         base = "Kp" if row.name.lower().endswith("p") else "Ko"
     coefficients = dict(terms.coefficients)
-    dt = temperature - terms.reference
-    slope = sum(k * coefficients.get(f"{base}_T{k}", 0.0) * dt ** (k - 1) for k in (1, 2, 3))
-    return slope * 1e6 if row.unit in ("ug", "ppm", "urad", "ug/g^2") else slope
+    scale = 1e6 if row.unit in ("ug", "ppm", "urad", "ug/g^2") else 1.0
+    return terms.reference, {k: coefficients.get(f"{base}_T{k}", 0.0) for k in (1, 2, 3)}, scale
+
+
+def _temperature_slope(row: Reported, model, temperature: float) -> float | None:
+    """``dy/dT`` of a coefficient from the sensor's temperature terms (None: none apply)."""
+    found = temperature_polynomial(row, model)
+    if found is None:
+        return None
+    reference, c, scale = found
+    dt = temperature - reference
+    return scale * sum(k * c[k] * dt ** (k - 1) for k in c)
 
 
 def _prior_of(reduction, name: str):
@@ -340,8 +365,18 @@ def sensitivities(reduction, lab, data_model: DataModel | None, inputs, *, model
                 "centrifuge_rate", "frequency", "load_resistor")):
             notes.append(f"{q}: the declared value {std.value:g} {std.unit} is a correction "
                          "the reduction has not applied; only its uncertainty is in the budget")
-        if data_model is not None and q in data_model.analytic:
-            out[q] = [data_model.analytic[q](r, std) for r in rows]
+        if data_model is not None and q in data_model.per_row:
+            each = [data_model.per_row[q](r, std, lab) for r in rows]
+            why = next((e for e in each if isinstance(e, str)), None)
+            if why is not None:
+                notes.append(f"{q}: {why}; not in the budget")
+                continue
+            out[q] = [c for _, c in each]
+        elif data_model is not None and q in data_model.analytic:
+            try:
+                out[q] = [data_model.analytic[q](r, std) for r in rows]
+            except AccelcalError as exc:  # the closed form does not take this declaration
+                notes.append(f"{q}: {exc.message}; not in the budget")
         elif data_model is not None and data_model.reduce and q in data_model.parameters:
             keyword = data_model.parameters[q].get(std.dimension)
             if keyword is None:
@@ -468,7 +503,10 @@ def itemise(reduction, lab, *, data_model: DataModel | None = None, inputs=(), m
         for q, cs in sens.items():
             if math.isfinite(cs[i]):
                 parts = components[q][i] if q in components else ()
-                terms.append((_lab_input(lab.standards[q], parts), cs[i]))
+                std = lab.standards[q]
+                if data_model is not None and q in data_model.per_row:  # as it applies here
+                    std = data_model.per_row[q](row, std, lab)[0]
+                terms.append((_lab_input(std, parts), cs[i]))
             else:
                 own.append(f"{q}: the reduction run again on the perturbed data did not give "
                            f"{row.title}; not in this budget")

@@ -73,8 +73,10 @@ UNITS = {
     "length": {"m": 1.0, "mm": 1e-3, "um": 1e-6},
     "rate": {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0},
     "frequency": {"Hz": 1.0, "kHz": 1e3},
+    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9},
     "sensitivity": {"V/g": 1.0, "mV/g": 1e-3, "mV/(m/s^2)": 9.80665e-3},
     "charge sensitivity": {"pC/g": 1.0, "pC/(m/s^2)": 9.80665},
+    "coil constant": {"mT/A": 1.0, "uT/A": 1e-3, "T/A": 1e3, "G/A": 0.1},
 }
 """Units of each dimension with their size in the dimension's first unit.
 
@@ -86,11 +88,15 @@ QUANTITIES = {
                       "local gravity at the test position (absolute-gravity survey)"),
     "head_angle": (("angle",), "arcsec",
                    "angle error of each indexing-head or rate-table position (one per position)"),
+    "head_repeatability": (("angle",), "arcsec",
+                           "repeatability of a head or tilt-table position (one error per visit)"),
     "head_axis_tilt": (("angle",), "arcsec", "tilt of the head's rotation axis from level"),
     "autocollimator": (("angle",), "arcsec", "autocollimator or polygon reading of a position"),
     "daq_gain": (("relative",), "ppm", "relative gain error of the data acquisition"),
     "daq_offset": (("voltage",), "uV", "offset of the data acquisition"),
     "daq_linearity": (("relative",), "ppm", "integral nonlinearity of the data acquisition"),
+    "daq_resolution": (("voltage",), "uV",
+                       "quantization error of a reading (half the least significant bit)"),
     "load_resistor": (("resistance", "relative"), "ohm",
                       "load resistor of a current-output accelerometer (V = I R)"),
     "load_resistor_tc": (("relative/temperature",), "ppm/degC",
@@ -102,6 +108,26 @@ QUANTITIES = {
                               "sensitivity of the reference accelerometer (shaker)"),
     "reference_phase": (("angle",), "deg", "phase of the reference accelerometer (shaker)"),
     "frequency": (("frequency", "relative"), "Hz", "frequency of the excitation"),
+    "daq_gain_mismatch": (("relative",), "ppm",
+                          ("gain of the DUT's DAQ channel relative to the reference's, beyond "
+                          "the correction the record states")),
+    "daq_delay_mismatch": (("time",), "ns",
+                           ("delay of the DUT's DAQ channel behind the reference's, beyond the "
+                           "correction the record states")),
+    "transverse_motion": (("relative",), "%",
+                          ("the shaker's transverse acceleration along the DUT's most sensitive "
+                          "transverse axis, of the axial (each quadrature component)")),
+    "transverse_sensitivity": (("relative",), "%", "the DUT's largest transverse sensitivity"),
+    "distortion": (("relative",), "%",
+                   ("harmonic distortion of the shaker's motion (each of the 2nd and 3rd "
+                   "harmonics, of the fundamental)")),
+    "relative_motion": (("relative",), "%",
+                        ("motion of the DUT relative to the reference's, of the axial (each "
+                        "quadrature component)")),
+    "sensitivity_tc": (("relative/temperature",), "ppm/degC",
+                       "temperature coefficient of the DUT's sensitivity"),
+    "coil_constant": (("coil constant", "relative"), "mT/A",
+                      "field per ampere of the Helmholtz coils (the applied field's scale)"),
 }
 """The vocabulary of input quantities: ``name -> (dimensions, usual unit, meaning)``."""
 

@@ -81,6 +81,11 @@ def _table(b) -> str:
                      f"[{_cell(c.gum_low, 7)}, {_cell(c.gum_high, 7)}]; d_low = "
                      f"{_cell(c.d_low, 2)}, d_high = {_cell(c.d_high, 2)}, delta = "
                      f"{_cell(c.delta, 2)}: GUM {verdict} (JCGM 101 sec. 8)")
+        if c.s_low is not None:
+            lines.append(f"Monte Carlo endpoints' numerical standard deviations {_cell(c.s_low, 2)}"
+                         f", {_cell(c.s_high, 2)} {unit}: "
+                         + ("stable at the tolerance (JCGM 101 7.9)" if c.stabilised else
+                            "NOT stable at the tolerance: give more --trials (JCGM 101 7.9)"))
     lines += [f"note: {n}" for n in b.notes]
     return buf.getvalue() + "\n".join(lines) + "\n\n"
 

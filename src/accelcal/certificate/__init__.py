@@ -5,6 +5,8 @@ content (:mod:`accelcal.certificate.content`: ISO/IEC 17025 7.8), and
 writes it as HTML, and on request as PDF (:mod:`.render`), as JSON (the
 machine-readable certificate, ``schema/certificate.schema.json``) and as
 XML in the structure of PTB's Digital Calibration Certificate (:mod:`.dcc`).
+A frequency response's points and fitted model are
+:mod:`accelcal.certificate.response`'s.
 docs/certificate.md shows the use and the content map.
 """
 
@@ -49,7 +51,7 @@ def to_json(document: dict) -> str:
 def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, xml=None,
           spec_path=None, rule: str | None = None, number: str | None = None,
           item: Item | None = None, allow_expired: bool = False, keep_budgets: bool = False,
-          country: str = "", search=(), budgets=None) -> Issued:
+          country: str = "", search=(), budgets=None, phase_at=()) -> Issued:
     """Issue a certificate: read, check, build, then write every file asked for.
 
     Parameters
@@ -83,6 +85,9 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         The budgets of each record (a list of :meth:`Budget.as_dict` per
         record, or None), when the caller has them: the records are then not
         reduced again for them.
+    phase_at : sequence of float
+        Frequencies (Hz) of a fitted frequency response's phase and group
+        delay (default: the reference frequency of the serial's response).
     keep_budgets : bool
         Write the budgets, the lab file's hash and the standards used into
         each record file (atomically), so that the records (and a store that
@@ -124,7 +129,8 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         fresh[i] = made_i
     document = build(records, lab, issued=issued, number=number, item=item or Item(), spec=spec,
                      rule=rule, allow_expired=allow_expired,
-                     software=f"accelcal {__version__}", country=country, budgets=fresh)
+                     software=f"accelcal {__version__}", country=country, budgets=fresh,
+                     phase_at=phase_at)
     html = render_html(document)
     written = []
     if pdf is not None:

@@ -99,6 +99,10 @@ def typea_budgets(record) -> list[dict]:
     """
     from accelcal.budget.gum import Input, combine
 
+    if record.is_complex:
+        from accelcal.certificate.response import typea_budgets as response_budgets
+
+        return response_budgets(record)
     dof = math.inf if record.dof is None else float(record.dof)
     out = []
     for name, value, std in zip(record.names, record.estimates, record.std, strict=True):
@@ -239,23 +243,69 @@ def _scale_factor(record):
     return float(record.model.K1) if record.model is not None else None
 
 
-def _inputs_of(records) -> set[str]:
-    """The lab inputs the records' methods' measurement models take (their descriptors')."""
-    from accelcal.catalog import METHODS
+def _inputs_in(records, stated) -> set[str]:
+    """The lab inputs whose due dates a certificate checks.
 
-    families = {r.method.partition("/")[0] for r in records}
-    return {q for m in METHODS if m.family in families for q in m.budget_inputs}
+    Every input of each record's measurement model (its test's own, for a
+    family whose tests differ: :func:`accelcal.budget.model_inputs`), and
+    every lab input that enters the stated budgets.
+    """
+    from types import SimpleNamespace
+
+    from accelcal.budget import model_inputs
+
+    taken = {q for r in records for q in model_inputs(SimpleNamespace(
+        family=r.method.partition("/")[0], method=r.method, provenance={}, observations={}))}
+    return taken | {row["quantity"] for budgets_of in stated for b in budgets_of
+                    for row in b["rows"] if row.get("source") == "lab"}
 
 
 def _method(record) -> dict:
     from accelcal.catalog import METHODS
+    from accelcal.certificate import response
 
     family = record.method.partition("/")[0]
     for m in METHODS:
         if m.family == family:
+            if response.is_response(record) and record.method in response.ROUTES:
+                route, paper = response.ROUTES[record.method]
+                return {"id": record.method, "title": f"{m.title}, {route}",
+                        "standard": {**STANDARDS, **response.STANDARDS}[paper]}
             return {"id": record.method, "title": m.title,
                     "standard": STANDARDS.get(m.paper, m.paper)}
     return {"id": record.method, "title": record.method, "standard": ""}
+
+
+def _response(page, rec, budgets_of, lab, *, spec, rule, phase_at) -> list[dict]:
+    """Put a frequency-response record on its page; the budgets it adds to the annex.
+
+    A complex record's points go to ``page["response"]`` (with a statement
+    of conformity per point a magnitude band limits); a model fit's
+    phases and group delays to ``page["response_models"]``
+    (:mod:`accelcal.certificate.response`).
+    """
+    from accelcal.certificate import response
+    from accelcal.methods.response.stepped import REFERENCE_FREQUENCY
+
+    if rec.is_complex:
+        c = response.curve(rec, budgets_of)
+        if not c["points"]:
+            raise AccelcalError(f"record of {rec.serial} ({rec.method}): no budget of any "
+                                "point's magnitude and phase; issue it again without its kept "
+                                "budgets", parameter="records")
+        for point in c["points"]:
+            point["conformity"] = (None if spec is None else response.conformity(
+                spec, rule, point, serial=rec.serial, method=rec.method,
+                statements=STATEMENTS))
+        page.setdefault("response", []).append(c)
+        return []
+    if rec.method != response.FIT:
+        return []
+    at = list(phase_at) or list(dict.fromkeys(
+        c["reference_frequency_hz"] for c in page.get("response", ()))) or [REFERENCE_FREQUENCY]
+    fitted, made = response.model(rec, lab, at)
+    page.setdefault("response_models", []).append(fitted)
+    return [{**b, "serial": rec.serial, "method": rec.method} for b in made]
 
 
 def _conformity(spec, rule, result, serial, method):
@@ -311,7 +361,7 @@ def _date(text: str) -> str:
 
 def build(records, lab, *, issued: str, number: str | None = None, item: Item | None = None,
           spec=None, rule: str | None = None, allow_expired: bool = False,
-          software: str = "", country: str = "", budgets=None) -> dict:
+          software: str = "", country: str = "", budgets=None, phase_at=()) -> dict:
     """The certificate document (``schema/certificate.schema.json``).
 
     Parameters
@@ -329,10 +379,11 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
         With it, a statement of conformity per limited result by ``rule``
         (default the spec's).
     allow_expired : bool
-        Issue even when a standard that the records' methods take as an
-        input (:attr:`accelcal.catalog.Method.budget_inputs`) was past its
-        due date on a calibration date (the certificate says so); otherwise
-        refuse. The lab's other standards do not stop a certificate.
+        Issue even when a standard that enters the records' budgets (a
+        row of the lab's) was past its due date on a calibration date (the
+        certificate says so); otherwise refuse. The lab's other standards,
+        those of other methods or of a family's other tests, do not stop a
+        certificate.
     software : str
         ``"accelcal <version>"``.
     country : str
@@ -340,11 +391,15 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
     budgets : list, optional
         Fresh budgets of each record (:func:`engine_budgets`), used where a
         record kept none for this lab file (:func:`record_budgets`).
+    phase_at : sequence of float
+        Frequencies (Hz) of a fitted frequency-response model's phase and
+        group delay (default: the reference frequency of the serial's
+        measured response, else 80 Hz; :mod:`accelcal.certificate.response`).
 
     Raises
     ------
     AccelcalError
-        No records, a complex record, a bad date or an expired standard.
+        No records, a bad date or an expired standard.
     """
     if not records:
         raise AccelcalError("a certificate needs at least one calibration record")
@@ -354,10 +409,10 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
     if number is not None and not _NUMBER.fullmatch(number):
         raise AccelcalError(f"certificate number {number!r}: use 1 to 64 letters, digits and "
                             "the signs - _ . /", parameter="number")
-    for r in records:
-        if r.is_complex:
-            raise AccelcalError(f"record of {r.serial} ({r.method}) holds complex coefficients; "
-                                "certificates of frequency responses are not supported yet")
+    bad = [f for f in phase_at if not (isinstance(f, int | float) and 0 < f <= 1e9)]
+    if bad:
+        raise AccelcalError(f"--phase-at: frequencies must be above 0 and up to 1e9 Hz, got "
+                            f"{bad[0]!r}", parameter="phase_at")
     try:
         issued = _dt.date.fromisoformat(issued).isoformat()
     except (TypeError, ValueError):
@@ -378,7 +433,12 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
     if item.received and item.received > dates[0].isoformat():
         raise AccelcalError(f"date of receipt {item.received} is after the calibration of "
                             f"{dates[0].isoformat()}", parameter="received")
-    inputs = _inputs_of(records)
+    rule = (rule or spec.decision_rule) if spec is not None else None
+    from accelcal.certificate import response
+
+    all_budgets, serials = [], {}
+    stated = record_budgets(records, lab, budgets)
+    inputs = _inputs_in(records, stated)
     expired = [s for s in lab.expired(used_on) if s.quantity in inputs]
     if expired and not allow_expired:
         names = ", ".join(f"{s.quantity} (certificate {s.certificate or '?'}, due {s.due})"
@@ -387,15 +447,12 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
                             f"{used_on.isoformat()}: {names}; recalibrate them, or give "
                             "--allow-expired to issue a certificate that says so",
                             parameter="lab")
-    rule = (rule or spec.decision_rule) if spec is not None else None
-    all_budgets, serials = [], {}
-    stated = record_budgets(records, lab, budgets)
     for rec, budgets_of in sorted(zip(records, stated, strict=True),
                                   key=lambda p: (p[0].serial, p[0].method, p[0].date)):
         by_name = {b["coefficient"]: b for b in budgets_of}
         k1 = _scale_factor(rec)
         results = []
-        for name in rec.names:
+        for name in ([] if rec.is_complex else rec.names):
             if name in by_name:
                 res = _result(rec, name, by_name[name], k1)
                 res["conformity"] = (None if spec is None
@@ -415,6 +472,9 @@ def build(records, lab, *, issued: str, number: str | None = None, item: Item | 
             page["operators"].append(rec.operator)
         page["simulated"] = page["simulated"] or rec.simulated
         page["results"] += results
+        if response.is_response(rec):
+            all_budgets += _response(page, rec, budgets_of, lab, spec=spec, rule=rule,
+                                     phase_at=phase_at)
         page["records"].append({"method": rec.method, "date": rec.date,
                                 "sha256": record_digest(rec)})
     for page in serials.values():

@@ -1,6 +1,8 @@
 """The certificate laid out for people: HTML (jinja2, autoescaped) and PDF (WeasyPrint).
 
-The HTML has one page of results per serial number, then one annex page of
+The HTML has one page of results per serial number (a frequency
+response's table per frequency, its model's phases and its Bode figure,
+:mod:`accelcal.certificate.figure`, among them), then one annex page of
 budgets per serial number; each page carries a footer ``Page x of y``. In
 print, and so in the PDF, those footers give way to the CSS paged-media
 counters (``@page { @bottom-center { content: "Page " counter(page) " of "
@@ -108,13 +110,59 @@ def _conditions(c: dict) -> str:
     return "; ".join(parts) or "not stated"
 
 
+def _point_view(p: dict) -> dict:
+    """One row of a frequency response's table (magnitude, deviation, phase with U and k)."""
+    dev = p["deviation_u"]
+    return {"f": f"{p['frequency_hz']:g}" + (f" ({p['amplitude_g']:g} g)"
+                                              if p["amplitude_g"] is not None else ""),
+            "magnitude": format_value(p["magnitude"], p["magnitude_u"] or None),
+            "magnitude_U": format_std(p["magnitude_U"]), "magnitude_k": _k(p["magnitude_k"]),
+            "deviation": format_value(p["deviation_pct"], dev or None),
+            "deviation_U": "" if dev is None else (format_std(p["deviation_U"])
+                                                   if p["deviation_U"] else "0"),
+            "deviation_db": f"{p['deviation_db']:.3f}",
+            "phase": format_value(p["phase_deg"], p["phase_u"] or None),
+            "phase_U": format_std(p["phase_U"]), "phase_k": _k(p["phase_k"])}
+
+
+def _response_view(item: dict) -> dict | None:
+    """A serial's frequency responses: tables, the model's phases, the Bode figure (or None)."""
+    curves, models = item.get("response", []), item.get("response_models", [])
+    if not curves and not models:
+        return None
+    from accelcal.certificate.figure import bode_uri
+
+    return {
+        "curves": [{"route": c["route"], "method": c["method"],
+                    "unit": format_unit(c["unit"]),
+                    "reference": f"{c['reference_frequency_hz']:g}",
+                    "rows": [_point_view(p) for p in c["points"]]} for c in curves],
+        "models": [{"model": m["model"], "method": m["method"],
+                    "rows": [{"f": f"{a['frequency_hz']:g}",
+                              "phase": format_value(a["phase_deg"], a["phase_u"] or None),
+                              "phase_U": format_std(a["phase_U"]), "phase_k": _k(a["phase_k"]),
+                              "delay": format_value(1e3 * a["group_delay_s"],
+                                                    1e3 * a["group_delay_u"] or None),
+                              "delay_U": format_std(1e3 * a["group_delay_U"]),
+                              "delay_k": _k(a["group_delay_k"])} for a in m["at"]]}
+                   for m in models],
+        "bode": bode_uri(curves, models),
+    }
+
+
 def pages(c: dict) -> list[dict]:
     """The pages of the certificate: results per serial, then the budgets per serial."""
-    out = [{"kind": "results", "item": item,
-            "results": [_result_view(r) for r in item["results"]],
-            "conformity": [_conformity_view(r["conformity"]) for r in item["results"]
-                           if r["conformity"] is not None]}
-           for item in c["items"]]
+    out = []
+    for item in c["items"]:
+        page = {"kind": "results", "item": item,
+                "results": [_result_view(r) for r in item["results"]],
+                "conformity": [_conformity_view(r["conformity"]) for r in item["results"]
+                               if r["conformity"] is not None],
+                "response": _response_view(item)}
+        page["conformity"] += [_conformity_view(p["conformity"])
+                               for curve in item.get("response", []) for p in curve["points"]
+                               if p["conformity"] is not None]
+        out.append(page)
     for item in c["items"]:
         budgets = [_budget_view(b) for b in c["budgets"] if b["serial"] == item["serial"]]
         if budgets:

@@ -5,6 +5,7 @@ from pathlib import Path
 import typer
 
 from accelcal.cli.common import check_format, check_writable, emit
+from accelcal.cli.input_options import GAPS, MAX_FILL, print_reduction_repairs
 from accelcal.errors import AccelcalError
 
 app = typer.Typer(
@@ -186,6 +187,7 @@ def reduce(
                                     "line is fitted to, g (default a third of the ladder)."),
     spec: Path | None = typer.Option(None, "--spec", help=_SPEC_HELP),
     decision_rule: str | None = typer.Option(None, "--decision-rule", help=_RULE_HELP),
+    gaps: str = GAPS, max_fill: int = MAX_FILL,
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
     plot: Path | None = typer.Option(None, "--plot", help="Directory for the figures."),
 ) -> None:
@@ -193,6 +195,7 @@ def reduce(
     import math
 
     from accelcal.io.formats import acceptance as steps_format
+    from accelcal.io.recordings.repairs import with_repairs
     from accelcal.methods import acceptance
 
     check_format(fmt)
@@ -202,9 +205,11 @@ def reduce(
         if value is not None and not (math.isfinite(value) and value > 0):
             raise AccelcalError(f"{option} {value:g} must be a finite number above 0")
     specification = _load_spec(spec, decision_rule)
-    record = steps_format.read(file)
-    red = acceptance.reduce(record, test=test, settle=settle, max_error=max_error,
-                            limit=limit * 1e-6, linear_span=linear_span)
+    record = steps_format.read(file, gaps=gaps, max_fill=max_fill)
+    red = with_repairs(acceptance.reduce(record, test=test, settle=settle, max_error=max_error,
+                                         limit=limit * 1e-6, linear_span=linear_span),
+                       record.metadata.get("repairs"))
+    print_reduction_repairs(red)
     if plot is not None:
         for p in red.plot(plot):
             typer.echo(f"wrote {p}", err=True)

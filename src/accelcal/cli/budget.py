@@ -13,6 +13,7 @@ import typer
 from accelcal.errors import AccelcalError
 
 CHECKS = ("mc",)
+MC_MODELS = ("reduction", "linear")
 
 
 def budget(
@@ -33,11 +34,31 @@ def budget(
         None, "--check", help="mc: validate each budget by Monte Carlo propagation of its "
         "input distributions (JCGM 101): both 95.45 % intervals and whether the GUM one is "
         "validated at the numerical tolerance."),
-    trials: int = typer.Option(1_000_000, "--trials", help="Monte Carlo trials for --check mc."),
-    seed: int = typer.Option(1, "--seed", help="Seed of the Monte Carlo for --check mc."),
+    mc_model: str = typer.Option(
+        "reduction", "--mc-model", help="Model of --check mc: reduction (every trial draws "
+        "every input and runs the method's reduction again; default) or linear (the budget's "
+        "linearised model, y0 + sum c_i dx_i: vectorised)."),
+    trials: int | None = typer.Option(
+        None, "--trials", help="Monte Carlo trials for --check mc. Default: with --mc-model "
+        "reduction the adaptive procedure of JCGM 101 7.9 (batches of 10^4 until the results "
+        "are stable at the numerical tolerance, at most 5 10^4 reductions); with linear 10^6."),
+    seed: int = typer.Option(1, "--seed", help="Seed of the Monte Carlo for --check mc (the "
+                             "result does not depend on --workers)."),
+    workers: int | None = typer.Option(
+        None, "--workers", help="Run --mc-model reduction on a local Dask cluster of this "
+        "many worker processes (needs the dask extra of accelcal)."),
+    scheduler: str | None = typer.Option(
+        None, "--scheduler", help="Run --mc-model reduction on an existing Dask scheduler, "
+        "e.g. tcp://host:8786."),
+    timeout: float = typer.Option(
+        10.0, "--timeout", help="Seconds to wait for --scheduler to answer before giving up, s."),
+    force: bool = typer.Option(
+        False, "--force", help="Run a --mc-model reduction check estimated to take more than "
+        "10 minutes (a few reductions are timed; refused otherwise, with the estimate)."),
     coefficient: str | None = typer.Option(
         None, "--coefficient", help="Only this coefficient (as the reduction names it, e.g. "
-        "K1, K_I, K0+Kpp)."),
+        "K1, K_I, K0+Kpp; a frequency response's point, S(80 Hz), gives its magnitude and "
+        "phase budgets, 'S(80 Hz) phase' the one)."),
     data: list[Path] = typer.Option(
         [], "--data", help="A directory holding the records' input files (also searched two "
         "levels deep). Repeatable."),
@@ -60,10 +81,21 @@ def budget(
     check_format(fmt)
     if check is not None and check not in CHECKS:
         raise AccelcalError(f"--check {check!r} is not one of {', '.join(CHECKS)}")
-    if (trials != 1_000_000 or seed != 1) and check is None:
-        raise AccelcalError("--trials and --seed go with --check mc")
-    if trials < 1000:
-        raise AccelcalError(f"--trials {trials}: give at least 1000 trials")
+    from accelcal.montecarlo import check_parallel
+
+    check_parallel(workers, scheduler, timeout)
+    if check is None and (trials is not None or seed != 1 or mc_model != "reduction"
+                          or workers is not None or scheduler is not None or force):
+        raise AccelcalError("--trials, --seed, --mc-model, --workers, --scheduler and --force "
+                            "go with --check mc")
+    if mc_model not in MC_MODELS:
+        raise AccelcalError(f"--mc-model {mc_model!r} is not one of {', '.join(MC_MODELS)}")
+    least = 1000 if mc_model == "linear" else 100
+    if trials is not None and trials < least:
+        raise AccelcalError(f"--trials {trials}: give at least {least} trials")
+    if mc_model == "linear" and (workers is not None or scheduler is not None or force):
+        raise AccelcalError("--workers, --scheduler and --force go with --mc-model reduction "
+                            "(the linearised model is vectorised)")
     for d in data:
         if not d.is_dir():
             from accelcal.validation import shown_path
@@ -80,28 +112,46 @@ def budget(
         from accelcal.budget.lab import load_lab
 
         the_lab = load_lab(lab)
-    from accelcal.budget import budgets
+    from accelcal.budget import model_inputs
     from accelcal.budget.render import render_budgets
     from accelcal.report.budgets import gather
 
+    options = {"model": mc_model, "trials": trials, "seed": seed}
+    if mc_model == "reduction":
+        options.update(workers=workers, scheduler=scheduler, timeout=timeout, force=force)
     out, warned = [], set()
     for reduction, inputs, sensors, method in gather(records, data):
         if the_lab is not None:
-            _check_due(the_lab, method, allow_expired, warned)
-            _warn_missing(method, the_lab)
-        found = budgets(reduction, the_lab, records=inputs, model=model,
-                        check={"trials": trials, "seed": seed} if check else None)
+            quantities = model_inputs(reduction)
+            _check_due(the_lab, quantities, allow_expired, warned)
+            _warn_missing(method.name if method is not None and quantities == method.budget_inputs
+                          else reduction.method, quantities, the_lab)
+        found = _budgets(reduction, the_lab, inputs, model, options if check else None)
         out += [b for b in found if (sensors is None or b.sensor in sensors)
-                and (coefficient is None or coefficient in (b.coefficient,))]
+                and (coefficient is None or coefficient in (
+                    b.coefficient, b.coefficient.removesuffix(" magnitude").removesuffix(
+                        " phase")))]
     if coefficient is not None and not out:
         raise AccelcalError(f"--coefficient {coefficient!r}: no reported coefficient of that "
                             "name")
     sys.stdout.write(render_budgets(out, fmt))
 
 
-def _check_due(lab, method, allow_expired: bool, warned: set) -> None:
-    """Refuse the method's inputs past their due date, or warn once when they are allowed."""
-    inputs = method.budget_inputs if method is not None else ()
+def _budgets(reduction, lab, inputs, model, options):
+    """The budgets of one reduction, a full-model check with a progress bar."""
+    from accelcal.budget import budgets
+
+    if options is None or options["model"] == "linear":
+        return budgets(reduction, lab, records=inputs, model=model, check=options)
+    from accelcal.cli.progress import DelayedProgress
+
+    with DelayedProgress("Monte Carlo of the full model") as progress:
+        return budgets(reduction, lab, records=inputs, model=model,
+                       check={**options, "progress": progress})
+
+
+def _check_due(lab, inputs, allow_expired: bool, warned: set) -> None:
+    """Refuse the model's inputs past their due date, or warn once when they are allowed."""
     if not allow_expired:
         lab.check_due(quantities=inputs)
         return
@@ -112,10 +162,9 @@ def _check_due(lab, method, allow_expired: bool, warned: set) -> None:
             f"{s.quantity} (due {s.due})" for s in late), err=True)
 
 
-def _warn_missing(method, lab) -> None:
-    if method is None:
-        return
-    missing = [q for q in method.budget_inputs if q not in lab.standards]
+def _warn_missing(model: str, inputs, lab) -> None:
+    """Warn of the ``model``'s inputs the lab file does not declare."""
+    missing = [q for q in inputs if q not in lab.standards]
     if missing:
         typer.echo(f"warning: {lab.path.name} declares no {', '.join(missing)} (inputs of the "
-                   f"{method.name} model); they are not in the budget", err=True)
+                   f"{model} model); they are not in the budget", err=True)

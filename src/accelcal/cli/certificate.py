@@ -21,7 +21,7 @@ def certificate(
         "accelcal/certificate/schema/certificate.schema.json)."),
     xml: Path | None = typer.Option(
         None, "--xml", help="Also write it as XML in the structure of PTB's Digital "
-        "Calibration Certificate (DCC 3.2)."),
+        "Calibration Certificate (DCC 3.3)."),
     spec: Path | None = typer.Option(
         None, "--spec", help="Specification file (TOML) with tolerance limits: adds a "
         "statement of conformity per limited result."),
@@ -47,6 +47,9 @@ def certificate(
         [], "--data", help="A directory holding the records' input files (found by name and "
         "SHA-256, also two levels deep), for the budgets' inputs that enter through the data. "
         "Repeatable."),
+    phase_at: str = typer.Option(
+        "", "--phase-at", help="Frequencies, Hz (list), of a fitted frequency response's "
+        "phase and group delay; default the measured response's reference frequency."),
     keep_budgets: bool = typer.Option(
         False, "--keep-budgets", help="Write the budgets, the lab file's SHA-256 and the "
         "standards used into each record file, so the records (and the store) keep them and "
@@ -59,18 +62,23 @@ def certificate(
     µg/g²) with their expanded uncertainty U, k and the coverage probability,
     the standards' certificates and due dates, the statement of conformity
     (with --spec) and the signatory, with the uncertainty budgets as an annex.
+    A frequency response (accelcal response reduce/fit --record) gets its
+    magnitude, deviation and phase per frequency with U and k, the fitted
+    model's phase and group delay (--phase-at) and a Bode figure.
     A standard past its due date refuses the certificate unless
     --allow-expired. Every input is checked before anything is written.
     """
     import datetime as dt
 
     from accelcal.certificate import Item, issue
+    from accelcal.cli.common import parse_grid
 
     result = issue(records, lab, out=out, pdf=pdf, json_out=json_out, xml=xml, spec_path=spec,
                    rule=decision_rule, number=number,
                    issued=issued or dt.datetime.now(dt.UTC).date().isoformat(),
                    item=Item(make, model, received), allow_expired=allow_expired,
-                   keep_budgets=keep_budgets, country=country, search=data)
+                   keep_budgets=keep_budgets, country=country, search=data,
+                   phase_at=parse_grid(phase_at, "--phase-at") if phase_at else ())
     doc = result.document
     typer.echo(f"certificate {doc['number']} issued {doc['issued']}: "
                f"{', '.join(i['serial'] for i in doc['items'])}")
@@ -78,7 +86,8 @@ def certificate(
         typer.echo(f"warning: issued with expired standard(s): "
                    f"{', '.join(doc['expired_standards'])}", err=True)
     for item in doc["items"]:
-        for r in item["results"]:
+        stated = item["results"] + [p for c in item.get("response", ()) for p in c["points"]]
+        for r in stated:
             if r["conformity"] is not None:
                 typer.echo(f"{item['serial']} {statement(r['conformity'])}")
     for path in result.files:

@@ -252,6 +252,9 @@ def _csv_cell(value) -> str:
 
 _STD_OF = {"estimate": "std", "eng_estimate": "eng_std"}
 _ENGINEERING_COLUMNS = ("eng_estimate", "eng_std", "eng_unit")
+_STD_COLUMNS = ("std", "eng_std", "type_a", "type_b")
+"""Columns of standard uncertainties (or their Type A and Type B parts): two significant
+digits in a table."""
 
 
 def _json_value(value):
@@ -273,7 +276,7 @@ def _table_cell(value, std=None, column: str = "") -> str:
     if column in ("unit", "eng_unit") and isinstance(value, str):
         return format_unit(value)
     if isinstance(value, float):
-        if column in ("std", "eng_std") and math.isfinite(value) and value > 0:
+        if column in _STD_COLUMNS and math.isfinite(value) and value > 0:
             return format_std(value)
         std = _plain(std)
         if isinstance(std, float) and std > 0:

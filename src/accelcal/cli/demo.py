@@ -50,7 +50,8 @@ def _help() -> str:
             f"report.\n\nThe tests, in order: {tests}. It writes the input files, the "
             "calibration records, the store and a self-contained HTML report, then a lab file, "
             "the uncertainty budget of one result and a calibration certificate of the "
-            "indexing-head sensors (HTML, JSON, and PDF where WeasyPrint is installed). Each run "
+            "indexing-head sensors and the frequency response (HTML, JSON, and PDF where "
+            "WeasyPrint is installed). Each run "
             "is dated, so running it again adds new records and the report shows the history.")
 
 

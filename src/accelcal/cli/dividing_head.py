@@ -7,6 +7,7 @@ import typer
 
 from accelcal.cli import record_options, uncertainty_options
 from accelcal.cli.common import check_format, emit, parse_grid, parse_number
+from accelcal.cli.input_options import GAPS, MAX_FILL, print_reduction_repairs
 from accelcal.errors import AccelcalError
 from accelcal.validation import shown, shown_name
 
@@ -263,6 +264,7 @@ def reduce_cmd(
              "accelerometer's magnitude, rectangular), propagated as Type B; none (state only "
              "how much each would move each row).",
     ),
+    gaps: str = GAPS, max_fill: int = MAX_FILL,
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
     plot: Path | None = typer.Option(
         None, "--plot", help="Directory for figures (residuals, separated head error; PNG+SVG)."
@@ -284,6 +286,7 @@ def reduce_cmd(
 ) -> None:
     """Reduce a record: estimate and standard uncertainty of each coefficient (volts)."""
     from accelcal.io.formats.dividing_head import read_head_record
+    from accelcal.io.recordings.repairs import with_repairs
     from accelcal.methods.dividing_head import HeadData, lab_options, reduce
 
     check_format(fmt)
@@ -292,7 +295,7 @@ def reduce_cmd(
         angle_error_level, "--angle-error-level", "arcsec")
     if angle_error_level is not None and not monte_carlo:
         raise AccelcalError("--angle-error-level is a bound used with --uncertainty mc")
-    record = read_head_record(file)
+    record = read_head_record(file, gaps=gaps, max_fill=max_fill)
     data = HeadData.from_record(record)
     info = record_options.lab_info_for(record_out, [file], serial=serial, operator=operator,
                                        sensors=len(record.sensors))
@@ -305,7 +308,8 @@ def reduce_cmd(
         first_harmonic=None if first_harmonic is None else _pair(first_harmonic,
                                                                  "--first-harmonic"),
         first_harmonic_sd=first_harmonic_sd)
-    result = reduce(data, method, priors=priors, **options)
+    result = with_repairs(reduce(data, method, priors=priors, **options), record.repairs)
+    print_reduction_repairs(result)
     rows = result.rows()
     if monte_carlo:
         from accelcal.methods.dividing_head import head_uncertainty

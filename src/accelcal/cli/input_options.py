@@ -67,7 +67,9 @@ RAILS = typer.Option(
     None, "--rails",
     help="The clipping levels LOW,HIGH (in --unit, after --scale; e.g. the ADC's range): "
          "runs of 3 or more samples at or beyond one are clipped: refused, or left out "
-         "with --gaps split.")
+         "with --gaps split. triad: left out of the static intervals and the fit; there "
+         "the default is auto (runs of 10 or more identical samples at a channel's "
+         "extreme), none to look for no clipping.")
 
 
 def input_options(*, input_format: str = "auto", columns: str | None = None,
@@ -102,6 +104,17 @@ def input_options(*, input_format: str = "auto", columns: str | None = None,
                         rails=None if rails is None else parse_rails(rails))
 
 
+def repair_options(gaps: str = "refuse", max_fill: int = 5, sort: bool = False,
+                   jitter_tol: float | None = None, resample: bool = False) -> dict:
+    """The values of :data:`GAPS` to :data:`RESAMPLE` as :class:`InputOptions` keywords.
+
+    Every command that reads a recording declares those options and passes
+    their values through here (a record's reader takes ``gaps`` and ``max_fill``).
+    """
+    return {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
+            "resample": resample}
+
+
 def parse_rails(text: str):
     """``LOW,HIGH`` as two numbers (checked by InputOptions)."""
     from accelcal.errors import AccelcalError
@@ -113,9 +126,30 @@ def parse_rails(text: str):
                             parameter="rails") from None
 
 
+def static_rails(text: str | None):
+    """``--rails`` of a command that leaves clipped samples out (triad).
+
+    ``"auto"`` when not given or ``auto``, None for ``none``, else ``LOW,HIGH``.
+    """
+    if text is None or text.strip().lower() == "auto":
+        return "auto"
+    if text.strip().lower() == "none":
+        return None
+    return parse_rails(text)
+
+
 def print_repairs(repairs) -> None:
     """Print what was found in a recording and done about it, as ``note:`` lines."""
     import sys
 
     for line in repairs.notes():
         print(line, file=sys.stderr)
+
+
+def print_reduction_repairs(reduction) -> None:
+    """Print the repairs of the record a reduction read (its provenance's), as notes."""
+    from accelcal.io.recordings.repairs import Repairs
+
+    found = (reduction.provenance or {}).get("repairs")
+    if found:
+        print_repairs(Repairs.from_dict(found))

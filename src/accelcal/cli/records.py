@@ -116,6 +116,45 @@ def history(  # noqa: PLR0917 - one parameter per command-line option
         typer.echo("wrote " + ", ".join(map(str, paths)), err=True)
 
 
+@app.command("show")
+def show(
+    record: str = typer.Argument(
+        ..., help="A record's id in the store (as 'records list' shows it) or a calibration "
+                  "record file (JSON)."),
+    db: str | None = typer.Option(None, "--db", help=_DB_HELP),
+    fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
+) -> None:
+    """One calibration record's coefficients, each uncertainty with its Type A and Type B parts.
+
+    std is the standard uncertainty; type_b the part the priors of the terms
+    the reduction takes as zero contribute (null, n/a in the table, where
+    the record states none), type_a = sqrt(std^2 - type_b^2) the part from the data; expanded
+    is k std with the record's coverage factor k. A complex coefficient is
+    shown by its magnitude.
+    """
+    from accelcal.errors import AccelcalError
+    from accelcal.io.calibration_record import CalibrationRecord
+
+    if record.isdigit() and not Path(record).exists():
+        if not 0 < int(record) < 2**63:  # the store's ids (SQL integers)
+            raise AccelcalError(f"no record with id {record[:30]} in the store")
+        with _store(db, readonly=True) as store:
+            rec = store.record(int(record))
+    else:
+        rec = CalibrationRecord.load(Path(record))
+    emit(record_rows(rec), fmt,
+         title=f"{rec.serial}, {rec.method}, {rec.date} (k = {rec.coverage_factor:.3g})")
+
+
+def record_rows(rec) -> list[dict]:
+    """The rows ``records show`` prints of a record: one per coefficient."""
+    est = rec.polar().magnitude if rec.is_complex else rec.estimates
+    return [{"coefficient": n, "estimate": float(v), "std": float(s), "type_a": float(a),
+             "type_b": rec.type_b.get(n), "expanded": float(u), "unit": rec.units.get(n, "")}
+            for n, v, s, a, u in zip(rec.names, est, rec.std, rec.type_a_std, rec.expanded,
+                                     strict=True)]
+
+
 @app.command("stats")
 def stats(
     serial: str = typer.Argument(..., help="Serial number."),

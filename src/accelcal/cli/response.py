@@ -18,7 +18,9 @@ from pathlib import Path
 
 import typer
 
+from accelcal.cli import record_options
 from accelcal.cli.common import check_format, check_writable, emit, parse_grid
+from accelcal.cli.input_options import GAPS, MAX_FILL, print_reduction_repairs
 
 app = typer.Typer(
     help="Frequency response of an accelerometer: by comparison with a reference on a shaker "
@@ -34,6 +36,28 @@ _REFERENCE = typer.Option(
          "(magnitude in V/g, phase in deg); default: the one each record states.")
 _FORMAT = typer.Option("table", "--format", help="table, csv or json.")
 _PLOT = typer.Option(None, "--plot", help="Directory for the Bode figure.")
+_RECORD = typer.Option(
+    None, "--record", help="Write the calibration record (JSON) of the result, for "
+    "accelcal certificate, report, budget and the store; the serial number from the records' "
+    "metadata or --serial.")
+
+
+def _lab_info(record_out, files, serial, operator):
+    """The laboratory metadata of ``--record`` (checked before any reduction; None without)."""
+    return record_options.lab_info_for(record_out, [Path(f) for f in files], serial=serial,
+                                       operator=operator)
+
+
+def _save(result, info, record_out, files) -> None:
+    if info is None:
+        return
+    import sys
+
+    from accelcal.calibration import save_records
+
+    for p in save_records(result.to_records(info, input_files=[Path(f) for f in files]),
+                          record_out):
+        print(f"wrote {p}", file=sys.stderr)
 
 
 @app.command("simulate")
@@ -141,8 +165,10 @@ def simulate(
 def _reduced(files, reference, reference_frequency, **options):
     from accelcal.methods.response import reduce as reduce_response
 
-    return reduce_response([Path(f) for f in files], reference=reference,
-                           reference_frequency=reference_frequency, **options)
+    red = reduce_response([Path(f) for f in files], reference=reference,
+                          reference_frequency=reference_frequency, **options)
+    print_reduction_repairs(red)
+    return red
 
 
 def _plot(reduction, plot: Path | None, **context) -> None:
@@ -182,8 +208,12 @@ def reduce(
         None, "--static-scale-factor",
         help="Gravity: the static scale factor and its standard uncertainty (value,u, "
              "output unit per g, e.g. a tumble's K1) to tie the lowest rate to."),
+    gaps: str = GAPS, max_fill: int = MAX_FILL,
     fmt: str = _FORMAT,
     plot: Path | None = _PLOT,
+    record_out: Path | None = _RECORD,
+    serial: str | None = record_options.SERIAL,
+    operator: str | None = record_options.OPERATOR,
 ) -> None:
     """Magnitude and phase of the DUT's sensitivity per step or bin, with uncertainties.
 
@@ -199,9 +229,12 @@ def reduce(
         tie = parse_grid(static_scale_factor, "--static-scale-factor")
         if len(tie) != 2:
             raise AccelcalError("--static-scale-factor: give value,u")
+    info = _lab_info(record_out, files, serial, operator)
     red = _reduced(files, reference, reference_frequency, method=method, segment=segment,
-                   min_coherence=min_coherence, static_scale_factor=tie)
+                   min_coherence=min_coherence, static_scale_factor=tie, gaps=gaps,
+                   max_fill=max_fill)
     _plot(red, plot)
+    _save(red, info, record_out, files)
     title = f"frequency response, {red.method} ({len(files)} record(s))"
     if any(a.name == "static_tie" for a in red.assumptions):
         dev, u, f_low = red.assumed("static_tie")
@@ -226,8 +259,12 @@ def fit(
     reference: Path | None = _REFERENCE,
     phase_at: str = typer.Option("", "--phase-at",
                                  help="Frequencies at which to give the phase, Hz (list)."),
+    gaps: str = GAPS, max_fill: int = MAX_FILL,
     fmt: str = _FORMAT,
     plot: Path | None = _PLOT,
+    record_out: Path | None = _RECORD,
+    serial: str | None = record_options.SERIAL,
+    operator: str | None = record_options.OPERATOR,
 ) -> None:
     """The transfer function fitted to the frequency response, and what it gives.
 
@@ -240,8 +277,10 @@ def fit(
     check_format(fmt)
     parse_model(model)
     at = parse_grid(phase_at, "--phase-at") if phase_at else []
-    result = fit_model(_reduced([file], reference, None), model)
+    info = _lab_info(record_out, [file], serial, operator)
+    result = fit_model(_reduced([file], reference, None, gaps=gaps, max_fill=max_fill), model)
     _plot(result, plot)
+    _save(result, info, record_out, [file])
     emit(fit_rows(result, at), fmt, title=f"{model} fit of {file.name}")
 
 

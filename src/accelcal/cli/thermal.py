@@ -6,7 +6,21 @@ import typer
 
 from accelcal.cli import record_options
 from accelcal.cli.common import check_format, check_writable, emit, load_model, parse_grid
-from accelcal.cli.input_options import DELIMITER, INPUT_FORMAT, SCALE, TIME, TIME_UNIT
+from accelcal.cli.input_options import (
+    DELIMITER,
+    GAPS,
+    INPUT_FORMAT,
+    JITTER_TOL,
+    MAX_FILL,
+    RESAMPLE,
+    SCALE,
+    SORT,
+    TIME,
+    TIME_UNIT,
+    print_reduction_repairs,
+    print_repairs,
+    repair_options,
+)
 from accelcal.errors import AccelcalError
 
 app = typer.Typer(
@@ -79,6 +93,7 @@ def simulate(
 def reduce(
     file: Path = typer.Argument(..., help="Thermal record (CSV or Parquet, kind thermal)."),
     *,
+    gaps: str = GAPS, max_fill: int = MAX_FILL,
     order: str = typer.Option(
         "auto", "--order", help="Polynomial order: 1, 2, 3, or auto (per term, raised while "
                                 "the F-test of the added power rejects at 5 %)."),
@@ -134,7 +149,9 @@ def reduce(
     red = thermal.reduce(file, order=order if order == "auto" else int(order),
                          reference=reference, terms=chosen, window=window,
                          rate_limit=rate_limit, tolerance=tolerance,
-                         temperature_sd=temperature_sd, priors=parse_priors(priors))
+                         temperature_sd=temperature_sd, priors=parse_priors(priors),
+                         gaps=gaps, max_fill=max_fill)
+    print_reduction_repairs(red)
     if plot is not None:
         for p in red.plot(plot):
             typer.echo(f"wrote {p}", err=True)
@@ -176,12 +193,15 @@ def compensate(
     scale: float | None = SCALE,
     input_format: str = INPUT_FORMAT, time: str | None = TIME, time_unit: str = TIME_UNIT,
     delimiter: str | None = DELIMITER,
+    gaps: str = GAPS, max_fill: int = MAX_FILL, sort: bool = SORT,
+    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE,
     allow_extrapolation: bool = typer.Option(
         False, "--allow-extrapolation", help="Compensate temperatures outside the valid range "
                                              "too, flagging those rows (extrapolated = 1)."),
 ) -> None:
     """Apply a temperature compensation to a recording, streamed (a_i = E/K1(T) - K0(T))."""
     from accelcal.io.recordings import TEMPERATURE_UNITS, InputOptions, describe, iter_blocks
+    from accelcal.io.recordings.repairs import Repairs
     from accelcal.io.recordings.sources import open_source
     from accelcal.methods.thermal import Compensation, compensate_stream
 
@@ -198,7 +218,8 @@ def compensate(
         time_unit=time_unit, unit=unit or stated.get(column) or comp.output_unit,
         units={temperature_column: t_unit} if t_unit in TEMPERATURE_UNITS else None,
         scales=None if scale is None else {column: scale},
-        delimiter="\t" if delimiter == "\\t" else delimiter)
+        delimiter="\t" if delimiter == "\\t" else delimiter,
+        **repair_options(gaps, max_fill, sort, jitter_tol, resample))
     try:
         prov, _ = describe(file, opts, need_rate=False, what="recording to compensate",
                            digest=False)
@@ -215,8 +236,11 @@ def compensate(
         raise AccelcalError(f"the compensation maps outputs in {comp.output_unit}, the column "
                             f"{column[:40]!r} is in {units[column]}; give --unit "
                             f"{comp.output_unit} if it is")
-    blocks = iter_blocks(file, opts, need_rate=False, what="recording to compensate")
+    repairs = Repairs()
+    blocks = iter_blocks(file, opts, need_rate=False, what="recording to compensate",
+                         repairs=repairs)
     rows = compensate_stream(blocks, out, comp, names=(column, temperature_column),
                              offset=TEMPERATURE_UNITS[units[temperature_column]],
                              allow_extrapolation=allow_extrapolation)
     typer.echo(f"wrote {out} ({rows} rows)", err=True)
+    print_repairs(repairs)

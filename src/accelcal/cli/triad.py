@@ -24,6 +24,8 @@ from accelcal.cli.input_options import (
     UNIT,
     input_options,
     print_repairs,
+    repair_options,
+    static_rails,
 )
 from accelcal.errors import AccelcalError
 from accelcal.formatting import unit_squared
@@ -81,15 +83,18 @@ def detect(
     from accelcal.cli.progress import DelayedProgress
     from accelcal.io.recordings import describe, iter_blocks
     from accelcal.io.recordings.repairs import Repairs
+    from accelcal.methods.triad.lab import note_clipped, note_excluded
+    from accelcal.signal.clipping import ClipFinder
     from accelcal.signal.static import check_settings
     from accelcal.signal.static_stream import detect_static_stream
 
     check_format(fmt)
     check_settings(init_static=init_static, window=window, factor=factor,
                    min_length=min_length)
+    clipping = ClipFinder(3, static_rails(rails))
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, scale=scale,
-                         delimiter=delimiter, rails=rails,
+                         delimiter=delimiter,
                          **_repair_options(gaps, max_fill, sort, jitter_tol, resample))
     prov, sample_rate = describe(file, opts, channels=3, what="triad recording", digest=False,
                                  rows=DETECT_ROWS)
@@ -97,11 +102,15 @@ def detect(
     blocks = iter_blocks(file, opts, channels=3, what="triad recording", repairs=repairs,
                          rows=DETECT_ROWS)
     with DelayedProgress(f"static intervals of {file.name}") as progress:
-        (found,) = detect_static_stream(
-            blocks, sample_rate, init_static=init_static, window=window, factors=(factor,),
-            min_length=min_length, unit=prov["unit"],
-            trace_points=20_000 if plot is not None else 0,  # the figure's envelope, if drawn
-            progress=lambda done: progress(done, done))  # the length is not known ahead
+        try:
+            (found,) = detect_static_stream(
+                blocks, sample_rate, init_static=init_static, window=window, factors=(factor,),
+                min_length=min_length, unit=prov["unit"], exclude=clipping,
+                trace_points=20_000 if plot is not None else 0,  # the figure's, if drawn
+                progress=lambda done: progress(done, done))  # the length is not known ahead
+        finally:
+            note_clipped(repairs, clipping)
+    note_excluded(repairs, found.excluded)
     if plot is not None:
         from accelcal.plotting import save_figure
         from accelcal.signal.static import figure
@@ -119,8 +128,7 @@ def _repair_options(gaps, max_fill, sort, jitter_tol, resample) -> dict:
     if gaps == "split":
         raise AccelcalError("--gaps split: static intervals need consecutive samples; give "
                             "--gaps fill, or split the file at its gaps", parameter="gaps")
-    return {"gaps": gaps, "max_fill": max_fill, "sort": sort, "jitter_tol": jitter_tol,
-            "resample": resample}
+    return repair_options(gaps, max_fill, sort, jitter_tol, resample)
 
 
 @app.command("calibrate")
@@ -210,12 +218,12 @@ def calibrate(
         check_writable(path)
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, scale=scale,
-                         delimiter=delimiter, regions=regions, rails=rails,
+                         delimiter=delimiter, regions=regions,
                          **_repair_options(gaps, max_fill, sort, jitter_tol, resample))
     lab = run(file, options=opts, orientations=orientations, positions=positions,
               gravity=gravity, latitude=latitude, height=height, quadratic=quadratic,
               init_static=init_static, window=window, factor=factor, min_length=min_length,
-              estimator=estimator, fixture_tilt=tilt, priors=bounds)
+              estimator=estimator, fixture_tilt=tilt, priors=bounds, rails=static_rails(rails))
     red, rec, found = lab.reduction, lab.recording, lab.intervals
     print_repairs(rec.repairs)
     files = [file] if rec.provenance.get("input_format") == "record" else []

@@ -34,6 +34,17 @@ they are simulated (a rig simulator or the demo wrote them). ``dof`` and
 ``simulated`` are optional on reading (records written before them load,
 as dof unknown and not simulated).
 
+A coefficient whose standard uncertainty includes Type B contributions (the
+priors of terms the reduction takes as zero, :mod:`accelcal.aliasing`)
+carries their combined standard uncertainty as an optional ``type_b`` key,
+in the coefficient's unit: ``std`` is ``sqrt(u_A^2 + type_b^2)``, so the
+Type A part is ``sqrt(std^2 - type_b^2)``. A coefficient without the key
+has no Type B part recorded (a record made before the key, or a reduction
+that bounded nothing)::
+
+    {"name": "b_x", "unit": "m/s^2", "estimate": 0.0512, "std": 2.1e-4,
+     "expanded": 4.2e-4, "type_b": 6.3e-5}
+
 A record may keep the uncertainty budgets a certificate was issued with
 (``accelcal certificate --keep-budgets``), in an optional ``budget`` block
 written only when present (so a record without one is byte for byte as
@@ -87,6 +98,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.atomic import write_text_atomic
 from accelcal.io.limits import MAX_JSON_BYTES, check_regular_file, load_json, read_bounded
+from accelcal.io.record_checks import check_budget_block, check_type_b
 from accelcal.method_ids import canonical
 from accelcal.model import ErrorModel
 from accelcal.polar import Polar, polar, real_names
@@ -102,6 +114,7 @@ _KEYS = {
 }
 _OPTIONAL_KEYS = {"dof", "simulated", "complex", "budget"}
 _COEFFICIENT_KEYS = {"name", "unit", "estimate", "std", "expanded"}
+_OPTIONAL_COEFFICIENT_KEYS = {"plain", "type_b"}
 _POLAR_KEYS = ("magnitude", "phase_deg", "phase_std_deg", "phase_expanded_deg")
 """Keys a complex coefficient adds, derived from its estimate and 2x2 block."""
 _LABELS = (("serial", "serial number", 200), ("method", "method", 200),
@@ -170,6 +183,12 @@ class CalibrationRecord:
     budget : dict or None
         The budgets kept with the record (module docs: ``lab``, ``standards``,
         ``budgets``); None for a record without them.
+    type_b : dict
+        The combined Type B standard uncertainty of each row that has one
+        (row name -> u_B, the row's unit): the part of its standard
+        uncertainty the priors of unestimated terms contribute; written as
+        the coefficient's ``type_b`` key. Rows without an entry have none
+        recorded (older records read with an empty dict).
     """
 
     serial: str
@@ -189,6 +208,7 @@ class CalibrationRecord:
     simulated: bool = False
     plain: dict[str, str] = field(default_factory=dict)
     budget: dict | None = None
+    type_b: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.serial, str) or not self.serial.strip():
@@ -228,6 +248,8 @@ class CalibrationRecord:
         if not (self.coverage_factor > 0 and math.isfinite(self.coverage_factor)):
             raise AccelcalError("calibration record: coverage_factor must be positive")
         _parse_date(self.date, "calibration record")
+        object.__setattr__(self, "type_b", check_type_b(self.type_b, self.names, cov,
+                                                        complex_))
         object.__setattr__(self, "names", tuple(self.names))
         object.__setattr__(self, "estimates", est)
         object.__setattr__(self, "covariance", cov)
@@ -249,6 +271,20 @@ class CalibrationRecord:
     def expanded(self) -> np.ndarray:
         """Expanded uncertainties, ``coverage_factor * std``."""
         return self.coverage_factor * self.std
+
+    @property
+    def type_b_std(self) -> np.ndarray:
+        """Each row's Type B standard uncertainty (NaN where the record states none)."""
+        return np.array([self.type_b.get(n, math.nan) for n in self.names], dtype=float)
+
+    @property
+    def type_a_std(self) -> np.ndarray:
+        """Each row's Type A standard uncertainty, ``sqrt(std^2 - type_b^2)``.
+
+        The whole ``std`` where no Type B is recorded.
+        """
+        b = np.nan_to_num(self.type_b_std, nan=0.0)
+        return np.sqrt(np.maximum(self.std**2 - b**2, 0.0))
 
     def polar(self) -> Polar:
         """Magnitudes and phases (rad) of complex estimates with first-order uncertainties."""
@@ -290,7 +326,8 @@ class CalibrationRecord:
             version, coefficients = FORMAT_VERSION, [
                 {"name": n, "unit": self.units.get(n, ""), "estimate": float(v),
                  "std": float(s), "expanded": float(u),
-                 **({"plain": self.plain[n]} if n in self.plain else {})}
+                 **({"plain": self.plain[n]} if n in self.plain else {}),
+                 **({"type_b": self.type_b[n]} if n in self.type_b else {})}
                 for n, v, s, u in zip(
                     self.names, self.estimates, self.std, self.expanded, strict=True
                 )
@@ -326,7 +363,8 @@ class CalibrationRecord:
              "std": float(s), "expanded": float(k * s), "magnitude": float(m),
              "phase_deg": math.degrees(ph), "phase_std_deg": math.degrees(phs),
              "phase_expanded_deg": math.degrees(k * phs),
-             **({"plain": self.plain[n]} if n in self.plain else {})}
+             **({"plain": self.plain[n]} if n in self.plain else {}),
+             **({"type_b": self.type_b[n]} if n in self.type_b else {})}
             for n, v, m, s, ph, phs in zip(self.names, self.estimates.tolist(), pol.magnitude,
                                            pol.magnitude_std, pol.phase, pol.phase_std,
                                            strict=True)
@@ -408,12 +446,12 @@ def _from_dict(data, source: str) -> CalibrationRecord:
     coefficients = data["coefficients"]
     if not isinstance(coefficients, list) or not coefficients:
         raise fail("coefficients must be a non-empty list")
-    names, units, values, plain = [], {}, [], {}
+    names, units, values, plain, type_b = [], {}, [], {}, {}
     keys = _COEFFICIENT_KEYS | set(_POLAR_KEYS) if complex_ else _COEFFICIENT_KEYS
     for i, c in enumerate(coefficients):
-        if not isinstance(c, dict) or set(c) - {"plain"} != keys:
+        if not isinstance(c, dict) or set(c) - _OPTIONAL_COEFFICIENT_KEYS != keys:
             raise fail(f"coefficients[{i}] must have exactly the keys {sorted(keys)} "
-                       "(and optionally plain)")
+                       "(and optionally plain, type_b)")
         if complex_:
             x = c["estimate"]
             if not (isinstance(x, dict) and set(x) == {"re", "im"}
@@ -432,6 +470,10 @@ def _from_dict(data, source: str) -> CalibrationRecord:
         units[c["name"]] = c["unit"]
         if "plain" in c:
             plain[c["name"]] = c["plain"]
+        if "type_b" in c:
+            if not is_finite_number(c["type_b"]):
+                raise fail(f"coefficients[{i}].type_b must be a finite number")
+            type_b[c["name"]] = float(c["type_b"])
         values.append(complex(c["estimate"]["re"], c["estimate"]["im"]) if complex_
                       else float(c["estimate"]))
     rows = data["covariance"]
@@ -464,7 +506,7 @@ def _from_dict(data, source: str) -> CalibrationRecord:
         check_label(name, f"{source}: input file name", limit=255)
     budget = data.get("budget")
     if budget is not None:
-        _check_budget_block(budget, fail)
+        check_budget_block(budget, fail)
     try:
         return CalibrationRecord(
             serial=data["serial"], method=data["method"], names=tuple(names),
@@ -472,52 +514,10 @@ def _from_dict(data, source: str) -> CalibrationRecord:
             software=data["software"], operator=data["operator"],
             coverage_factor=float(data["coverage_factor"]), model=model,
             inputs=dict(data["inputs"]), notes=tuple(data["notes"]), dof=dof,
-            simulated=simulated, plain=plain, budget=budget,
+            simulated=simulated, plain=plain, budget=budget, type_b=type_b,
         )
     except AccelcalError as exc:
         raise fail(str(exc)) from None
-
-
-_BUDGET_KEYS = {"lab", "standards", "budgets"}
-_BUDGET_ENTRY_KEYS = {"coefficient", "estimate", "unit", "u_c", "nu_eff", "k", "U", "rows"}
-_BUDGET_ROW_KEYS = {"quantity", "estimate", "u", "unit", "distribution", "sensitivity",
-                    "contribution", "dof", "share"}
-
-
-def _check_budget_block(block, fail) -> None:
-    """Check the shape of a record's ``budget`` block (module docs)."""
-    if not isinstance(block, dict) or set(block) != _BUDGET_KEYS:
-        raise fail(f"budget must be an object with exactly the keys {sorted(_BUDGET_KEYS)}")
-    lab = block["lab"]
-    if not (isinstance(lab, dict) and isinstance(lab.get("sha256"), str)
-            and all(isinstance(lab.get(k, ""), str) for k in ("path", "name"))):
-        raise fail("budget.lab must be an object with the lab file's sha256, path and name")
-    standards = block["standards"]
-    if not (isinstance(standards, list) and all(
-            isinstance(s, dict) and isinstance(s.get("quantity"), str) for s in standards)):
-        raise fail("budget.standards must be a list of objects with a quantity")
-    budgets = block["budgets"]
-    if not (isinstance(budgets, list) and all(_budget_entry_ok(b) for b in budgets)):
-        raise fail(f"budget.budgets must be a list of objects with the keys "
-                   f"{sorted(_BUDGET_ENTRY_KEYS)}: finite numbers (nu_eff may be \"inf\"), "
-                   f"rows with the keys {sorted(_BUDGET_ROW_KEYS)}")
-
-
-def _budget_entry_ok(b) -> bool:
-    """True for a budget object of the shape :meth:`Budget.as_dict` writes."""
-    def number(x, inf=False):
-        return is_finite_number(x) or (inf and x == "inf")
-
-    return (isinstance(b, dict) and set(b) >= _BUDGET_ENTRY_KEYS
-            and isinstance(b["coefficient"], str) and isinstance(b["unit"], str)
-            and all(number(b[k]) for k in ("estimate", "u_c", "k", "U"))
-            and number(b["nu_eff"], inf=True) and isinstance(b["rows"], list)
-            and all(isinstance(r, dict) and set(r) >= _BUDGET_ROW_KEYS
-                    and isinstance(r["quantity"], str) and isinstance(r["unit"], str)
-                    and all(number(r[k]) for k in ("estimate", "u", "sensitivity",
-                                                   "contribution", "share"))
-                    and (r["dof"] is None or number(r["dof"], inf=True))
-                    for r in b["rows"]))
 
 
 COVARIANCE_RTOL = 1e-6

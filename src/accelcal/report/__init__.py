@@ -213,11 +213,12 @@ def _view(section: Section, number: str, *, shown=frozenset()) -> dict:
             "notes": list(rec.notes),
             "coefficients": _complex_coefficients(rec) if rec.is_complex else [
                 {"name": n, "unit": rec.units.get(n, ""), "estimate": float(v),
-                 "std": float(s), "expanded": float(u),
+                 "std": float(s), "expanded": float(u), "type_b": rec.type_b.get(n),
                  "engineering": [f.text() for f in fv], "polar": None}
                 for n, v, s, u, fv in zip(rec.names, rec.estimates, std, rec.expanded, fields,
                                           strict=True)
             ],
+            "type_b": bool(rec.type_b) and not rec.is_complex,
             "correlation": corr.tolist() if len(corr) <= 10 else None,
             "names": list(real_names(rec.names) if rec.is_complex else rec.names),
         }

@@ -43,7 +43,7 @@ KEY_COEFFICIENTS = {
     "centrifuge": ("K0", "K1", "K2", "K3"),
     "triad": ("b_x", "b_y", "b_z", "s_x", "s_y", "s_z", "a_yz", "a_zy", "a_zx"),
     "acceptance": ("threshold", "range_pos", "range_neg", "bias_repeatability"),
-    "response": ("S(80 Hz)", "fn", "f_3dB"),
+    "response": ("S(80 Hz)", "S0", "fn", "f_3dB"),
 }
 """Family -> the coefficients the summary shows (every one for a family not listed)."""
 
@@ -99,7 +99,7 @@ def summary_rows(records, budgets=None, refs=()) -> list[dict]:
             plain = rec.plain.get(name, name)
             std = float(stds[i])
             group = _group(named_quantity(plain, rec.units.get(name, "")))
-            given = budget.get(name) or budget.get(plain)
+            given = budget.get(name) or budget.get(plain) or budget.get(f"{name} magnitude")
             row["cells"][group].append(_line(name, test, fields[i][0], std, given, ref,
                                              rec.units.get(name, "")))
     for row in rows.values():
@@ -130,7 +130,8 @@ def _budget_std(budget, field: FieldValue, std: float, unit: str):
 
     A budget states U in the field's unit (``accelcal budget``: µg, µrad, ppm
     for a scale factor) or, for a method without field units, in the
-    record's; a budget in neither unit is not used.
+    record's, or a complex coefficient's magnitude in % of it (``S(80 Hz)
+    magnitude``); a budget in none of these units is not used.
     """
     if budget is None or budget.get("U") is None or budget.get("k") is None:
         return None
@@ -138,6 +139,8 @@ def _budget_std(budget, field: FieldValue, std: float, unit: str):
     if not (k > 0 and big_u >= 0):
         return None
     shown = format_unit(given)
+    if given == "%" and str(budget.get("coefficient", "")).endswith(" magnitude"):
+        return k, abs(field.estimate) * big_u / (100.0 * k)  # a complex one's, in % of it
     if (field.relative and shown == "ppm") or (not field.relative
                                                 and shown == format_unit(field.unit)):
         return k, big_u / k

@@ -15,7 +15,12 @@ of a step of frequency ``f`` and amplitude ``A`` (g) is::
     a(t) = A [sin(w t) + d2 sin(2 w t) + d3 sin(3 w t)],   w = 2 pi f,
 
 (``d2``, ``d3`` the shaker's harmonic distortion), in steady state; each
-harmonic passes each sensor's sensitivity at its own frequency. The DUT's
+harmonic passes each sensor's sensitivity at its own frequency. The DUT
+moves relative to the reference by the complex fraction ``rho`` of the
+axial motion (mounting, base strain) and feels a transverse acceleration
+``tau`` of it along its most sensitive transverse axis, which its
+transverse sensitivity ``s_T`` adds to its output: the DUT's input is
+``(1 + rho + s_T tau)`` times the reference's. The DUT's
 channel of the DAQ has a gain ratio and a delay relative to the
 reference's (multiplying its phasors by ``g exp(-i w tau)``), and each
 channel adds white Gaussian noise. The record states the DUT's true
@@ -213,6 +218,14 @@ class ResponseRig:
         fractions of the fundamental.
     noise : float
         White noise of each channel, V rms (0: an exact record).
+    relative_motion : tuple of float
+        ``(Re, Im)`` of ``rho``: the DUT's motion relative to the
+        reference's, fraction of the axial.
+    transverse : tuple of float
+        ``(Re, Im)`` of ``tau``: the transverse acceleration along the DUT's
+        most sensitive transverse axis, fraction of the axial.
+    transverse_sensitivity : float
+        ``s_T``: the DUT's transverse sensitivity, fraction of its axial.
     """
 
     frequencies: tuple = DEFAULT_FREQUENCIES
@@ -224,9 +237,18 @@ class ResponseRig:
     delay_s: float = 0.0
     distortion: tuple = (0.0, 0.0)
     noise: float = 1e-4
+    relative_motion: tuple = (0.0, 0.0)
+    transverse: tuple = (0.0, 0.0)
+    transverse_sensitivity: float = 0.0
 
     def __post_init__(self) -> None:
         f = np.asarray(self.frequencies, dtype=float)
+        for name in ("relative_motion", "transverse"):
+            pair = getattr(self, name)
+            if len(pair) != 2 or not all(np.isfinite(x) and abs(x) < 1 for x in pair):
+                raise AccelcalError("give Re,Im, each of magnitude below 1", parameter=name)
+        if not 0 <= self.transverse_sensitivity < 1:
+            raise AccelcalError("must be from 0 to below 1", parameter="transverse_sensitivity")
         if not 1.0 <= self.sample_rate <= 1e7:
             raise AccelcalError(f"must be from 1 Hz to 1e7 Hz, got {self.sample_rate!r}",
                                 parameter="sample_rate")
@@ -267,6 +289,8 @@ class ResponseRig:
         ref = np.zeros_like(t)
         out = np.zeros_like(t)
         top = self.reference.frequency_hz[-1]
+        moved = 1.0 + complex(*self.relative_motion) + self.transverse_sensitivity * complex(
+            *self.transverse)
         for k, d in ((1, 1.0), (2, d2), (3, d3)):
             if d == 0.0:
                 continue
@@ -274,7 +298,7 @@ class ResponseRig:
             carrier = -1j * amplitude * d * np.exp(1j * w * t)  # A sin(w t) = Re(-i A e^(iwt))
             daq = self.gain_ratio * np.exp(-1j * w * self.delay_s)
             ref += np.real(self.reference.sensitivity(min(k * f, top))[0] * carrier)
-            out += np.real(dut(k * f)[0] * daq * carrier)
+            out += np.real(dut(k * f)[0] * daq * moved * carrier)
         return ref, out
 
     def simulate(self, dut: DutResponse | None = None, *, seed=0, unit: str = "V",
@@ -297,7 +321,8 @@ class ResponseRig:
         accelcal.io.formats.response.ResponseRecord
             Columns ``step, frequency, t, ref, dut``; metadata ``true``,
             ``reference``, ``daq``, ``amplitudes_g``, ``noise_v``,
-            ``simulated``.
+            ``simulated`` (and ``mounting``: the relative and transverse
+            motion, when not zero).
         """
         dut = dut or DutResponse()
         rng = generator(seed)
@@ -318,6 +343,11 @@ class ResponseRig:
                 "true": dut.to_dict(), "noise_v": float(self.noise),
                 "distortion": [float(d) for d in self.distortion], "simulated": True,
                 **(metadata or {})}
+        mounting = {"relative_motion": [float(x) for x in self.relative_motion],
+                    "transverse": [float(x) for x in self.transverse],
+                    "transverse_sensitivity": float(self.transverse_sensitivity)}
+        if any(np.any(v) for v in mounting.values()):  # the truth, beside the DAQ's
+            meta["mounting"] = mounting
         if isinstance(seed, int):
             meta["seed"] = seed
         return ResponseRecord(**{k: np.concatenate(v) for k, v in cols.items()},

@@ -83,6 +83,10 @@ class StaticIntervals:
     statistic: np.ndarray = field(repr=False)
     unit: str = ""
     trace: tuple | None = field(default=None, repr=False)
+    excluded: dict = field(default_factory=dict)
+    """With samples excluded (clipped): ``samples`` excluded where the statistic was
+    still, ``cut`` intervals cut around them, ``dropped`` intervals left too short
+    (:meth:`Excluded.counts`)."""
 
     def __len__(self) -> int:
         return len(self.start)
@@ -257,7 +261,7 @@ def _clipped_variance(x: np.ndarray, idx: np.ndarray, w: int) -> np.ndarray:
 
 def detect_static(values, rate: float, *, init_static: float = 30.0, window: float = 1.0,
                   factor: float = 2.0, min_length: float = 2.0, time=None,
-                  unit: str = "") -> StaticIntervals:
+                  unit: str = "", exclude=None) -> StaticIntervals:
     """Find the static intervals of a triad recording (Tedaldi's detector).
 
     Parameters
@@ -278,6 +282,10 @@ def detect_static(values, rate: float, *, init_static: float = 30.0, window: flo
         Time of each sample, seconds (default: index / rate).
     unit : str
         Unit of ``values`` (for the tables).
+    exclude : array_like of bool, optional
+        Samples that are never static (clipped: :class:`accelcal.signal.clipping.ClipFinder`):
+        an interval is cut around them, and a piece shorter than ``min_length``
+        dropped (counted in ``excluded``).
 
     Returns
     -------
@@ -316,13 +324,18 @@ def detect_static(values, rate: float, *, init_static: float = 30.0, window: flo
     stat = variance_magnitude(u, w)  # Eq. (9) [Tedaldi2014]
     init = initial_variance(u[:n_init], stat[:n_init], w, init_static, window)
     threshold = factor * init
-    starts, stops = _runs(stat < threshold)
+    still, excluded = stat < threshold, None
+    if exclude is not None:
+        excluded = Excluded()
+        still = excluded.add(0, still, np.asarray(exclude, dtype=bool).reshape(n))
+    starts, stops = _runs(still)
     longest = float((stops - starts).max()) / rate if len(starts) else 0.0
     keep = (stops - starts) >= max(min_length * rate, 2)
     starts, stops = starts[keep], stops[keep]
+    counted = {} if excluded is None else excluded.counts(starts, max(min_length * rate, 2), n)
     if not len(starts):
         raise no_intervals(longest, min_length=min_length, factor=factor, init=init,
-                           window=window)
+                           window=window, dropped=counted.get("dropped", 0))
     t = np.arange(n) / rate if time is None else np.asarray(time, dtype=float)
     means = np.array([u[a:b].mean(axis=0) for a, b in zip(starts, stops, strict=True)])
     sd = np.array([u[a:b].std(axis=0, ddof=1) for a, b in zip(starts, stops, strict=True)])
@@ -331,7 +344,67 @@ def detect_static(values, rate: float, *, init_static: float = 30.0, window: flo
     return StaticIntervals(
         start=starts, stop=stops, times=np.column_stack([t[starts], t[stops - 1]]),
         means=means, noise_sd=sd, counts=stops - starts, threshold=threshold,
-        init_variance=init, settings=settings, statistic=stat, unit=unit)
+        init_variance=init, settings=settings, statistic=stat, unit=unit, excluded=counted)
+
+
+class Excluded:
+    """Still runs that hold excluded samples, counted as a recording streams by.
+
+    :meth:`add` takes each chunk's still flags and excluded samples and
+    returns the flags without them; :meth:`counts` compares the still runs
+    that held an excluded sample with the intervals kept: a run of at least
+    the shortest interval is *cut* when a piece of it was kept, else
+    *dropped*.
+    """
+
+    def __init__(self):
+        self.open = None  # [start, holds an excluded sample] of the run open at the chunk's end
+        self.hit = []  # (start, stop) of the closed still runs with an excluded sample
+        self.samples = 0
+
+    def add(self, done: int, still: np.ndarray, exclude: np.ndarray) -> np.ndarray:
+        """Samples ``done .. done + len(still)``: ``still`` without the ``exclude`` ones."""
+        if exclude.shape != still.shape:
+            raise AccelcalError(f"exclude has {exclude.shape[0]} samples, the recording "
+                                f"{still.shape[0]}", parameter="exclude")
+        self.samples += int((still & exclude).sum())
+        starts, stops = _runs(still)
+        if self.open is not None and (not len(starts) or starts[0] > 0):
+            self._close(done)
+        held = np.r_[0, np.cumsum(exclude)]
+        hits = held[stops] > held[starts]
+        for k in range(len(starts)):
+            if k == 0 and starts[0] == 0 and self.open is not None:
+                self.open[1] |= bool(hits[0])
+            elif hits[k] or stops[k] == len(still):
+                self.open = [done + int(starts[k]), bool(hits[k])]
+            else:
+                continue
+            if stops[k] < len(still):
+                self._close(done + int(stops[k]))
+        return still & ~exclude
+
+    def _close(self, stop: int) -> None:
+        start, hit = self.open
+        self.open = None
+        if hit:
+            self.hit.append((start, stop))
+
+    def counts(self, starts, min_samples: float, end: int) -> dict:
+        """``samples``, ``cut`` and ``dropped``; ``cut_at``, ``dropped_at``: first samples.
+
+        The first samples of the first five runs cut and dropped; the
+        intervals kept start at ``starts``, the recording ends at ``end``.
+        """
+        if self.open is not None:
+            self._close(end)
+        starts = np.sort(np.asarray(starts))
+        long = [(a, b) for a, b in self.hit if b - a >= min_samples]
+        kept = [bool(np.searchsorted(starts, b) > np.searchsorted(starts, a)) for a, b in long]
+        cut = [a for (a, _), k in zip(long, kept, strict=True) if k]
+        dropped = [a for (a, _), k in zip(long, kept, strict=True) if not k]
+        return {"samples": self.samples, "cut": len(cut), "dropped": len(dropped),
+                "cut_at": cut[:5], "dropped_at": dropped[:5]}
 
 
 def initial_variance(u_init: np.ndarray, stat_init: np.ndarray, w: int, init_static: float,
@@ -374,13 +447,19 @@ def init_shorter_than_window(init_static: float, window: float) -> AccelcalError
 
 
 def no_intervals(longest: float, *, min_length: float, factor: float, init: float,
-                 window: float) -> AccelcalError:
-    """The error of a detection that kept no interval (``longest``: the longest run, s)."""
+                 window: float, dropped: int = 0) -> AccelcalError:
+    """The error of a detection that kept no interval.
+
+    ``longest``: the longest run, s; ``dropped``: intervals left too short by
+    excluded (clipped) samples.
+    """
+    clip = (f"; {dropped} interval(s) were dropped for clipped samples (too short without "
+            "them)" if dropped else "")
     return AccelcalError(
         f"no static intervals found: the longest still run is {longest:.3g} s, below "
         f"min_length {min_length:g} s (threshold {factor * init:.3g} = {factor:g} x "
-        f"{init:.3g} of the initial period, window {window:g} s); lower min_length, raise "
-        "the factor or hold the positions longer", parameter="min_length")
+        f"{init:.3g} of the initial period, window {window:g} s){clip}; lower min_length, "
+        "raise the factor or hold the positions longer", parameter="min_length")
 
 
 def check_settings(**settings) -> None:

@@ -28,6 +28,7 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.signal.static import (
+    Excluded,
     StaticIntervals,
     _runs,
     check_settings,
@@ -49,10 +50,18 @@ class _Runs:
         self.open = None  # [start, ref, s1, s2, count, t_start, t_last]
         self.found = []  # (start, stop, t_start, t_last, mean, sd)
         self.longest = 0
+        self.excluded = Excluded()
 
-    def add(self, done: int, u: np.ndarray, t: np.ndarray, stat: np.ndarray) -> None:
-        """Classify the samples ``done .. done + len(u)`` (their ς final, times ``t``)."""
-        starts, stops = _runs(stat < self.threshold)
+    def add(self, done: int, u: np.ndarray, t: np.ndarray, stat: np.ndarray,
+            exclude: np.ndarray | None = None) -> None:
+        """Classify the samples ``done .. done + len(u)`` (their ς final, times ``t``).
+
+        ``exclude``: those never static.
+        """
+        still = stat < self.threshold
+        if exclude is not None:
+            still = self.excluded.add(done, still, exclude)
+        starts, stops = _runs(still)
         if self.open is not None and (not len(starts) or starts[0] > 0):
             self._close()
         n = len(u)
@@ -181,7 +190,7 @@ def _merge(idx_a, val_a, idx_b, val_b):
 def detect_static_stream(blocks: Iterable, rate: float, *, init_static: float = 30.0,
                          window: float = 1.0, factors=(2.0,), min_length: float = 2.0,
                          unit: str = "", trace_points: int = 20_000,
-                         progress=None) -> list[StaticIntervals]:
+                         progress=None, exclude=None) -> list[StaticIntervals]:
     """Static intervals of a recording streamed in blocks, for each threshold factor.
 
     Parameters
@@ -204,6 +213,10 @@ def detect_static_stream(blocks: Iterable, rate: float, *, init_static: float = 
         results' ``statistic`` is empty and ``trace`` None).
     progress : callable, optional
         ``progress(samples_done)`` after each block.
+    exclude : callable, optional
+        ``exclude(values)``: the samples of each block that are never static
+        (clipped: :class:`accelcal.signal.clipping.ClipFinder`), as
+        :func:`~accelcal.signal.static.detect_static`'s ``exclude``.
 
     Returns
     -------
@@ -235,11 +248,14 @@ def detect_static_stream(blocks: Iterable, rate: float, *, init_static: float = 
     if n_init < w:
         raise init_shorter_than_window(init_static, window)
     buf, tbuf, buf_start, done = np.empty((0, 3)), np.empty(0), 0, 0
+    mbuf = None if exclude is None else np.empty(0, dtype=bool)
     runs, trace = None, (_Trace(trace_points) if trace_points else None)
     for block in blocks:
         t = (block.start + np.arange(len(block.values))) / rate if block.time is None \
             else block.time
         buf, tbuf = np.concatenate([buf, block.values]), np.concatenate([tbuf, t])
+        if mbuf is not None:
+            mbuf = np.concatenate([mbuf, exclude(block.values)])
         end = buf_start + len(buf)
         if runs is None:
             if end < n_init + w:
@@ -249,9 +265,10 @@ def detect_static_stream(blocks: Iterable, rate: float, *, init_static: float = 
         hi = end - (w - half) + 1  # samples whose windows are complete
         if hi > done:
             done = _classify(buf, tbuf, buf_start=buf_start, done=done, hi=hi, w=w, runs=runs,
-                             trace=trace)
+                             trace=trace, mbuf=mbuf)
             keep = max(done - half, buf_start) - buf_start
             buf, tbuf, buf_start = buf[keep:], tbuf[keep:], buf_start + keep
+            mbuf = None if mbuf is None else mbuf[keep:]
         if progress is not None:
             progress(end)
     end = buf_start + len(buf)
@@ -267,9 +284,10 @@ def detect_static_stream(blocks: Iterable, rate: float, *, init_static: float = 
                       factors=factors, min_samples=min_length * rate)
     if end > done:
         _classify(buf, tbuf, buf_start=buf_start, done=done, hi=end, w=w, runs=runs,
-                  trace=trace)
+                  trace=trace, mbuf=mbuf)
     return _results(runs, factors, rate=rate, init_static=init_static, window=window,
-                    min_length=min_length, unit=unit, trace=trace)
+                    min_length=min_length, unit=unit, trace=trace, end=end,
+                    excluding=exclude is not None)
 
 
 def _start(buf, *, n_init, w, init_static, window, factors, min_samples):
@@ -278,23 +296,27 @@ def _start(buf, *, n_init, w, init_static, window, factors, min_samples):
     return [(init, _Runs(k * init, max(min_samples, 2))) for k in factors]
 
 
-def _classify(buf, tbuf, *, buf_start, done, hi, w, runs, trace) -> int:
+def _classify(buf, tbuf, *, buf_start, done, hi, w, runs, trace, mbuf=None) -> int:
     """Classify samples ``done .. hi`` (global) of the buffer; return ``hi``."""
     stat = variance_magnitude(buf, w)  # Eq. (9) [Tedaldi2014]
     a, b = done - buf_start, hi - buf_start
     for _, r in runs:
-        r.add(done, buf[a:b], tbuf[a:b], stat[a:b])
+        r.add(done, buf[a:b], tbuf[a:b], stat[a:b], None if mbuf is None else mbuf[a:b])
     if trace is not None:
         trace.add(done, tbuf[a:b], buf[a:b], stat[a:b])
     return hi
 
 
-def _results(runs, factors, *, rate, init_static, window, min_length, unit, trace):
+def _results(runs, factors, *, rate, init_static, window, min_length, unit, trace, end,
+             excluding=False):
     t, norm, stat = trace.arrays() if trace is not None else (None, None, np.empty(0))
-    out, longest = [], 0
+    out, longest, dropped = [], 0, 0
     for k, (init, r) in zip(factors, runs, strict=True):
         r.finish()
         longest = max(longest, r.longest)
+        counted = r.excluded.counts([f[0] for f in r.found], r.min_samples, end) \
+            if excluding else {}
+        dropped = max(dropped, counted.get("dropped", 0))
         if not r.found:
             out.append(None)
             continue
@@ -305,8 +327,8 @@ def _results(runs, factors, *, rate, init_static, window, min_length, unit, trac
             start=start, stop=stop, times=np.column_stack([t0, t1]),
             means=means, noise_sd=sd, counts=stop - start, threshold=r.threshold,
             init_variance=init, settings=settings, statistic=stat, unit=unit,
-            trace=None if trace is None else (t, norm)))
+            trace=None if trace is None else (t, norm), excluded=counted))
     if all(o is None for o in out):
         raise no_intervals(longest / rate, min_length=min_length, factor=factors[0],
-                           init=runs[0][0], window=window)
+                           init=runs[0][0], window=window, dropped=dropped)
     return out

@@ -85,7 +85,11 @@ def test_a_cycle_with_a_missing_leg_is_refused(files, tmp_path, capsys):
                                   output=rec.output[keep], test="hysteresis",
                                   output_unit=rec.output_unit, scale_factor=rec.scale_factor)
     steps_format.write(tmp_path / "cut.csv", cut)
-    refused(["acceptance", "reduce", tmp_path / "cut.csv"], capsys, "a leg is missing")
+    # the dwells at 0 either side of the lost legs join: their time jump is a gap
+    refused(["acceptance", "reduce", tmp_path / "cut.csv"], capsys, "inside dwell input 0",
+            "--gaps split")
+    refused(["acceptance", "reduce", tmp_path / "cut.csv", "--gaps", "split"], capsys,
+            "a leg is missing")
 
 
 def test_wrong_test_and_options_are_refused(files, capsys):

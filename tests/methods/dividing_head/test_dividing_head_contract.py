@@ -11,7 +11,7 @@ from accelcal.methods.dividing_head import HeadData, reduce
 from accelcal.model import ErrorModel
 from accelcal.rigs.dividing_head import AngleErrorProfile, DividingHeadRig, simulate
 from accelcal.units import ARCSEC
-from helpers.contract import ReductionContract, default_terms
+from helpers.contract import ReductionContract, spread_terms
 
 NOISE = 2.8e-6  # V, Dong2014 Table 1 column U
 
@@ -19,9 +19,10 @@ NOISE = 2.8e-6  # V, Dong2014 Table 1 column U
 class _HeadContract(ReductionContract):
     """Four sensors at 0/90/180/270 deg, 24 positions, random Dong2014-sized coefficients,
     every other term a rotation about PA excites (K3, Koo, K0', K1') at the default
-    accelerometer's magnitude with a random sign, random misalignments (+-2 arcsec) and, where
-    the method separates it, a random head error of harmonics 2-5 (zero mean and first
-    harmonic: no gauge, no alias)."""
+    accelerometer's magnitude times a factor within 1/2-2 with a random sign (the population
+    the default priors describe: ``helpers.contract.spread_terms``), random misalignments
+    (+-2 arcsec) and, where the method separates it, a random head error of harmonics 2-5
+    (zero mean and first harmonic: no gauge, no alias)."""
 
     METHOD = ""
     OPTIONS: ClassVar[dict] = {}
@@ -36,7 +37,7 @@ class _HeadContract(ReductionContract):
             models.append(ErrorModel(
                 K1=k_i, K0=rng.normal(0, 1e-3) / k_i, Ko=rng.normal(0, 1e-5) / k_i,
                 Kio=rng.normal(0, 2e-5) / k_i, K2=rng.normal(0, 2e-5) / k_i,
-                **default_terms(accelcal.default_model(), rng, self.EXTRA)))
+                **spread_terms(accelcal.default_model(), rng, self.EXTRA)))
         models = tuple(models)
         terms = {(m, cs): rng.normal(0, 1.0) * ARCSEC for m in range(2, 6) for cs in "cs"}
         profile = AngleErrorProfile.harmonics(terms) if self.HEAD_ERROR else AngleErrorProfile()
@@ -64,9 +65,9 @@ class _HeadContract(ReductionContract):
         return out
 
     def test_noise_free_recovers_truth(self):
-        # Every truth term sits at the default magnitude, half its prior's bound (u = 2 a /
-        # sqrt 3): one term alone moves a row by at most 0.87 u, but two or three aligned by
-        # up to 1.2-1.5 u; noise-free rows are checked at k = 2 (the default case at k = 1)
+        # Every truth term lies within a factor 2 of the default magnitude a, inside its
+        # prior's bound 2a (u = 2 a / sqrt 3): one term alone moves a row by at most sqrt(3) u,
+        # by 1.16 u in RMS; noise-free rows are checked at k = 2 (the default case at k = 1)
         truth, red = self._run(self.SEEDS[0], noisy=False)
         for k, name, want, got, std in self._pairs(truth, red):
             tol = self.noise_free_tolerance(name, want) + 2.0 * std

@@ -174,3 +174,35 @@ def test_plan_rows(capsys):
     (row,) = json.loads(out)
     assert row["n_d"] >= 50
     assert row["magnitude_u_pct"] <= 1.0
+
+
+@pytest.mark.slow  # the certificate reduces the record again for its budgets: ~3 s
+def test_records_of_the_response_and_its_fit_make_a_certificate(record, tmp_path, capsys):
+    from helpers.certificates import LAB
+
+    refused(["response", "reduce", record, "--record", tmp_path / "none.json"], capsys,
+            "--serial")  # a simulated record names no serial: say so, write nothing
+    assert not (tmp_path / "none.json").exists()
+    refused(["response", "fit", record, "--serial", "FR-2"], capsys, "--record")
+    comparison, fit = tmp_path / "cmp.json", tmp_path / "fit.json"
+    code, _, err = run_cli(["response", "reduce", record, "--record", comparison, "--serial",
+                            "FR-2", "--format", "csv"], capsys)
+    assert code == 0, err
+    assert f"wrote {comparison}" in err
+    code, _, err = run_cli(["response", "fit", record, "--record", fit, "--serial", "FR-2"],
+                           capsys)
+    assert code == 0, err
+    out = tmp_path / "c.json"
+    code, stdout, err = run_cli(["certificate", comparison, fit, "--lab", LAB, "--out",
+                                 tmp_path / "c.html", "--json", out, "--issued", "2026-11-26",
+                                 "--phase-at", "80,315"], capsys)
+    assert code == 0, err
+    assert "FR-2" in stdout
+    (item,) = json.loads(out.read_text(encoding="utf-8"))["items"]
+    assert [p["frequency_hz"] for p in item["response"][0]["points"]] == [20, 80, 315, 630,
+                                                                           1000]
+    assert [a["frequency_hz"] for a in item["response_models"][0]["at"]] == [80, 315]
+    assert {r["coefficient"] for r in item["results"]} == {"S0", "fn", "zeta", "f_3dB"}
+    refused(["certificate", comparison, "--lab", LAB, "--out", tmp_path / "d.html",
+             "--phase-at", "-5"], capsys, "--phase-at")
+    assert not (tmp_path / "d.html").exists()

@@ -8,13 +8,21 @@ the rig's known sample ranges, and calibrated by both routes:
 - known orientations, the six Ferraris positions (dof 6);
 - known orientations, 18 positions (six + 12 random), sample-count weights;
 - gravity norm, 30 random orientations (dof 21);
-- gravity norm with quadratic terms, 40 random orientations.
+- gravity norm with quadratic terms, 40 random orientations;
+- every term non-zero: each axis a pendulous accelerometer whose terms the triad model
+  leaves out (K2, K3, Koo, Kpp, Kio, Kip, Kop, K0', K1'), bounded by the default priors
+  as Type B (:func:`with_type_b`): known orientations (18, with each position tilted by
+  0.1 mrad and the tilt stated, as ``triad calibrate --fixture-tilt`` runs it) and the
+  gravity norm (30).
 
 The coverage harness (tests/helpers/coverage.py) runs every class here.
 """
 
+import dataclasses
+
 import numpy as np
 
+import accelcal
 from accelcal.methods.triad import (
     PARAMS,
     QUADRATIC,
@@ -22,9 +30,9 @@ from accelcal.methods.triad import (
     calibrate_known,
     calibrate_unknown,
 )
-from accelcal.methods.triad.unestimated import with_type_b
+from accelcal.methods.triad.unestimated import TERMS, with_type_b
 from accelcal.rigs.triad import random_directions, simulate, six_positions
-from helpers.contract import ReductionContract
+from helpers.contract import ReductionContract, spread_terms
 
 G = 9.80665
 
@@ -149,3 +157,97 @@ def test_contract_reductions_carry_their_fields():
     assert red.dof == 30 - 9
     assert np.isnan(red.observations["norm_before"]).all()
     assert np.sqrt(np.mean(red.observations["norm_after"] ** 2)) < 1e-3
+
+
+# ------------------------------------------------------------------ every term non-zero
+@dataclasses.dataclass(frozen=True)
+class EveryTermTruth:
+    """A triad whose axes are pendulous accelerometers, every term non-zero."""
+
+    calibration: TriadCalibration
+    models: tuple
+    tilt: np.ndarray | None = None
+
+    @property
+    def vector(self):
+        return self.calibration.vector
+
+
+def tilted(up, sd, rng):
+    """``up`` each turned by a random small rotation, SD ``sd`` rad about each axis."""
+    if not sd:
+        return up
+    turn = sd * rng.standard_normal(up.shape)
+    out = up + np.cross(turn, up)
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def as_nominal(data, nominal):
+    """``data`` whose positions state the nominal orientations (what the fixture's drawing
+    says), not the tilted ones the rig turned it to."""
+    positions = [{**p, "up": v.tolist()} for p, v in zip(data.positions, nominal, strict=True)]
+    return dataclasses.replace(data, positions=positions)
+
+
+class _EveryTermContract(_TriadContract):
+    """Every axis a pendulous accelerometer, every term non-zero, bounded by the priors.
+
+    Each axis's K2, K3, Koo, Kpp, Kio, Kip, Kop, K0', K1' at the default
+    accelerometer's magnitude times a factor log-uniform within 1/2-2, random signs
+    (:func:`helpers.contract.spread_terms`: three axes are three sensors of one type);
+    ``terms = default_terms`` draws them at exactly the default magnitude. K4 stays zero,
+    as the default accelerometer's (it has no prior); the triad rig models no temperature.
+    """
+
+    TYPE_B = True
+    terms = staticmethod(spread_terms)
+    NOISE_FREE_K = 3.0
+    """Noise-free, the rows still carry the random draw of every axis's terms (and the
+    tilts): an error of up to 3 stated SDs is a draw, not a defect."""
+    TILT = 0.0
+    """SD of each known position's orientation error about each horizontal axis, rad."""
+
+    def truth(self, rng):
+        model = accelcal.default_model()
+        models = tuple(dataclasses.replace(model, **self.terms(model, rng, TERMS))
+                       for _ in range(3))
+        return EveryTermTruth(super().truth(rng), models)
+
+    def simulate(self, truth, rng, noisy):
+        nominal = self.directions(rng)
+        actual = tilted(nominal, self.TILT, rng)
+        data = simulate(truth.calibration, actual, rate=50.0, dwell=2.0, motion=1.0, still=4.0,
+                        noise_sd=self.NOISE if noisy else 0.0, seed=rng, gravity=G,
+                        axis_models=truth.models)
+        return as_nominal(data, nominal)
+
+    def default_case(self):
+        rng = np.random.default_rng(7)
+        truth = self.truth(rng)
+        model = accelcal.default_model()
+        truth = dataclasses.replace(truth, models=(model,) * 3)
+        return self.simulate(truth, rng, noisy=False), self.expected(truth)
+
+
+class TestContractEveryTermKnown(_EveryTermContract):
+    UNIT = "m/s^2"
+    NOISE = 5e-3
+    TILT = 1e-4
+
+    def directions(self, rng):
+        return np.vstack([six_positions(), random_directions(12, rng)])
+
+    def reduce_means(self, data, means, counts):
+        # as `triad calibrate --fixture-tilt` runs it: gls, the intervals' own noise
+        sd = np.array([data.acc[p["start"]:p["stop"]].std(axis=0, ddof=1)
+                       for p in data.positions]) / np.sqrt(counts)[:, None]
+        return calibrate_known(means, data.up, G, input_unit=data.input_unit, counts=counts,
+                               labels=data.labels, noise_sd=np.maximum(sd, 1e-12),
+                               fixture_tilt=self.TILT)
+
+
+class TestContractEveryTermGravityNorm(_EveryTermContract):
+    KNOWN = False
+
+    def reduce_means(self, data, means, counts):
+        return calibrate_unknown(means, G, input_unit=data.input_unit, counts=counts)

@@ -166,3 +166,35 @@ def test_monte_carlo_draws_the_pendulous_terms_from_their_priors():
     np.testing.assert_allclose(mc.mc_std, red.sensors[0].std, rtol=0.1)
     assert np.all(mc.mc_std[:3] > 1.5 * mc0.mc_std[:3])
     assert any("pendulous" in text for text in mc.inputs)
+
+
+@pytest.mark.parametrize("known", [True, False])
+def test_the_sum_of_the_even_terms_moves_only_its_axis_bias(known):
+    # at 1 g a_i^2 + a_o^2 + a_p^2 = 1: K2 = Koo = Kpp = d reads as a bias of d g (input
+    # unit: g |row i of T^-1| / s_i) whatever the positions; no static design separates the
+    # sum from b (docs/triad.md), the contrasts move every row by design-dependent amounts
+    # (gravity norm: to the central differences, about 1e-6 relative)
+    from accelcal.methods.triad import calibrate_unknown
+
+    rng = np.random.default_rng(5)
+    dirs = np.vstack([six_positions(), random_directions(12, rng)]) if known else \
+        random_directions(24, rng)
+    data, means, again = _known(None, dirs)
+    counts = data.interval_means()[1]
+    if not known:
+        def again(m):
+            return calibrate_unknown(m, G, input_unit=data.input_unit, counts=counts)
+
+    red = with_type_b(again(means), means, again, gravity=G, up=data.up if known else None,
+                      priors="none")
+    alias = {(a.row, a.term): a.sensitivity for a in red.aliases}
+    _, _, _, norm = axis_frames(TRUTH.t)
+    for i, axis in enumerate("xyz"):
+        for row in red.sensors[0].names[:9]:
+            total = sum(alias.get((row, f"{t}[{axis}]"), 0.0) for t in ("K2", "Koo", "Kpp"))
+            want = G * norm[i] / TRUTH.scale[i] if row == f"b_{axis}" else 0.0
+            assert total == pytest.approx(want, rel=1e-6, abs=1e-6 * G), (axis, row)
+        third = G * norm[i] / TRUTH.scale[i] / 3
+        # the design sees the contrasts: the terms' shares differ from a third of the sum
+        assert max(abs(alias.get((f"b_{axis}", f"{t}[{axis}]"), 0.0) - third)
+                   for t in ("K2", "Koo", "Kpp")) > 1e-3 * third

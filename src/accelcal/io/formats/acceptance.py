@@ -209,8 +209,14 @@ def write(path, data: StepRecord) -> None:
     write_record(path, KIND, meta, columns)
 
 
-def read(path) -> StepRecord:
+def read(path, *, gaps: str = "refuse", max_fill: int = 5) -> StepRecord:
     """Read and validate a step record file.
+
+    ``gaps``, ``max_fill``: a jump of the time column inside a dwell (the
+    same input, or angle, and turn-on flag either side) is a gap, refused,
+    cut (the dwell's last piece kept: it settles at its end) or filled
+    (:func:`accelcal.io.record_gaps.repair_gaps`); a jump between dwells is
+    harmless. What was done is in ``metadata["repairs"]``.
 
     Raises
     ------
@@ -220,9 +226,16 @@ def read(path) -> StepRecord:
         an input nor an angle column, values out of range, time not
         increasing, malformed laboratory metadata.
     """
+    from accelcal.io.record_gaps import repair_gaps
+
     meta, cols = read_record(path, KIND,
                              required_metadata=("test", "output_unit", "scale_factor"),
                              required_columns=("t", "output"))
+    keys = [c for c in ("input", "angle", "turn_on") if c in cols]
+    cols, repairs = repair_gaps(cols, where=path, keys=keys, gaps=gaps, max_fill=max_fill,
+                                keep="last", what="dwell")
+    if repairs:
+        meta = {**meta, "repairs": repairs}
     units = meta["units"]
     if units["output"] != meta["output_unit"]:
         raise AccelcalError(f"{path}: the output column's unit {shown(units['output'])} is not "

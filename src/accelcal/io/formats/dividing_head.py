@@ -104,6 +104,9 @@ class HeadRecord:
         Its standard uncertainty, rad.
     simulation : dict or None
         Truth of a simulated file.
+    repairs : dict or None
+        What the reader left out (incomplete repeats, ``--gaps split``), as
+        :meth:`accelcal.io.recordings.repairs.Repairs.to_dict`.
     """
 
     positions: np.ndarray
@@ -117,6 +120,7 @@ class HeadRecord:
     first_harmonic: np.ndarray | None = None
     first_harmonic_sd: float = 0.0
     simulation: dict | None = None
+    repairs: dict | None = None
 
     def true_models(self):
         """The simulated truth as ErrorModels (None for measured files)."""
@@ -217,8 +221,14 @@ def write_head_record(
     write_record(path, KIND, meta, columns)
 
 
-def read_head_record(path) -> HeadRecord:
+def read_head_record(path, *, gaps: str = "refuse", max_fill: int = 5) -> HeadRecord:
     """Read and validate a ``dividing-head`` record.
+
+    A record has no time column: its gaps are missing readings. A repeat
+    (after the first, which names the positions) that lacks some of the
+    positions is refused (``gaps="refuse"``) or, with ``"split"``, left out
+    (``repairs``); never filled (a reading at a head position is no
+    interpolation of its neighbours'). ``max_fill`` is checked, not used.
 
     Raises
     ------
@@ -227,6 +237,9 @@ def read_head_record(path) -> HeadRecord:
         that do not match the columns, a wrong number of mount phases or
         scale factors, duplicated angles, incomplete repeats, NaN readings.
     """
+    from accelcal.io.record_gaps import check_gap_options, finding
+
+    check_gap_options(gaps, max_fill)
     meta, cols = read_record(
         path, KIND, required_metadata=("sensors", "mount_phases_deg", "output_unit"),
         required_columns=("angle_deg",),
@@ -288,19 +301,30 @@ def read_head_record(path) -> HeadRecord:
     n = first.size
     outputs = np.empty((reps.size, k, n))
     order0 = np.argsort(np.mod(first, 2 * np.pi))
+    dropped = []
     for r in reps.astype(int):
         sel = rep == r
         ang = angle[sel]
         if ang.size != n or not np.allclose(np.sort(np.mod(ang, 2 * np.pi)),
                                             np.mod(first, 2 * np.pi)[order0], atol=1e-9):
+            if _incomplete(ang, first) and gaps == "split":
+                dropped.append((r, int(np.flatnonzero(sel)[0]) + 1, n - ang.size))
+                continue
             raise AccelcalError(
                 f"{path}: repeat {r} does not cover the same {n} angles as repeat 0"
-            )
+                + (f" ({n - ang.size} missing); give --gaps split to leave incomplete "
+                   "repeats out (a reading is never filled)" if _incomplete(ang, first)
+                   else ""))
         check_positions(ang, what=f"angles of repeat {r} in {path}")
         # map repeat r's rows onto repeat 0's order
         idx = np.argsort(np.mod(ang, 2 * np.pi))[np.argsort(order0)]
         for i, s in enumerate(sensors):
             outputs[r, i] = cols[s][sel][idx]
+    repairs = None
+    if dropped:
+        repairs = {"found": [finding("incomplete repeats (positions missing)",
+                                     "left out (split)", [row for _, row, _ in dropped])]}
+        outputs = np.delete(outputs, [r for r, _, _ in dropped], axis=0)
     ac = ac_sd = None
     if "autocollimator_arcsec" in meta:
         ac = np.asarray(_number_list(meta["autocollimator_arcsec"], path,
@@ -331,7 +355,16 @@ def read_head_record(path) -> HeadRecord:
     if sim is not None and (not isinstance(sim, dict) or "models" not in sim):
         raise AccelcalError(f"{path}: metadata 'simulation' must be an object with 'models'")
     return HeadRecord(first, outputs, np.asarray(phases) * DEG, tuple(sensors), unit,
-                      np.asarray(ksf), ac, ac_sd, h1, h1_sd, sim)
+                      np.asarray(ksf), ac, ac_sd, h1, h1_sd, sim, repairs)
+
+
+def _incomplete(angles: np.ndarray, first: np.ndarray) -> bool:
+    """Whether ``angles`` are some of the positions ``first``, distinct, and fewer."""
+    wrap = np.mod(first, 2 * np.pi)
+    mine = np.mod(angles, 2 * np.pi)
+    near = np.abs(mine[:, None] - wrap[None, :]) < 1e-9
+    return bool(mine.size < wrap.size and near.any(axis=1).all()
+                and (near.sum(axis=0) <= 1).all())
 
 
 def _check_angles(values, path, field) -> None:

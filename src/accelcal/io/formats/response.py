@@ -51,6 +51,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import LabInfo, check_lab_metadata
+from accelcal.io.record_gaps import repair_gaps
 from accelcal.io.records import read_record, write_record
 from accelcal.validation import shown
 
@@ -249,8 +250,20 @@ def write(path, data: ResponseRecord) -> None:
     write_record(path, KIND, meta, columns)
 
 
-def read(path) -> ResponseRecord:
+NOT_FILLED = ("a step's sine is not linear between samples (a filled sample would bias its "
+              "fit)")
+"""Why a gap inside a step is never filled."""
+
+
+def read(path, *, gaps: str = "refuse", max_fill: int = 5) -> ResponseRecord:
     """Read and validate a response record file.
+
+    ``gaps``: a jump of the time column inside a step (over 1.5 sample
+    intervals at ``sample_rate_hz``) is a gap, refused or, with ``split``,
+    cut (the step's longest piece of consecutive samples kept:
+    :func:`accelcal.io.record_gaps.repair_gaps`); never filled (a sine is not
+    linear between samples); a jump between steps is harmless. What was done
+    is in ``metadata["repairs"]``.
 
     Raises
     ------
@@ -264,6 +277,12 @@ def read(path) -> ResponseRecord:
                              required_columns=COLUMNS)
     check_header(meta["sample_rate_hz"], meta["output_unit"], path)
     check_lab_metadata(meta, path)
+    cols, repairs = repair_gaps(cols, where=path, keys=("step",),
+                                interval=1.0 / meta["sample_rate_hz"], gaps=gaps,
+                                max_fill=max_fill, keep="longest", what="step",
+                                fillable=NOT_FILLED)
+    if repairs:
+        meta = {**meta, "repairs": repairs}
     steps = int(np.count_nonzero(np.diff(cols["step"]))) + 1 if cols["step"].size else 0
     check_metadata(meta, path, steps)
     try:

@@ -32,6 +32,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.formats import ImportLayout
 from accelcal.io.lab_metadata import check_lab_metadata, read_metadata
+from accelcal.io.record_gaps import repair_gaps
 from accelcal.io.records import read_record, write_record
 from accelcal.validation import shown, shown_path
 
@@ -274,6 +275,10 @@ def read_records(path) -> list[ShakerRecords]:
         for key in ("frequency_hz", "sample_rate_hz", "angle_deg", "amplitude_g", "gravity_g"):
             if isinstance(meta[key], bool) or not isinstance(meta[key], int | float):
                 raise AccelcalError(f"{f}: metadata {key} must be a number")
+        if meta["sample_rate_hz"] > 0:  # a gap is refused: the directions share one time axis
+            repair_gaps(cols, where=f, interval=1.0 / meta["sample_rate_hz"], what="the record",
+                        hint="the sine fits need consecutive samples at sample_rate_hz, and "
+                             "every direction the same samples; cut the recording at the gap")
         scale = meta.get("scale_factor")
         if scale is not None and (isinstance(scale, bool) or not isinstance(scale, int | float)
                                   or not np.isfinite(scale) or scale == 0):

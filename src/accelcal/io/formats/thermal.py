@@ -215,8 +215,14 @@ def write(path, data: ThermalRecord) -> None:
     write_record(path, KIND, meta, columns)
 
 
-def read(path) -> ThermalRecord:
+def read(path, *, gaps: str = "refuse", max_fill: int = 5) -> ThermalRecord:
     """Read and validate a thermal record file.
+
+    ``gaps``, ``max_fill``: a jump of the time column inside a warm-up, a
+    soak or one tumble position (the same phase, plateau and angle either
+    side) is a gap, refused, cut (the plateau's last piece kept: a soak
+    settles at its end) or filled (:func:`accelcal.io.record_gaps.repair_gaps`);
+    a jump between them is harmless. What was done is in ``metadata["repairs"]``.
 
     Raises
     ------
@@ -224,12 +230,18 @@ def read(path) -> ThermalRecord:
         Naming the file: see :func:`accelcal.io.records.read_record`; an
         unknown axis or output unit, malformed setpoints, a column with a
         temperature below absolute zero, unknown phase or plateau codes,
-        time not increasing, malformed laboratory metadata.
+        time not increasing, a gap, malformed laboratory metadata.
     """
+    from accelcal.io.record_gaps import repair_gaps
+
     meta, cols = read_record(path, KIND,
                              required_metadata=("rotation_axis", "output_unit", "setpoints_degC",
                                                 "start_degC"),
                              required_columns=_COLUMNS)
+    cols, repairs = repair_gaps(cols, where=path, keys=("phase", "plateau", "angle"),
+                                gaps=gaps, max_fill=max_fill, keep="last", what="plateau")
+    if repairs:
+        meta = {**meta, "repairs": repairs}
     if meta["rotation_axis"] not in AXES:
         raise AccelcalError(f"{path}: metadata rotation_axis {shown(meta['rotation_axis'])} is "
                             f"not one of {', '.join(AXES)}")

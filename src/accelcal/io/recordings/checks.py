@@ -16,13 +16,12 @@ import numpy as np
 
 from accelcal.errors import AccelcalError
 from accelcal.io.limits import load_json, read_bounded
+from accelcal.io.record_gaps import GAP_FACTOR
 from accelcal.validation import shown, shown_name
 
 MAX_REGIONS_BYTES = 1 << 20
 """Largest regions JSON read (1 MiB)."""
 
-GAP_FACTOR = 1.5
-"""A sample interval longer than this many nominal intervals is a gap."""
 
 
 def check_values(values: np.ndarray, channels, start: int, name: str) -> None:

@@ -140,7 +140,9 @@ class InputOptions:
     rails : (float, float), optional
         The low and high clipping levels (in ``unit``, after ``scale``): runs
         of 3 or more samples at or beyond one are clipped, refused or (with
-        ``gaps="split"``) left out.
+        ``gaps="split"``) left out; a triad calibration
+        (:func:`accelcal.methods.triad.lab.run`) leaves them out of its static
+        intervals instead.
     """
 
     input_format: str = "auto"

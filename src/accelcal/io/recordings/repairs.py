@@ -24,7 +24,9 @@ looks at each block of a recording as it is read and, following the
   interpolated onto the uniform grid ``k / rate`` from the first sample;
 - **clipped samples** (with ``rails``: runs of :data:`MIN_RUN` or more at or
   beyond a rail, found within a block): refused, or left out with
-  ``gaps="split"`` (never filled).
+  ``gaps="split"`` (never filled); a triad calibration finds them itself and
+  leaves them out of its static intervals
+  (:class:`accelcal.signal.clipping.ClipFinder`).
 
 Nothing is repaired silently: every finding is counted, with its first rows
 (data rows of the file, 1-based after the header), in a :class:`Repairs`
@@ -133,6 +135,22 @@ class Repairs:
 
     def __bool__(self) -> bool:
         return bool(self.findings) or len(self.segments) > 1
+
+
+def with_repairs(reduction, found: dict | None):
+    """``reduction`` with the repairs ``found`` in its provenance and notes.
+
+    ``found``: :meth:`Repairs.to_dict`, kept as the provenance's ``repairs``;
+    the reduction itself when there were none.
+    """
+    if not found:
+        return reduction
+    import dataclasses
+
+    return dataclasses.replace(
+        reduction, provenance={**reduction.provenance, "repairs": found},
+        notes=(*reduction.notes,
+               *(n.removeprefix("note: ") for n in Repairs.from_dict(found).notes())))
 
 
 class TimeRepair:

@@ -46,23 +46,37 @@ TARGET = 1e-3
 """Error probability the recommended dwell reaches."""
 
 
-def responses(dwells, scale_factor: float):
-    """Increment sizes (g), responses, their SDs and step counts, sizes ascending."""
-    da = np.diff(dwells.input)
-    dm = np.diff(dwells.mean)
+def weights(inputs, scale_factor: float) -> list[tuple]:
+    """Each increment size's steps as a linear form in the dwell means, sizes ascending.
+
+    Returns ``(size, idx, coef)`` per size (g): ``idx`` the steps (dwell
+    ``i`` to ``i + 1``) of that size and ``coef`` the weights that give its
+    response ``r = coef . m`` from the dwell means ``m``.
+    """
+    da = np.diff(inputs)
     size = np.abs(da)
     keys = np.round(size / 1e-12)
     out = []
     for key in np.unique(keys[size > 0]):
         idx = np.flatnonzero(keys == key)
-        coef = np.zeros(dwells.mean.size)
+        coef = np.zeros(np.size(inputs))
         for i in idx:  # r = mean of (m[i+1] - m[i]) / (K1 da[i]): a linear form in the means
             w = 1.0 / (scale_factor * da[i] * idx.size)
             coef[i + 1] += w
             coef[i] -= w
+        out.append((float(np.median(size[idx])), idx, coef))
+    return out
+
+
+def responses(dwells, scale_factor: float):
+    """Increment sizes (g), responses, their SDs and step counts, sizes ascending."""
+    da = np.diff(dwells.input)
+    dm = np.diff(dwells.mean)
+    out = []
+    for size, idx, coef in weights(dwells.input, scale_factor):
         ratio = float(np.sum(dm[idx] / (scale_factor * da[idx])) / idx.size)
         sd = float(np.sqrt(np.sum((coef * dwells.se) ** 2)))
-        out.append((float(np.median(size[idx])), ratio, sd, idx.size))
+        out.append((size, ratio, sd, idx.size))
     if not out:
         raise AccelcalError("the record holds a single input: no step to decide on")
     return out

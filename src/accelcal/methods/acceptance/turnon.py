@@ -138,7 +138,7 @@ def reduce_turn_on(record, *, settle: float = 0.0) -> Reduction:
                       "scale_std": stds[:, 1], "drift": drift, "drift_std": stds[:, 2]},
         quantities={"bias_repeatability": "bias", "bias_mean": "bias"} | {
             f"bias_{k + 1}": "bias" for k in range(n)},
-        provenance={"test": "turn-on", "output_unit": record.output_unit,
+        provenance={"test": "turn-on", "output_unit": record.output_unit, "settle": settle,
                     "scale_factor": record.scale_factor, "turn_ons": int(n),
                     "bias_interval_g": sd_interval(s_b, n), "scale_interval": sd_interval(s_k, n)},
     )

@@ -21,6 +21,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.identifiability import combination_name
 from accelcal.io.formats.dividing_head import HeadRecord
+from accelcal.io.recordings.repairs import with_repairs
 from accelcal.methods.dividing_head.data import HeadData
 from accelcal.methods.dividing_head.four import four
 from accelcal.methods.dividing_head.joint import joint
@@ -62,7 +63,8 @@ def check_options(method: str, options: dict) -> dict:
     return given
 
 
-def reduce(data, method: str = "joint", **options) -> Reduction:
+def reduce(data, method: str = "joint", *, gaps: str = "refuse", max_fill: int = 5,
+           **options) -> Reduction:
     """Run ``method`` (``single``, ``four``, ``joint`` or ``tumble``) on ``data``.
 
     ``data`` is a :class:`HeadData`, or a record (:class:`HeadRecord` or its
@@ -79,7 +81,9 @@ def reduce(data, method: str = "joint", **options) -> Reduction:
     their aliases listed). ``tumble``
     uses the IEEE 1293 multipoint Fourier reduction of
     :mod:`accelcal.methods.tumble` on each sensor, with the head axis along
-    PA.
+    PA. ``gaps``, ``max_fill``: a record file's incomplete repeats
+    (:func:`~accelcal.io.formats.dividing_head.read_head_record`); what a
+    record's reader left out is in the provenance (``repairs``) and notes.
 
     Returns
     -------
@@ -96,10 +100,16 @@ def reduce(data, method: str = "joint", **options) -> Reduction:
     if isinstance(data, str | PathLike):
         from accelcal.io.formats.dividing_head import read_head_record
 
-        data = read_head_record(data)
+        data = read_head_record(data, gaps=gaps, max_fill=max_fill)
+    found = None
     if isinstance(data, HeadRecord):
         options = lab_options(data, method, **options)
-        data = HeadData.from_record(data)
+        data, found = HeadData.from_record(data), data.repairs
+    return with_repairs(_reduced(data, method, options), found)
+
+
+def _reduced(data, method: str, options: dict) -> Reduction:
+    """:func:`reduce` of :class:`HeadData`."""
     priors = options.pop("priors", None) or "default"
     if priors not in PRIOR_CHOICES:
         raise AccelcalError(f"{shown(priors)} is not one of {', '.join(PRIOR_CHOICES)}",

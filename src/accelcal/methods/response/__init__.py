@@ -178,7 +178,7 @@ def excitation_of(item) -> str:
 
 def reduce(records, *, method: str | None = None, reference=None, reference_frequency=None,
            segment: int | None = None, min_coherence: float | None = None,
-           static_scale_factor=None):
+           static_scale_factor=None, gaps: str = "refuse", max_fill: int = 5):
     """Records or their files reduced by one route, as ``accelcal response reduce``.
 
     Parameters
@@ -197,6 +197,11 @@ def reduce(records, *, method: str | None = None, reference=None, reference_freq
         Broadband: Welch segment (samples) and the lowest coherence kept.
     static_scale_factor : (float, float), optional
         Gravity: the static scale factor and its standard uncertainty to tie to.
+    gaps, max_fill
+        A gap inside a step of a file: refused, or cut with ``"split"`` (the
+        step's longest piece kept; :func:`accelcal.io.formats.response.read`);
+        the broadband route takes a file's samples as they are (``"refuse"``
+        only). What was done is in the provenance (``repairs``) and notes.
 
     Returns
     -------
@@ -211,6 +216,7 @@ def reduce(records, *, method: str | None = None, reference=None, reference_freq
         excitation, options of another route.
     """
     from os import PathLike
+    from pathlib import PurePath
 
     from accelcal.errors import AccelcalError
     from accelcal.io.formats.response import read
@@ -243,13 +249,25 @@ def reduce(records, *, method: str | None = None, reference=None, reference_freq
     if method == "broadband":
         if len(items) != 1:
             raise AccelcalError("a broadband reduction takes one record", parameter="records")
+        if gaps != "refuse":
+            raise AccelcalError("the broadband route streams a record's samples as they are; "
+                                "cut the record at its gaps instead", parameter="gaps")
         extra = {} if min_coherence is None else {"min_coherence": min_coherence}
         return reduce_broadband(items[0], reference, segment=segment,
                                 reference_frequency=reference_frequency, **extra)
-    loaded = [read(r) if isinstance(r, str | PathLike) else r for r in items]
+    from accelcal.io.record_gaps import merged
+    from accelcal.io.recordings.repairs import with_repairs
+
+    loaded = [read(r, gaps=gaps, max_fill=max_fill) if isinstance(r, str | PathLike) else r
+              for r in items]
+    found = merged([(PurePath(r).name if isinstance(r, str | PathLike) else f"record {k + 1}",
+                     rec.metadata.get("repairs"))
+                    for k, (r, rec) in enumerate(zip(items, loaded, strict=True))])
     if method == "laser":
-        return reduce_laser(loaded, reference_frequency=reference_frequency)
+        return with_repairs(reduce_laser(loaded, reference_frequency=reference_frequency),
+                            found)
     if method == "gravity":
-        return reduce_gravity(loaded, static_scale_factor=static_scale_factor,
-                              reference_frequency=reference_frequency)
-    return reduce_stepped(loaded, reference, reference_frequency=reference_frequency)
+        return with_repairs(reduce_gravity(loaded, static_scale_factor=static_scale_factor,
+                                           reference_frequency=reference_frequency), found)
+    return with_repairs(reduce_stepped(loaded, reference,
+                                       reference_frequency=reference_frequency), found)

@@ -13,7 +13,12 @@ the inverse Cholesky factor of the point's 2 x 2 covariance (of the whole
 covariance where the points are correlated, as neighbouring bins of a
 broadband response are), and solved by
 :func:`scipy.optimize.least_squares` (trust region, from the best of a
-grid of ``fn`` and ``zeta``). The covariance of the parameters is
+grid of ``fn`` and ``zeta``). Where the points are averages of the response
+over a kernel (the bins of a windowed spectrum: H1 of white excitation
+expects ``sum_m k_m S(f + m df)``, ``k_m`` the window's squared spectrum at
+whole bins [BP2010]_, for Hann ``1/6, 2/3, 1/6``), the model is averaged
+alike, so that the curvature of the response near the resonance does not
+bias ``fn`` and ``zeta``. The covariance of the parameters is
 ``(J'J)^-1`` of the whitened Jacobian at the solution (the points' own
 covariances, not rescaled by the fit's chi-square: the Birge ratio is
 reported beside). :func:`derived` evaluates the fitted model with
@@ -27,6 +32,9 @@ References
 .. [Ogata2010] Ogata K., Modern Control Engineering, 5th ed., 2010, sec. 5-3
    and 8-2 (second-order systems: resonant peak, bandwidth).
 .. [GUM] JCGM 100:2008, sec. 5.1.2 (law of propagation of uncertainty).
+.. [BP2010] Bendat J. S., Piersol A. G., Random Data, 4th ed., 2010, sec. 8.5
+   (the resolution bias of spectral density estimates: the curvature of the
+   spectrum times the second moment of the analysis kernel).
 """
 
 import numpy as np
@@ -113,7 +121,24 @@ class _Whitener:
         return solve_banded((self.band, 0), self.factor, pairs.ravel())
 
 
-def _start(f, data, w, names) -> np.ndarray:
+def _kernel(observations):
+    """``(offsets_hz, weights)`` of the points' averaging kernel, or None (point values)."""
+    weights = observations.get("kernel")
+    if weights is None:
+        return None
+    weights = np.asarray(weights, dtype=float)
+    half = weights.size // 2
+    return np.arange(-half, half + 1) * float(observations["bin_hz"]), weights
+
+
+def _predict(x, names, f, kernel) -> np.ndarray:
+    """The model at ``f``, averaged over the points' kernel where they have one."""
+    if kernel is None:
+        return evaluate(x, names, f)
+    return sum(k * evaluate(x, names, f + off) for off, k in zip(*kernel, strict=True))
+
+
+def _start(f, data, w, names, kernel) -> np.ndarray:
     """Best of a grid of ``fn`` and ``zeta`` (S0 from the lowest frequency; pole far, no delay)."""
     s0 = float(np.real(data[np.argmin(f)]))
     best, start = np.inf, None
@@ -121,27 +146,33 @@ def _start(f, data, w, names) -> np.ndarray:
         for zeta in (0.05, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0, 1.5, 3.0):
             extra = [10.0 * f.max()] * ("pole" in names) + [0.0] * ("delay" in names)
             x = np.array([s0, fn, zeta, *extra])
-            chi2 = np.sum(_residuals(x, names, f, data, w) ** 2)
+            chi2 = np.sum(_residuals(x, names, f, data, w, kernel=kernel) ** 2)
             if chi2 < best:
                 best, start = chi2, x
     return start
 
 
-def _residuals(x, names, f, data, w) -> np.ndarray:
-    d = evaluate(x, names, f) - data
+def _residuals(x, names, f, data, w, *, kernel) -> np.ndarray:
+    d = _predict(x, names, f, kernel) - data
     return w(np.stack([d.real, d.imag], axis=1))
 
 
-def fit_model(reduction, model: str = "second-order") -> Reduction:
+def fit_model(reduction, model: str = "second-order", *, start=None) -> Reduction:
     """Weighted complex least squares of the transfer function on a measured response.
 
     Parameters
     ----------
     reduction : accelcal.results.Reduction
         A stepped-sine reduction (:func:`accelcal.methods.response.stepped.reduce_stepped`):
-        complex points with their ``[Re, Im]`` covariance and ``frequency_hz``.
+        complex points with their ``[Re, Im]`` covariance and ``frequency_hz``
+        (and, for points averaged over a kernel, ``kernel`` and ``bin_hz``:
+        a broadband reduction's).
     model : str
         ``second-order``, optionally with ``,pole`` and ``,delay``.
+    start : sequence of float, optional
+        The parameters (``S0, fn, zeta`` and the terms') to start from
+        instead of the best of the grid: a fit of points near those of a
+        known fit (the re-fits of a budget's perturbed points).
 
     Returns
     -------
@@ -178,11 +209,14 @@ def fit_model(reduction, model: str = "second-order") -> Reduction:
         raise AccelcalError(f"{f.size} frequencies give {2 * f.size} real data, too few for "
                             f"the {len(names)} parameters of {model}", parameter="model")
     w = _Whitener(data, est.covariance)
-    x0 = _start(f, data, w, names)
+    kernel = _kernel(reduction.observations)
+    x0 = (_start(f, data, w, names, kernel) if start is None
+          else np.asarray(start, dtype=float))
     lower = [-np.inf, 0.0, 0.0] + [0.0] * ("pole" in names) + [-np.inf] * ("delay" in names)
     scale = np.abs(x0) + np.array([0, 0, 0] + [0] * ("pole" in names) +
                                   [1e-6] * ("delay" in names))
-    sol = least_squares(_residuals, x0, args=(names, f, data, w), bounds=(lower, np.inf),
+    sol = least_squares(_residuals, x0, args=(names, f, data, w), kwargs={"kernel": kernel},
+                        bounds=(lower, np.inf),
                         x_scale=scale, xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=2000,
                         jac="3-point")
     if sol.status <= 0:

@@ -15,8 +15,10 @@ hence the samples ``n`` and the whole periods ``n f / fs`` a target needs.
 Broadband: with the DUT's noise alone, the coherence in a bin is
 ``gamma^2 = snr^2 / (1 + snr^2)`` (``snr`` the ratio of the DUT's signal to
 its noise, RMS, in the bin), so the random error
-``sqrt(1 - gamma^2) / (|gamma| sqrt(2 n_d))`` is ``1 / (snr sqrt(2 n_d))``
-[BP2010]_; the averages ``n_d`` give the Welch segments at the reduction's
+``sqrt(1 - gamma^2) / (|gamma| sqrt(2 (n_d - 1)))`` is ``1 / (snr sqrt(2 (n_d - 1)))``
+[BP2010]_ (one average spent on the window's leakage input, as the reduction
+does: :meth:`accelcal.signal.spectra.Spectra.conditioned`); the averages
+``n_d`` give the Welch segments at the reduction's
 overlap (:func:`accelcal.signal.spectra.equivalent_averages`) and the record's
 length at a bin width.
 
@@ -105,7 +107,7 @@ def plan(*, route: str = "stepped", snr_db: float = 40.0, ref_snr_db: float | No
         from accelcal.signal.spectra import equivalent_averages
 
         nperseg = max(16, round(fs / resolution_hz))
-        n_d = 1.0 / (2.0 * snr**2 * target**2)
+        n_d = 1.0 + 1.0 / (2.0 * snr**2 * target**2)
         _samples(n_d * nperseg / 4)
         step = nperseg - int(np.floor(OVERLAP * nperseg))
         from scipy.signal import get_window
@@ -114,10 +116,10 @@ def plan(*, route: str = "stepped", snr_db: float = 40.0, ref_snr_db: float | No
         ratio = 64 / equivalent_averages(64, window, step)
         segments = max(1, int(np.ceil(n_d * ratio)))
         n_d = equivalent_averages(segments, window, step)
-        while n_d * 2 * snr**2 * target**2 < 1:
+        while (n_d - 1.0) * 2 * snr**2 * target**2 < 1:
             segments += 1
             n_d = equivalent_averages(segments, window, step)
-        reached = 1.0 / (snr * np.sqrt(2 * n_d))
+        reached = 1.0 / (snr * np.sqrt(2 * (n_d - 1.0)))
         samples = (segments - 1) * step + nperseg
         return [{"route": route, "frequency_hz": float(fs / nperseg), "segment": nperseg,
                  "averages": segments, "n_d": float(n_d), "samples": int(samples),

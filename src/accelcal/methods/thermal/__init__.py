@@ -96,21 +96,25 @@ def simulate(model, programme=None, *, seed=None, **settings):
     return rig_simulate(model, programme, seed=seed, **settings)
 
 
-def reduce(records, **options):
+def reduce(records, *, gaps: str = "refuse", max_fill: int = 5, **options):
     """Reduce a thermal record (or its file), as ``accelcal thermal reduce`` does.
 
     :func:`reduce_thermal` of the record; ``options`` are its own (``order``,
     ``reference``, ``terms``, ``alpha``, ``window``, ``rate_limit``,
-    ``tolerance``).
+    ``tolerance``); ``gaps``, ``max_fill``: a file's gaps inside a plateau
+    (:func:`accelcal.io.formats.thermal.read`), what was done in the
+    reduction's provenance (``repairs``) and notes.
     """
     from os import PathLike
+
+    from accelcal.io.recordings.repairs import with_repairs
 
     record = records
     if isinstance(records, str | PathLike):
         from accelcal.io.formats import thermal as thermal_format
 
-        record = thermal_format.read(records)
-    return reduce_thermal(record, **options)
+        record = thermal_format.read(records, gaps=gaps, max_fill=max_fill)
+    return with_repairs(reduce_thermal(record, **options), record.metadata.get("repairs"))
 
 
 def from_inputs(files, record):

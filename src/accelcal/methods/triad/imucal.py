@@ -43,7 +43,7 @@ References
 """
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -71,7 +71,9 @@ class KnownPositions:
     ``labels`` (imucal's ``x_p`` ...), ``up`` (unit specific-force direction in
     the sensor/fixture frame, ``(k, 3)``), ``means`` and ``noise_sd`` (mean and
     SD of one sample per axis, ``(k, 3)``, input unit), ``counts`` (samples)
-    and ``spans`` (``(start, stop)``, or None for labels not in one run).
+    and ``spans`` (``(start, stop)``, or None for labels not in one run);
+    ``excluded``: with excluded (clipped) samples, ``samples`` left out, the
+    positions ``cut`` (kept without them) and ``dropped`` (fewer than 2 left).
     """
 
     labels: tuple
@@ -80,6 +82,7 @@ class KnownPositions:
     noise_sd: np.ndarray
     counts: np.ndarray
     spans: tuple
+    excluded: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.labels)
@@ -92,34 +95,71 @@ def _stats(label: str, samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return samples.mean(axis=0), samples.std(axis=0, ddof=1)
 
 
-def positions_from_spans(values, spans: dict, ups: dict) -> KnownPositions:
+def positions_from_spans(values, spans: dict, ups: dict, exclude=None) -> KnownPositions:
     """Known positions from sample ranges ``label -> (start, stop)`` and ``label -> up``.
 
     Labels without an up vector in ``ups`` are skipped; up vectors are
-    normalised. An AccelcalError for a range outside the samples, a hold of
-    fewer than 2 samples, a zero up vector, or no labelled hold at all.
+    normalised; ``exclude`` (bool per sample): samples left out of the
+    statistics (clipped), a position left with fewer than 2 dropped. An
+    AccelcalError for a range outside the samples, a hold of fewer than 2
+    samples, a zero up vector, or no labelled hold at all.
     """
     u = np.asarray(values, dtype=float)
     labels, up, means, sds, counts, kept = [], [], [], [], [], []
+    drop = _Drop(exclude)
     for label, (start, stop) in spans.items():
         if label not in ups:
             continue
         if not 0 <= start < stop <= len(u):
             raise AccelcalError(f"position {shown(label)}: samples {start}:{stop} are outside "
                                 f"the recording's 0:{len(u)}")
-        mean, sd = _stats(label, u[start:stop])
+        idx = drop.keep(np.arange(start, stop))
+        if idx is None:
+            continue
+        mean, sd = _stats(label, u[idx])
         labels.append(label)
         up.append(_unit(ups[label], label))
         means.append(mean)
         sds.append(sd)
-        counts.append(stop - start)
+        counts.append(len(idx))
         kept.append((int(start), int(stop)))
+    if not labels and drop.dropped:
+        raise AccelcalError(f"every position with a known orientation lost its samples to "
+                            f"clipping ({len(drop.dropped)} dropped)")
     if not labels:
         raise AccelcalError("no static position with a known orientation: the labels are "
                             f"{shown(', '.join(map(str, spans)), 120)}; expected "
                             + ", ".join(IMUCAL_UP))
     return KnownPositions(tuple(labels), np.array(up), np.array(means), np.array(sds),
-                          np.array(counts), tuple(kept))
+                          np.array(counts), tuple(kept), drop.counts())
+
+
+class _Drop:
+    """Excluded samples left out of the positions, counted."""
+
+    def __init__(self, exclude):
+        self.exclude = None if exclude is None else np.asarray(exclude, dtype=bool)
+        self.samples, self.cut, self.dropped = 0, [], []
+
+    def keep(self, idx: np.ndarray):
+        """The samples ``idx`` of one position not excluded; None: the position is dropped."""
+        if self.exclude is None:
+            return idx
+        out = idx[~self.exclude[idx]]
+        if out.size == idx.size:
+            return idx
+        self.samples += idx.size - out.size
+        if out.size < 2:
+            self.dropped.append(int(idx[0]))
+            return None
+        self.cut.append(int(idx[0]))
+        return out
+
+    def counts(self) -> dict:
+        if self.exclude is None:
+            return {}
+        return {"samples": self.samples, "cut": len(self.cut), "dropped": len(self.dropped),
+                "cut_at": self.cut[:5], "dropped_at": self.dropped[:5]}
 
 
 def _unit(vector, label: str) -> np.ndarray:
@@ -134,11 +174,12 @@ def _unit(vector, label: str) -> np.ndarray:
     return v / norm
 
 
-def positions_from_labels(values, labels) -> KnownPositions:
+def positions_from_labels(values, labels, exclude=None) -> KnownPositions:
     """Known positions from per-sample labels (imucal's ``part`` column).
 
     Every sample labelled ``x_p`` (...) belongs to that hold, in the order
-    the labels first appear; other labels (``x_rot``, empty) are ignored.
+    the labels first appear; other labels (``x_rot``, empty) are ignored;
+    ``exclude`` as for :func:`positions_from_spans`.
     """
     u = np.asarray(values, dtype=float)
     lab = np.asarray(labels).astype(str)
@@ -150,40 +191,52 @@ def positions_from_labels(values, labels) -> KnownPositions:
         raise AccelcalError("no static position with a known orientation: the 'part' column "
                             f"has {shown(', '.join(map(str, names[:20])), 120)}; expected "
                             + ", ".join(IMUCAL_UP))
-    up, means, sds, counts, spans = [], [], [], [], []
+    up, means, sds, counts, spans, names = [], [], [], [], [], []
+    drop = _Drop(exclude)
     for name in found:
         idx = np.flatnonzero(lab == name)
+        contiguous = idx[-1] - idx[0] + 1 == len(idx)
+        span = (int(idx[0]), int(idx[-1]) + 1) if contiguous else None
+        idx = drop.keep(idx)
+        if idx is None:
+            continue
         mean, sd = _stats(name, u[idx])
+        names.append(name)
         up.append(IMUCAL_UP[name])
         means.append(mean)
         sds.append(sd)
         counts.append(len(idx))
-        contiguous = idx[-1] - idx[0] + 1 == len(idx)
-        spans.append((int(idx[0]), int(idx[-1]) + 1) if contiguous else None)
-    return KnownPositions(tuple(found), np.array(up), np.array(means), np.array(sds),
-                          np.array(counts), tuple(spans))
+        spans.append(span)
+    if not names:
+        raise AccelcalError(f"every position with a known orientation lost its samples to "
+                            f"clipping ({len(drop.dropped)} dropped)")
+    return KnownPositions(tuple(names), np.array(up), np.array(means), np.array(sds),
+                          np.array(counts), tuple(spans), drop.counts())
 
 
-def session_positions(recording) -> KnownPositions | None:
+def session_positions(recording, exclude=None) -> KnownPositions | None:
     """The known positions of an imucal session: its regions JSON, else its ``part`` labels.
 
     ``recording`` is a :class:`~accelcal.io.recordings.Recording`; None
-    when it has neither regions nor labels.
+    when it has neither regions nor labels; ``exclude``: samples left out
+    (:func:`positions_from_spans`).
     """
     if recording.regions:
-        return positions_from_spans(recording.values, recording.regions, IMUCAL_UP)
+        return positions_from_spans(recording.values, recording.regions, IMUCAL_UP, exclude)
     if recording.labels is not None:
-        return positions_from_labels(recording.values, recording.labels)
+        return positions_from_labels(recording.values, recording.labels, exclude)
     return None
 
 
-def listed_positions(values, items, where: str, start=None, stop=None) -> KnownPositions:
+def listed_positions(values, items, where: str, start=None, stop=None,  # noqa: PLR0917
+                     exclude=None) -> KnownPositions:
     """Known positions from a list: a triad record's ``positions`` or a ``--positions`` file.
 
     Each item is ``{"label", "up", "start", "stop"}`` (a record: sample range
     ``start:stop``), or, with ``start`` and ``stop`` given (the detected
     static intervals, in order), ``[x, y, z]`` or ``{"label", "up"}``: the
-    unit specific-force direction in the fixture frame (``[0, 0, 1]``: z up).
+    unit specific-force direction in the fixture frame (``[0, 0, 1]``: z up);
+    ``exclude`` as for :func:`positions_from_spans`.
     """
     if not isinstance(items, list) or not items:
         raise AccelcalError(f"{where} must be a non-empty JSON list of up vectors [x, y, z] "
@@ -205,7 +258,7 @@ def listed_positions(values, items, where: str, start=None, stop=None) -> KnownP
         if label in spans:
             raise AccelcalError(f"{where}: label {shown(label)} repeats")
         spans[label], ups[label] = span, up
-    return positions_from_spans(values, spans, ups)
+    return positions_from_spans(values, spans, ups, exclude)
 
 
 MAX_POSITIONS_BYTES = 1 << 20

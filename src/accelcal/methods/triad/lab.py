@@ -22,6 +22,7 @@ References
 .. [TR8350.2] NIMA TR8350.2, World Geodetic System 1984, 3rd ed., 2000.
 """
 
+import dataclasses
 from dataclasses import dataclass
 from os import PathLike
 
@@ -86,7 +87,7 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         height: float | None = None, quadratic: bool = False, init_static: float = 30.0,
         window: float = 1.0, factor: float | None = None, min_length: float = 2.0,
         estimator: str | None = None, fixture_tilt: float | None = None,
-        priors="none") -> TriadRun:
+        priors="none", rails="auto") -> TriadRun:
     """Calibrate a triad from a recording, as ``accelcal triad calibrate`` does.
 
     Parameters
@@ -136,6 +137,14 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         pendulous) lists the rows each term would move per unit term and
         propagates nothing; ``"default"`` bounds them by the embedded default
         accelerometer's priors, a dict by the user's, as Type B.
+    rails : "auto", None or (float, float)
+        Clipped samples (:class:`accelcal.signal.clipping.ClipFinder`): runs
+        at the channels' extremes (``"auto"``), at or beyond the given rails
+        (also taken from ``options.rails``), or none looked for (None). They
+        are left out of the static intervals (an interval is cut around them,
+        or dropped when too short) and of the known positions' means, and
+        counted in ``recording.repairs`` and the reduction's provenance
+        (``repairs``) and notes.
 
     Returns
     -------
@@ -147,6 +156,7 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         For inconsistent options, a recording that cannot be read, or too
         few positions; the message names the parameter.
     """
+    from accelcal.io.recordings.repairs import Repairs
     from accelcal.signal.static import check_settings
 
     if orientations not in (None, *ORIENTATIONS):
@@ -163,11 +173,16 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
     from accelcal.methods.triad.unestimated import check_priors
 
     check_priors(priors)
+    if options is not None and options.rails is not None:  # left out here, not refused
+        options, rails = dataclasses.replace(options, rails=None), options.rails
     rec = read(source, options)
+    rec = dataclasses.replace(rec, repairs=Repairs.from_dict(rec.repairs.to_dict()))  # its own
     g = local_gravity(rec, gravity=gravity, latitude=latitude, height=height)
     check_magnitude(rec, g)
-    detect = (init_static, window, 2.0 if factor is None else factor, min_length)
-    known, found = (None, None) if orientations == "unknown" else _known(rec, positions, detect)
+    exclude = clipped_samples(rec, rails)
+    detect = (init_static, window, 2.0 if factor is None else factor, min_length, exclude)
+    known, found = ((None, None) if orientations == "unknown"
+                    else _known(rec, positions, detect, exclude))
     if orientations == "known" and known is None:
         raise AccelcalError(
             "known needs the positions' orientations: imucal labels (a 'part' column or "
@@ -182,7 +197,8 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
                                    labels=known.labels, counts=known.counts, noise_sd=noise,
                                    estimator=estimator, fixture_tilt=fixture_tilt)
 
-        red = _bounded(again, known.means, g, known.up, known.labels, priors)
+        red = _reduced(rec, found if found is not None else known, again, known.means, g,
+                       known.up, known.labels, priors)
         return TriadRun(red, rec, found)
     if estimator is not None or fixture_tilt is not None:
         raise AccelcalError("applies to known orientations; the recording gives none (imucal "
@@ -195,7 +211,7 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
 
         choice = choose_factor(rec.values, rec.rate, g, init_static=init_static, window=window,
                                min_length=min_length, input_unit=rec.unit, quadratic=quadratic,
-                               time=rec.time)
+                               time=rec.time, exclude=exclude)
         found, sweep, labels = choice.intervals, choice.rows, None  # the sweep's P1..Pn
     else:
         found, sweep = detect_intervals(rec, *detect), None
@@ -205,8 +221,66 @@ def run(source, *, options=None, orientations: str | None = None, positions=None
         return calibrate_unknown(means, g, input_unit=rec.unit, quadratic=quadratic,
                                  labels=labels, counts=found.counts)
 
-    return TriadRun(_bounded(again_unknown, found.means, g, None, labels, priors), rec, found,
-                    sweep)
+    return TriadRun(_reduced(rec, found, again_unknown, found.means, g, None, labels, priors),
+                    rec, found, sweep)
+
+
+def clipped_samples(rec, rails="auto"):
+    """The clipped samples of a triad recording (a bool mask), or None when there are none.
+
+    ``rails`` as for :func:`run`; what is found goes into ``rec.repairs``.
+    """
+    from accelcal.signal.clipping import ClipFinder
+
+    finder = ClipFinder(rec.values.shape[1], rails)
+    mask = finder(rec.values)
+    note_clipped(rec.repairs, finder)
+    return mask if finder.count else None
+
+
+def note_clipped(repairs, finder) -> None:
+    """Count the clipped samples a :class:`~accelcal.signal.clipping.ClipFinder` found."""
+    if finder.count:
+        repairs.add(f"clipped samples ({finder.rule()})",
+                    "left out of the static intervals and the fit",
+                    np.asarray(finder.first) + 1, count=finder.count)
+
+
+def note_excluded(repairs, excluded: dict) -> None:
+    """Count the static intervals cut at and dropped for clipped samples.
+
+    ``excluded``: :attr:`accelcal.signal.static.StaticIntervals.excluded`.
+    """
+    for what, key, action in (
+            ("static intervals cut at clipped samples", "cut",
+             "the clipped samples left out; the rest kept"),
+            ("static intervals dropped for clipped samples", "dropped",
+             "too short without the clipped samples; left out")):
+        if excluded.get(key):
+            repairs.add(what, action, np.asarray(excluded[f"{key}_at"]) + 1,
+                        count=excluded[key])
+
+
+def _reduced(rec, found, again, means, gravity, up, labels, priors):  # noqa: PLR0917
+    """:func:`_bounded`, with what clipping cut and dropped in the repairs.
+
+    The repairs go into the provenance and the notes; a refusal for too few
+    positions says how many clipping dropped.
+    """
+    from accelcal.io.recordings.repairs import with_repairs
+
+    excluded = getattr(found, "excluded", None) or {}
+    note_excluded(rec.repairs, excluded)
+    try:
+        red = _bounded(again, means, gravity, up, labels, priors)
+    except AccelcalError as exc:
+        if not excluded.get("dropped"):
+            raise
+        raise AccelcalError(f"{exc.message}; {excluded['dropped']} static interval(s) were "
+                            f"dropped for clipped samples ({excluded['samples']} samples at "
+                            "the rails): give longer holds, a range that does not clip, or "
+                            "--rails", parameter=exc.parameter) from None
+    return with_repairs(red, rec.repairs.to_dict() if rec.repairs else None)
 
 
 def _bounded(again, means, gravity, up, labels, priors):  # noqa: PLR0917
@@ -255,12 +329,17 @@ def check_magnitude(rec, gravity: float) -> None:
             "counts; scale for a known conversion)", parameter="unit")
 
 
-def detect_intervals(rec, init_static: float, window: float, factor: float, min_length: float):
-    """The static intervals of a recording (:func:`accelcal.signal.static.detect_static`)."""
+def detect_intervals(rec, init_static: float, window: float, factor: float,  # noqa: PLR0917
+                     min_length: float, exclude=None):
+    """The static intervals of a recording (:func:`accelcal.signal.static.detect_static`).
+
+    ``exclude``: samples never static, e.g. :func:`clipped_samples`.
+    """
     from accelcal.signal.static import detect_static
 
     return detect_static(rec.values, rec.rate, init_static=init_static, window=window,
-                         factor=factor, min_length=min_length, time=rec.time, unit=rec.unit)
+                         factor=factor, min_length=min_length, time=rec.time, unit=rec.unit,
+                         exclude=exclude)
 
 
 def local_gravity(rec, *, gravity=None, latitude=None, height=None) -> float:
@@ -283,14 +362,15 @@ def local_gravity(rec, *, gravity=None, latitude=None, height=None) -> float:
     return check_gravity(value)
 
 
-def _known(rec, positions, detect):
+def _known(rec, positions, detect, exclude=None):
     """Known positions (and the intervals detected for a positions file), or (None, None)."""
     from accelcal.methods.triad.imucal import listed_positions, positions_file, session_positions
 
     if positions is not None:
         found = detect_intervals(rec, *detect)
         return positions_file(positions, rec.values, found.start, found.stop), found
-    known = session_positions(rec)
+    known = session_positions(rec, exclude)
     if known is None and rec.metadata.get("positions"):
-        known = listed_positions(rec.values, rec.metadata["positions"], "the record's positions")
+        known = listed_positions(rec.values, rec.metadata["positions"], "the record's positions",
+                                 exclude=exclude)
     return known, None

@@ -44,8 +44,8 @@ class FactorChoice:
 
 def choose_factor(values, rate: float, gravity: float, *, factors=DEFAULT_FACTORS,
                   init_static: float = 30.0, window: float = 1.0, min_length: float = 2.0,
-                  input_unit: str = "m/s^2", quadratic: bool = False, time=None
-                  ) -> FactorChoice:
+                  input_unit: str = "m/s^2", quadratic: bool = False, time=None,
+                  exclude=None) -> FactorChoice:
     """Choose the threshold factor by the calibration residual ([1]_ sec. III).
 
     For each factor the intervals are detected and calibrated by the
@@ -67,6 +67,8 @@ def choose_factor(values, rate: float, gravity: float, *, factors=DEFAULT_FACTOR
         As for :func:`detect_static`, seconds.
     input_unit, quadratic, time
         Unit of ``values``; fit the quadratic terms too; sample times (s).
+    exclude : array_like of bool, optional
+        Samples never static (clipped), as for :func:`detect_static`.
 
     Returns
     -------
@@ -84,12 +86,14 @@ def choose_factor(values, rate: float, gravity: float, *, factors=DEFAULT_FACTOR
     factors = [float(k) for k in factors]
     if not factors:
         raise AccelcalError("give at least one factor", parameter="factors")
-    best, rows, most = None, [], 0
+    best, rows, most, dropped = None, [], 0, 0
     for k in factors:
         row = {"factor": k, "intervals": 0, "rms_residual": float("nan"), "note": ""}
         try:
             found = detect_static(values, rate, init_static=init_static, window=window,
-                                  factor=k, min_length=min_length, time=time)
+                                  factor=k, min_length=min_length, time=time,
+                                  exclude=exclude)
+            dropped = max(dropped, found.excluded.get("dropped", 0))
             row["intervals"] = len(found)
             most = max(most, len(found))
             # as without the sweep: weights by the samples averaged, the variance from
@@ -111,6 +115,7 @@ def choose_factor(values, rate: float, gravity: float, *, factors=DEFAULT_FACTOR
     if best is None:
         raise AccelcalError(
             f"no threshold factor of {', '.join(f'{k:g}' for k in factors)} gives static "
-            f"intervals that calibrate the triad (most intervals found: {most}); "
+            f"intervals that calibrate the triad (most intervals found: {most}"
+            + (f"; up to {dropped} dropped for clipped samples" if dropped else "") + "); "
             + (rows[-1]["note"] if rows else ""))
     return FactorChoice(factor=best[1], intervals=best[2], reduction=best[3], rows=rows)

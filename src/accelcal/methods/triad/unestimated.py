@@ -115,11 +115,18 @@ def with_type_b(red, means, reduce_again, *, gravity: float, up=None, priors="de
                                notes=(*red.notes, note))
 
 
+SUM_NOTE = ("an axis's K2 + Koo + Kpp reads as its bias (a_i^2 + a_o^2 + a_p^2 = 1 at every "
+            "static position: no set of positions separates the sum from b; the terms' "
+            "contrasts move the rows by amounts the positions decide)")
+"""Why the even terms alias into the biases (docs/triad.md)."""
+
+
 def _note(priors, given) -> str:
     """What ``with_type_b`` did with the pendulous terms, in words."""
     if priors == "none":
         return ("priors none: the pendulous terms' aliases listed (the rows each would move, "
-                "per unit term, if the axes are pendulous accelerometers), no Type B propagated")
+                "per unit term, if the axes are pendulous accelerometers), no Type B "
+                f"propagated; {SUM_NOTE}")
     which = given or default_priors(TERMS, "g")
     source = "given" if given else "embedded default"
     bounds = ", ".join(f"{p.name} {'+-' if p.distribution == 'rectangular' else 'u '}"
@@ -127,7 +134,8 @@ def _note(priors, given) -> str:
     return (f"each axis's pendulous terms the triad model leaves out ({', '.join(TERMS)}) "
             f"bounded by the {source} priors ({bounds}; K0'/2 of unknown sign where an axis's "
             "a_i = 0) and propagated as Type B to the rows they move"
-            + ("; the terms without a prior listed as aliases" if given else ""))
+            + ("; the terms without a prior listed as aliases" if given else "")
+            + f"; {SUM_NOTE}")
 
 
 PRIOR_CHOICES = ("default", "none")
