@@ -5,6 +5,7 @@ Run from the repository root::
     python benchmarks/import.py                 # 2,000,000 rows x (t + 4 channels)
     python benchmarks/import.py speed --rows 500000 --repeats 7
     python benchmarks/import.py --update-docs   # also write docs/benchmarks.md (section import)
+    python benchmarks/import.py detect --update-docs   # triad detect (section import.detect)
 
 A CSV recording of ``--rows`` rows (a time column in ms and four channels in
 g, written once by pyarrow) is, in the section ``speed``,
@@ -20,6 +21,14 @@ g, written once by pyarrow) is, in the section ``speed``,
   SHA-256 of the source, Parquet row groups, the record streamed back to
   validate it).
 
+The same section then writes the four channels to a TDMS file (npTDMS,
+segments of 65,536 rows, ``wf_increment`` 1 ms, no time column) and times,
+interleaved, ``nptdms.TdmsFile.read`` of the four channels (the floor: the
+file read whole into arrays, no checks), that read plus the file's SHA-256
+plus a Parquet write of the arrays with the record's options (the least an
+import that states the source's digest does), ``iter_blocks`` of it and
+``import -> parquet`` of it, in the same blocks.
+
 Each figure is the median of ``--repeats`` runs (default 5; ``--repeat`` is
 the same option) timed interleaved by :func:`common.interleaved` (A, B, C,
 D, A, ...), with its ratio to the floor, its rows per second, the 1-minute
@@ -33,13 +42,29 @@ first 2^20 rows to tell the rate from the time column), so when both CSVs
 hold more rows than that and than a block, as with the defaults (2 and 8
 million rows, blocks of 2^20), the two peaks should match.
 
-``--update-docs`` writes the tables into ``docs/benchmarks.md`` (section
-``import``).
+The section ``detect`` (its own section of the docs, ``import.detect``)
+writes a triad recording to Parquet (a time column and three channels at
+1 kHz, six positions held 60 s each, turning 2 s between them, row groups
+of 2^20 rows) of each of ``--detect-rows`` sizes (default 1e7 and 4e7
+rows) and runs, interleaved, each in a fresh process:
+
+- ``pyarrow.parquet.read_table``: the file read whole (the floor);
+- ``accelcal triad detect``: the command, streamed, without ``--plot``.
+
+It gives each one's median wall time, its ratio to the floor, the child
+processes' CPU time and their peak resident memory (``ru_maxrss`` of the
+child, from ``os.wait4``); the summary states the ratios and the peaks
+against the targets (at most 2x the read, under 300 MiB at any length).
+
+``--update-docs`` writes the tables into ``docs/benchmarks.md`` (sections
+``import`` and, for ``detect``, ``import.detect``).
 """
 
 import common  # noqa: I001  (first: it pins BLAS to one thread before numpy loads)
 
 import argparse
+import dataclasses
+import functools
 import os
 import tempfile
 from pathlib import Path
@@ -104,6 +129,89 @@ def bench_speed(report: common.Report, src: Path, rows: int, block_rows: int,
     ], "Import speed: summary"))
 
 
+TDMS_SEGMENT = 1 << 16
+"""Rows per segment of the benchmark's TDMS file (a DAQ writes one segment per buffer)."""
+
+
+def write_tdms(path: Path, rows: int) -> None:
+    """The CSV's four channels (no time column: ``wf_increment`` 1 ms) in a TDMS file."""
+    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+
+    rng = np.random.default_rng(0)
+    with TdmsWriter(path) as writer:
+        for a in range(0, rows, TDMS_SEGMENT):
+            n = min(TDMS_SEGMENT, rows - a)
+            objs = [RootObject({"title": "benchmark"}), GroupObject("DAQ", {})] if not a else []
+            for k in range(4):
+                props = {"wf_increment": 1e-3, "unit_string": "g"} if not a else {}
+                objs.append(ChannelObject("DAQ", f"a{k}", rng.normal(0.0, 1e-3, n) + (k == 2),
+                                          properties=props))
+            writer.write_segment(objs)
+
+
+def bench_tdms(report: common.Report, src: Path, rows: int, block_rows: int,
+               repeats: int) -> None:
+    """A TDMS file read by npTDMS, streamed and imported, interleaved."""
+    from nptdms import TdmsFile
+
+    from accelcal.io.recordings import InputOptions, iter_blocks
+    from accelcal.io.recordings.convert import import_recording
+
+    opts = InputOptions(input_format="tdms")
+    channels = {f"c{k}": f"DAQ/a{k}" for k in range(4)}
+    out = src.with_name("tdms-rec.parquet")
+
+    def read():
+        tdms = TdmsFile.read(src)
+        return [tdms["DAQ"][f"a{k}"][:] for k in range(4)]
+
+    def streamed():
+        for _ in iter_blocks(src, dataclasses.replace(opts, columns=tuple(channels.values())),
+                             rows=block_rows):
+            pass
+
+    def digest_and_write():
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        from accelcal.io.recordings.read import sha256
+        from accelcal.io.records import parquet_options
+
+        sha256(src)
+        table = pa.table(dict(zip(channels, read(), strict=True)))
+        with pq.ParquetWriter(out, table.schema, **parquet_options(table.schema)) as sink:
+            for batch in table.to_batches(max_chunksize=block_rows):
+                sink.write_table(pa.Table.from_batches([batch]))
+
+    floor, imported = "nptdms.TdmsFile.read (floor)", "import -> parquet"
+    least = "read + SHA-256 + Parquet write (no checks)"
+    detail: dict = {}
+    runs = common.interleaved({
+        floor: read,
+        least: digest_and_write,
+        "iter_blocks": streamed,
+        imported: lambda: import_recording(src, opts, kind="noise", channels=channels, out=out,
+                                           rows=block_rows),
+    }, repeats, detail=detail)
+    notes = {name: f"{rows / common.median(t) / 1e6:.3g} M rows/s" for name, t in runs.items()}
+    by_name = {r.name: r for r in common.figures(runs, detail, floor=floor, notes=notes)}
+    size = src.stat().st_size / 2**20
+    report.add(common.markdown(
+        list(by_name.values()), f"A TDMS file of {rows:,} rows x 4 channels ({size:.0f} MiB, "
+        f"segments of {TDMS_SEGMENT:,} rows), blocks of {block_rows:,} rows "
+        f"(median of {repeats})", floor_name="npTDMS"))
+    report.add(common.pairs([
+        ("import -> parquet / nptdms.TdmsFile.read, median wall times",
+         f"{by_name[imported].ratio:.2f}"),
+        ("read + SHA-256 + Parquet write (the least an import does) / nptdms.TdmsFile.read",
+         f"{by_name[least].ratio:.2f}"),
+        ("import -> parquet / (read + SHA-256 + Parquet write), median wall times",
+         f"{common.median(runs[imported]) / common.median(runs[least]):.2f}"),
+        ("import -> parquet / nptdms.TdmsFile.read, median CPU times",
+         f"{by_name[imported].cpu_ratio:.2f}"),
+    ], "TDMS import speed: summary"))
+
+
 _CHILD = """
 import json, resource, sys, time
 from accelcal.io.recordings import InputOptions
@@ -144,26 +252,130 @@ def bench_memory(report: common.Report, src: Path, rows: int, block_rows: int) -
        "(fresh subprocess each, one run)"))
 
 
+DETECT_COLUMNS = ("ax", "ay", "az")
+"""The triad recording's channels (and ``t``, seconds)."""
+DETECT_CLI = ("--columns", ",".join(DETECT_COLUMNS), "--time", "t", "--time-unit", "s",
+              "--unit", "m/s^2", "--format", "csv")
+"""How ``triad detect`` reads it."""
+_READ = "import sys, pyarrow.parquet as pq; pq.read_table(sys.argv[1])"
+
+
+def write_triad(path: Path, rows: int, rate: float = 1000.0, group: int = 1 << 20) -> None:
+    """A triad held still at six positions in turn (60 s each, 2 s turns), written in row groups."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    rng = np.random.default_rng(0)
+    ups = np.array([(0, 0, 1), (1, 0, 0), (0, 1, 0), (-1, 0, 0), (0, -1, 0), (0, 0, -1)], float)
+    hold, turn = round(60 * rate), round(2 * rate)
+    cycle = []
+    for k in range(6):
+        a, b = ups[k], ups[(k + 1) % 6]
+        s = np.linspace(0.0, 1.0, turn)[:, None]
+        path_ = (1 - s) * a + s * b + 0.3 * np.sin(np.pi * s)
+        cycle += [np.tile(a, (hold, 1)), path_ / np.linalg.norm(path_, axis=1, keepdims=True)]
+    cycle = 9.80665 * np.concatenate(cycle)
+    with pq.ParquetWriter(path, pa.schema([(c, pa.float64()) for c in ("t", *DETECT_COLUMNS)]),
+                          compression="lz4") as writer:
+        for a in range(0, rows, group):
+            idx = np.arange(a, min(a + group, rows))
+            u = cycle[idx % len(cycle)] + rng.normal(0.0, 0.01, (len(idx), 3))
+            writer.write_table(pa.table({"t": idx / rate,
+                                         **{c: u[:, k] for k, c in enumerate(DETECT_COLUMNS)}}))
+
+
+_LAUNCH = """
+import json, os, subprocess, sys
+proc = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL)
+_, status, ru = os.wait4(proc.pid, 0)
+print(json.dumps({"status": os.waitstatus_to_exitcode(status),
+                  "cpu": ru.ru_utime + ru.ru_stime, "peak_mib": ru.ru_maxrss / 1024}))
+"""
+"""Runs a command and prints its CPU seconds and peak resident memory. A small launcher: a
+child's ``ru_maxrss`` starts from the resident memory of the process that spawned it (Linux
+carries it across ``exec``), which would be this benchmark's, holding the recordings."""
+
+
+def _child(cmd: list, usage: list) -> None:
+    """Run ``cmd`` (output discarded) and keep its CPU seconds and peak resident MiB."""
+    out = common.child_json(_LAUNCH, *cmd)
+    if out["status"]:
+        raise SystemExit(f"{cmd[:6]} failed with status {out['status']}")
+    usage.append((out["cpu"], out["peak_mib"]))
+
+
+def bench_detect(report: common.Report, tmp: Path, sizes, repeats: int) -> None:
+    """``triad detect`` against a read of the same Parquet file, each in a fresh process."""
+    import sys
+
+    summary = []
+    for rows in sizes:
+        path = tmp / f"triad{rows}.parquet"
+        write_triad(path, rows)
+        floor, ours = "pyarrow.parquet.read_table (floor)", "accelcal triad detect"
+        usage = {floor: [], ours: []}
+        commands = {floor: [sys.executable, "-c", _READ, str(path)],
+                    ours: [sys.executable, "-m", "accelcal", "triad", "detect", str(path),
+                           *DETECT_CLI]}
+        detail: dict = {}
+        runs = common.interleaved(
+            {name: functools.partial(_child, commands[name], usage[name]) for name in commands},
+            repeats, detail=detail)
+        cpu = {name: common.median([u[0] for u in usage[name]]) for name in usage}
+        peak = {name: max(u[1] for u in usage[name]) for name in usage}
+        notes = {name: f"child CPU {cpu[name]:.3g} s; peak RSS {peak[name]:.0f} MiB"
+                 for name in usage}
+        by_name = {r.name: r for r in common.figures(runs, detail, floor=floor, notes=notes,
+                                                     cpu_ratios=False)}
+        size = path.stat().st_size / 2**20
+        report.add(common.markdown(
+            list(by_name.values()), f"A triad recording of {rows:,} rows x (t + 3 channels) in "
+            f"Parquet ({size:.0f} MiB), each run a fresh process (median of {repeats})",
+            floor_name="read"))
+        summary += [
+            (f"{rows:,} rows: triad detect / read, median wall times (target <= 2)",
+             f"{by_name[ours].ratio:.2f}"),
+            (f"{rows:,} rows: triad detect / read, median child CPU times",
+             f"{cpu[ours] / cpu[floor]:.2f}"),
+            (f"{rows:,} rows: triad detect, peak resident memory (target < 300 MiB)",
+             f"{peak[ours]:.0f} MiB (the read: {peak[floor]:.0f} MiB)"),
+        ]
+        path.unlink()
+    report.add(common.pairs(summary, "Triad detect: summary"))
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("sections", nargs="*", choices=["speed", "memory", []], default=[])
+    parser.add_argument("sections", nargs="*", choices=["speed", "memory", "detect", []],
+                        default=[])
     parser.add_argument("--rows", type=int, default=2_000_000)
     parser.add_argument("--repeats", "--repeat", type=int, default=5,
                         help="speed: interleaved repeats (>= 5)")
     parser.add_argument("--block-rows", type=int, default=1 << 20)
+    parser.add_argument("--detect-rows", type=float, nargs="+", default=[1e7, 4e7],
+                        help="detect: rows of each triad recording")
     common.add_docs_option(parser)
     args = parser.parse_args(argv)
     sections = args.sections or ["speed", "memory"]
     report = common.Report("import")
     print(common.describe(report.start))
     with tempfile.TemporaryDirectory() as tmp:
-        src = Path(tmp) / "daq.csv"
-        write_csv(src, args.rows)
-        if "speed" in sections:
-            bench_speed(report, src, args.rows, args.block_rows, args.repeats)
-        if "memory" in sections:
-            bench_memory(report, src, args.rows, args.block_rows)
-    report.finish(args.update_docs)
+        if "speed" in sections or "memory" in sections:
+            src = Path(tmp) / "daq.csv"
+            write_csv(src, args.rows)
+            if "speed" in sections:
+                bench_speed(report, src, args.rows, args.block_rows, args.repeats)
+                tdms = Path(tmp) / "daq.tdms"
+                write_tdms(tdms, args.rows)
+                bench_tdms(report, tdms, args.rows, args.block_rows, args.repeats)
+            if "memory" in sections:
+                bench_memory(report, src, args.rows, args.block_rows)
+            report.finish(args.update_docs)
+        if "detect" in sections:
+            # its own section of the docs (import.detect), so that either can be rerun
+            detect = common.Report("import.detect", "import.py detect")
+            bench_detect(detect, Path(tmp), [int(r) for r in args.detect_rows], args.repeats)
+            detect.finish(args.update_docs)
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ the DAQ file holds (values exactly, or through the stated unit factor to
 leave nothing behind.
 """
 
+import hashlib
 import json
 import tracemalloc
 
@@ -287,3 +288,39 @@ def test_import_prints_whole_period_means_and_sds(tmp_path, capsys):
         values = df[name].to_numpy()
         assert row[f"mean_{col}"] == pytest.approx(values.mean(), rel=1e-12)
         assert row[f"sd_{col}"] == pytest.approx(values.std(ddof=1), rel=1e-10)
+
+
+@pytest.mark.parametrize("suffix", [".parquet", ".csv"])
+def test_long_stream_record_is_checked_by_a_probe_and_its_row_count(tmp_path, monkeypatch,
+                                                                      suffix):
+    """A noise record longer than the probe: the reader checks the probe's rows, the count
+    of rows comes from the Parquet footer (no second read of the samples) or, for a CSV
+    record, from streaming it back; a count that disagrees refuses the record."""
+    from accelcal.errors import AccelcalError
+    from accelcal.io.formats.noise import read
+    from accelcal.io.recordings import InputOptions, sources
+    from accelcal.io.recordings.convert import PROBE_ROWS, import_recording
+
+    n = PROBE_ROWS + 1234
+    acc, temp = signals(n)
+    path = tmp_path / "run.tdms"
+    write_tdms(path, acc, temp)
+    out = tmp_path / f"p{suffix}"  # the probe beside it takes another name
+    channels = {"x": "Accel/X", "y": "Accel/Y", "z": "Accel/Z"}
+    done = import_recording(path, InputOptions(), kind="noise", channels=channels, out=out,
+                            rows=20_000)
+    assert done["samples"] == n
+    rec = read(out)
+    np.testing.assert_array_equal(rec.values, acc)
+    # the digest, read in a thread, is in the header: a CSV record's first lines, a Parquet
+    # record's footer (written after the last row group)
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    assert done["provenance"]["sha256"] == digest
+    assert rec.metadata["provenance"]["sha256"] == digest
+    assert list(rec.metadata["provenance"])[:2] == ["file", "sha256"]
+    if suffix == ".parquet":  # the footer is what is counted
+        monkeypatch.setattr(sources, "parquet_rows", lambda p: n - 1)
+        with pytest.raises(AccelcalError, match=f"{n - 1} samples read back of {n} written"):
+            import_recording(path, InputOptions(), kind="noise", channels=channels,
+                             out=tmp_path / "again.parquet", rows=20_000)
+        assert not (tmp_path / "again.parquet").exists()

@@ -45,6 +45,9 @@ INIT_STATIC = typer.Option(
 WINDOW = typer.Option(1.0, "--window", help="Window of the moving variance, s (1-2 s).")
 MIN_LENGTH = typer.Option(2.0, "--min-length", help="Shortest static interval kept, s.")
 PLOT = typer.Option(None, "--plot", help="Directory for the figures (PNG and SVG).")
+DETECT_ROWS = 1 << 18
+"""Rows per block of ``triad detect``'s stream (6 MiB of three float64 channels): the
+moving variance's few copies of a block stay well under the 300 MiB the command may take."""
 
 
 def _save_intervals_figure(intervals, rec, plot: Path) -> None:
@@ -93,14 +96,17 @@ def detect(
                          time_unit=time_unit, rate=rate, unit=unit, scale=scale,
                          delimiter=delimiter,
                          **_repair_options(gaps, max_fill, sort, jitter_tol, resample))
-    prov, sample_rate = describe(file, opts, channels=3, what="triad recording", digest=False)
+    prov, sample_rate = describe(file, opts, channels=3, what="triad recording", digest=False,
+                                 rows=DETECT_ROWS)
     repairs = Repairs()
-    blocks = iter_blocks(file, opts, channels=3, what="triad recording", repairs=repairs)
+    blocks = iter_blocks(file, opts, channels=3, what="triad recording", repairs=repairs,
+                         rows=DETECT_ROWS)
     with DelayedProgress(f"static intervals of {file.name}") as progress:
         try:
             (found,) = detect_static_stream(
                 blocks, sample_rate, init_static=init_static, window=window, factors=(factor,),
                 min_length=min_length, unit=prov["unit"], exclude=clipping,
+                trace_points=20_000 if plot is not None else 0,  # the figure's, if drawn
                 progress=lambda done: progress(done, done))  # the length is not known ahead
         finally:
             note_clipped(repairs, clipping)

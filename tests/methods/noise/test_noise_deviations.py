@@ -123,6 +123,24 @@ def test_cumulative_sum_kernels_match_the_definitions(kind):
     assert dev == pytest.approx(expected, rel=1e-11)
 
 
+def test_mdev_moving_sums_carried_or_cumulated_give_the_definition(monkeypatch):
+    """Factors reached by carrying the phase's moving sums (doublings, single steps, a
+    restart from A_1) and factors too far from any (255: seven doublings and seven steps;
+    300; 320) that take the cumulative sum of second differences: all as the definition."""
+    from accelcal.signal.allan import kernels
+
+    far = []
+    cumulated = kernels.mdev_sumsq
+    monkeypatch.setattr(kernels, "mdev_sumsq",
+                        lambda x, m, work: far.append(m) or cumulated(x, m, work))
+    y = np.random.default_rng(6).normal(size=1000) + 9.8
+    factors = [1, 2, 4, 6, 12, 255, 256, 300, 320]
+    _, m, _, dev = compute(y, 1.0, "mdev", factors)
+    assert list(m) == factors
+    assert far == [255, 300, 320]  # 320: eight doublings and a step, one over
+    assert dev == pytest.approx([_direct(y, k, "mdev") for k in factors], rel=1e-11)
+
+
 def test_mean_is_removed_before_the_cumulative_sum():
     """A 1 g offset on 1e-5 m/s^2 noise: without the mean the cumulated phase reaches
     2e5 and its rounding (~4e-11) would spoil the short-tau deviations at 1e-6."""

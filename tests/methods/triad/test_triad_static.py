@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from accelcal.errors import AccelcalError
-from accelcal.signal.static import detect_static, figure, moving_variance
+from accelcal.signal.static import detect_static, figure, moving_variance, variance_magnitude
 
 G = 9.80665
 
@@ -92,6 +92,42 @@ def test_moving_variance_matches_the_direct_variance_with_a_large_offset():
         direct = np.array([x[max(i - half, 0):min(i - half + w, len(x))].var(axis=0, ddof=1)
                            for i in range(len(x))])
         assert np.allclose(moving_variance(x, w), direct, rtol=1e-9, atol=0)
+
+
+def _direct_variance(x, w):
+    half = w // 2
+    return np.array([x[max(i - half, 0):min(i - half + w, len(x))].var(axis=0, ddof=1)
+                     for i in range(len(x))])
+
+
+@pytest.mark.parametrize("w", [3, 4, 7, 50])
+def test_moving_variance_of_records_about_a_window_long(w):
+    """Record lengths around the window and its multiples (no whole window, one, a block
+    and a sample, whole blocks): every window, clipped or whole, as np.var gives it."""
+    rng = np.random.default_rng(3)
+    for n in sorted({2, w - 1, w, w + 1, 2 * w - 1, 2 * w, 2 * w + 1, 3 * w + w // 2}):
+        if n < 2:
+            continue
+        x = rng.normal(0.0, 0.01, (n, 3)) + np.array([3e4, -7.0, 0.5])
+        x[n // 2:] += [0.5, -0.2, 1.0]
+        assert np.allclose(moving_variance(x, w), _direct_variance(x, w), rtol=1e-9, atol=0)
+
+
+def test_variance_magnitude_is_the_norm_in_a_few_columns_of_memory():
+    """ς one column at a time: the norm of the moving variances, with a working memory of
+    about nine columns (the former (n, 3) index and sum arrays took about forty)."""
+    import tracemalloc
+
+    x = np.random.default_rng(4).normal(0.0, 0.01, (200_000, 3)) + np.array([0.0, 0.0, G])
+    expected = np.linalg.norm(moving_variance(x, 1000), axis=1)
+    tracemalloc.start()
+    try:
+        stat = variance_magnitude(x, 1000)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    np.testing.assert_allclose(stat, expected, rtol=1e-12)
+    assert peak < 12 * len(x) * 8, peak / (len(x) * 8)
 
 
 def test_detection_is_linear_in_samples():
@@ -264,6 +300,22 @@ def test_streamed_detection_memory_does_not_grow_with_the_record():
 
     small, large = peak(40), peak(320)  # 40,000 and 320,000 more still samples
     assert large < 1.3 * small, (small, large)
+
+
+def test_streamed_detection_without_a_trace_finds_the_same_intervals():
+    # trace_points=0 (no figure): no envelope kept, the intervals those of the traced run
+    from accelcal.signal.static_stream import detect_static_stream
+
+    u, _ = recording(UPS)
+    (traced,) = detect_static_stream(_blocks(u, 700), 100.0, init_static=8.0)
+    (bare,) = detect_static_stream(_blocks(u, 700), 100.0, init_static=8.0, trace_points=0)
+    assert traced.trace is not None
+    assert len(traced.statistic)
+    assert bare.trace is None
+    assert bare.statistic.size == 0
+    np.testing.assert_array_equal(bare.start, traced.start)
+    np.testing.assert_array_equal(bare.stop, traced.stop)
+    np.testing.assert_array_equal(bare.means, traced.means)
 
 
 def test_streamed_detection_refuses_as_the_whole_record_does():

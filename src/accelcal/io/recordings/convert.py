@@ -30,6 +30,7 @@ import contextlib
 import dataclasses
 import json
 import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -101,7 +102,12 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
     spec = declared(kind)
     timed = spec.stream or spec.time
     opts = dataclasses.replace(options, columns=tuple(channels.values()), refuse_gaps=timed)
-    prov, rate = describe(path, opts, need_rate=timed, what=f"{kind} record")
+    prov, rate = describe(path, opts, need_rate=timed, what=f"{kind} record", digest=False)
+    digest = _Digest(path)  # read on another core while the record is written
+    prov = {"file": prov.pop("file"), "sha256": None, **prov}
+
+    def complete() -> None:
+        prov["sha256"] = digest.result()
     source_units = prov.get("units") or dict.fromkeys(channels.values(), prov["unit"])
     plan = layout(kind, channels, source_units, rate)
     prov["channel_map"] = channels
@@ -117,18 +123,20 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
         with temp_directory(out.parent, "import") as stage:
             staged = stage / out.name
             repairs = Repairs()
-            samples, stats = _write(staged, header, plan,
-                                    iter_blocks(path, opts, rows=rows, need_rate=timed,
-                                                repairs=repairs),
-                                    rate=rate, progress=progress,
-                                    infos=prov.get("channels", {}))
+            samples, stats, first = _write(staged, header, plan,
+                                           iter_blocks(path, opts, rows=rows, need_rate=timed,
+                                                       repairs=repairs),
+                                           rate=rate, progress=progress,
+                                           infos=prov.get("channels", {}), complete=complete)
             if repairs:  # known at the end: written again with them in the provenance
                 prov["repairs"] = repairs.to_dict()
-                samples, stats = _write(staged, header, plan,
-                                        iter_blocks(path, opts, rows=rows, need_rate=timed),
-                                        rate=rate, progress=progress,
-                                        infos=prov.get("channels", {}))
-            _validate(staged, out, plan, samples, rows)
+                samples, stats, first = _write(staged, header, plan,
+                                               iter_blocks(path, opts, rows=rows,
+                                                           need_rate=timed),
+                                               rate=rate, progress=progress,
+                                               infos=prov.get("channels", {}),
+                                               complete=complete)
+            _validate(staged, out, plan, samples, rows, first=first)
             with atomic_path(out) as tmp:
                 os.replace(staged, tmp)
     except OSError as exc:
@@ -229,7 +237,15 @@ def _point_starts(point: np.ndarray, start: int, state: dict) -> np.ndarray:
     return firsts
 
 
-def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, infos) -> int:
+def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, infos,
+           complete):
+    """Write the record; return its samples, its columns' statistics and its first rows.
+
+    The first rows (at most :data:`PROBE_ROWS`, copied) are what :func:`_validate` gives a
+    long stream record's reader. ``complete()`` completes ``header`` (the source's
+    digest): before the first row of a CSV record, after the last of a Parquet one
+    (:func:`_writer`).
+    """
     import pyarrow as pa
 
     names = list(plan.columns)
@@ -237,18 +253,24 @@ def _write(staged: Path, header: dict, plan: Layout, blocks, *, rate, progress, 
                        metadata={"accelcal": json.dumps(header, allow_nan=False)})
     lengths = {i.get("length") for i in infos.values()}
     total = lengths.pop() if len(lengths) == 1 else None
-    done, state, sums = 0, {}, _Sums()
-    with _writer(staged, schema, header) as write:
+    done, state, sums, first = 0, {}, _Sums(), None
+    with _writer(staged, schema, header, complete) as write:
         for block in blocks:
             cols = _columns(plan, block, rate, state)
             write(pa.table(cols, schema=schema))
+            if first is None:
+                first = {c: v[:PROBE_ROWS].copy() for c, v in cols.items()}
             sums.add(cols)
             done += block.values.shape[0]
             if progress is not None:
                 progress(done, max(done, total or done))
     if not done:
         raise AccelcalError("the recording has no samples")
-    return done, sums.result()
+    return done, sums.result(), first
+
+
+_SUM_CHUNK = 1 << 15
+"""Samples of a column shifted at a time by :class:`_Sums` (256 KiB: stays in cache)."""
 
 
 class _Sums:
@@ -267,9 +289,10 @@ class _Sums:
             if name not in self.ref:
                 self.ref[name], self.s1[name], self.s2[name] = float(x[0]), 0.0, 0.0
             with np.errstate(over="ignore", invalid="ignore"):  # the reader refuses such values
-                d = x - self.ref[name]
-                self.s1[name] += float(d.sum())
-                self.s2[name] += float(d @ d)
+                for a in range(0, len(x), _SUM_CHUNK):  # shifted in cache-sized pieces
+                    d = x[a:a + _SUM_CHUNK] - self.ref[name]
+                    self.s1[name] += float(d.sum())
+                    self.s2[name] += float(np.einsum("i,i->", d, d))  # no BLAS threads
         self.n += len(next(iter(cols.values())))
 
     def result(self) -> dict:
@@ -286,17 +309,28 @@ MAX_BLOCK_ROWS = 1 << 26
 
 
 @contextlib.contextmanager
-def _writer(path: Path, schema, header: dict):
-    """Yield ``write(table)``: Parquet row groups, or CSV rows after the record's header."""
+def _writer(path: Path, schema, header: dict, complete):
+    """Yield ``write(table)``: Parquet row groups, or CSV rows after the record's header.
+
+    A Parquet record's header is the footer's: ``complete()`` is called after the last
+    row group and the completed header replaces the one the writer was opened with
+    (``add_key_value_metadata``; the Arrow schema is not stored beside it, where it
+    would carry the first header: the columns are plain float64). A CSV record's header
+    is its first lines: ``complete()`` is called before they are written.
+    """
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
     from accelcal.io.records import MARKER, parquet_options
 
     if path.suffix.lower() == ".parquet":
-        with pq.ParquetWriter(path, schema, **parquet_options(schema)) as sink:
+        with pq.ParquetWriter(path, schema, store_schema=False,
+                              **parquet_options(schema)) as sink:
             yield sink.write_table
+            complete()
+            sink.add_key_value_metadata({"accelcal": json.dumps(header, allow_nan=False)})
         return
+    complete()
     with open(path, "wb") as fh:
         fh.write(f"{MARKER}\n# {json.dumps(header, allow_nan=False)}\n"
                  f"{','.join(schema.names)}\n".encode())
@@ -306,21 +340,54 @@ def _writer(path: Path, schema, header: dict):
             yield lambda table: sink.write_table(table.replace_schema_metadata(None))
 
 
-def _validate(staged: Path, out: Path, plan: Layout, samples: int, rows: int) -> None:
+class _Digest:
+    """The SHA-256 of a file, read in a thread (``hashlib`` releases the GIL as it hashes)."""
+
+    def __init__(self, path):
+        from accelcal.io.recordings.read import sha256
+
+        self._value, self._error = None, None
+
+        def run():
+            try:
+                self._value = sha256(path)
+            except OSError as exc:  # raised by result(), in the caller's thread
+                self._error = exc
+
+        self._thread = threading.Thread(target=run, name="sha256", daemon=True)
+        self._thread.start()
+
+    def result(self) -> str:
+        """The hex digest, once the whole file is read."""
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._value
+
+
+PROBE_ROWS = 1 << 16
+"""Rows of the probe record through which a long stream record's reader checks it."""
+
+
+def _validate(staged: Path, out: Path, plan: Layout, samples: int, rows: int, *,
+              first: dict) -> None:
     """Read the staged record back with its kind's reader; errors name ``out``.
 
-    A stream kind's record longer than a block: the reader reads its first
-    block (a probe record with the same metadata), and the whole is streamed
-    back through :func:`~accelcal.io.recordings.iter_blocks`, so the memory
-    stays one block. Other kinds are read whole by their reader, as their
-    methods read them.
+    A stream kind's record longer than :data:`PROBE_ROWS`: its metadata is
+    read back from the staged file (a Parquet footer, a CSV record's header),
+    the reader reads a probe record of that metadata and the record's
+    ``first`` rows (as written), and the rows the file holds are counted from
+    the footer or, for a CSV record, by streaming it back through
+    :func:`~accelcal.io.recordings.iter_blocks`: no second read of a
+    Parquet record's samples, the memory one block. Other kinds are read
+    whole by their reader, as their methods read them.
     """
     from accelcal.io.records import MAX_RECORD_VALUES
 
     values = samples * len(plan.columns)
     try:
-        if plan.stream and samples > rows:
-            _validate_long(staged, plan, samples, rows)
+        if plan.stream and samples > PROBE_ROWS:
+            _validate_long(staged, plan, samples, rows, first)
         elif values <= MAX_RECORD_VALUES:
             validator(plan.kind)(staged)
         else:
@@ -331,20 +398,24 @@ def _validate(staged: Path, out: Path, plan: Layout, samples: int, rows: int) ->
         raise AccelcalError(f"the {plan.kind} record would not be valid: {text}") from None
 
 
-def _validate_long(staged: Path, plan: Layout, samples: int, rows: int) -> None:
+def _validate_long(staged: Path, plan: Layout, samples: int, rows: int, first: dict) -> None:
     from accelcal.io.recordings.sources import open_source
     from accelcal.io.records import write_record
 
     meta = open_source(staged, "record", None).metadata
-    opts = InputOptions(input_format="record", columns=tuple(plan.columns))
-    blocks = iter_blocks(staged, opts, rows=rows, need_rate=False)
-    first = next(blocks)
-    probe = staged.with_name("probe-" + staged.name)
+    # a short name beside the staged record (its own name may take a file name's 255 bytes)
+    probe = staged.with_name(("p" if staged.stem != "p" else "q") + staged.suffix)
     write_record(probe, plan.kind, {k: v for k, v in meta.items()
-                                    if k not in ("format_version", "kind")},
-                 {c: first.values[:, k] for k, c in enumerate(plan.columns)})
+                                    if k not in ("format_version", "kind")}, first)
     validator(plan.kind)(probe)
     probe.unlink()
-    read = first.values.shape[0] + sum(b.values.shape[0] for b in blocks)
+    if staged.suffix.lower() == ".parquet":
+        from accelcal.io.recordings.sources import parquet_rows
+
+        read = parquet_rows(staged)
+    else:
+        opts = InputOptions(input_format="record", columns=tuple(plan.columns))
+        read = sum(b.values.shape[0] for b in iter_blocks(staged, opts, rows=rows,
+                                                           need_rate=False))
     if read != samples:
         raise AccelcalError(f"{read} samples read back of {samples} written")

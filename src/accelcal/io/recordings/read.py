@@ -210,17 +210,19 @@ def iter_blocks(path, options: InputOptions | None = None, *, rows: int = DEFAUL
 
 def describe(path, options: InputOptions | None = None, *, channels: int | None = None,
              need_rate: bool = True, what: str = "recording",
-             digest: bool = True) -> tuple[dict, float | None]:
+             digest: bool = True, rows: int = DEFAULT_BLOCK_ROWS) -> tuple[dict, float | None]:
     """The provenance of a streamed recording and its rate, read from its first block.
 
     ``digest=False`` leaves out the SHA-256 (a read of the whole file), for
-    callers that need only the columns, units and rate.
+    callers that need only the columns, units and rate. ``rows``: the
+    block's rows (give the stream's own, so that the rate is that of the
+    stream's first block and no larger block is held than the stream holds).
     """
     options = options or InputOptions()
     plan = make_plan(path, options, channels, need_rate, what)
     rate = plan.rate
     if rate is None and plan.time is not None:
-        first = next(_blocks(plan, DEFAULT_BLOCK_ROWS, options), None)
+        first = next(_blocks(plan, rows, options), None)
         if first is None or first.time is None or first.time.size < 2:
             raise AccelcalError(f"{shown_name(plan.source.path.name)}: too few samples to "
                                 "tell the sample rate from the time column", parameter="rate")

@@ -9,10 +9,13 @@ finite differences of ``x`` at lag ``m``:
 * ``oadev``/``ohdev``: second/third differences at lag m from every start
   sample, O(N), computed in cache-sized chunks (``x[i+2m] - 2 x[i+m] + x[i]``
   from three offset slices, no array of N temporaries);
-* ``mdev``: the second differences ``d_i`` at lag m, then their moving sums
-  over m samples through one cumulative sum, O(N); the moving sums of ``d``
-  (not third differences of a doubly cumulated phase) keep the rounding
-  errors at the size of the terms;
+* ``mdev``: second differences at lag m of the phase's moving sums over m
+  samples, carried from factor to factor along m's binary digits (one
+  addition per octave, :class:`MovingSums`), or, for a factor far from the
+  previous one, the second differences ``d_i`` at lag m and their moving
+  sums over m samples through one cumulative sum; O(N) either way, and
+  neither takes third differences of a doubly cumulated phase (whose
+  rounding errors would grow with N^1.5, not stay at the size of the terms);
 * ``totdev``: the phase extended by odd reflection about both end points
   (``x*_{1-j} = 2 x_1 - x_{1+j}``, ``x*_{N+j} = 2 x_N - x_{N-j}``), then
   centred second differences at every interior point, O(N).
@@ -161,6 +164,68 @@ def mdev_sumsq(x: np.ndarray, m: int, work: tuple[np.ndarray, np.ndarray]) -> tu
     return float(np.dot(v, v)), n
 
 
+CHAIN_PASSES = 8
+"""Most passes over the phase (one addition each) that :class:`MovingSums` may take to reach
+the next MDEV factor; a factor further away takes :func:`mdev_sumsq` (a cumulative sum, the
+cost of about eight passes)."""
+
+
+class MovingSums:
+    """Moving sums of the phase, ``A_a[j] = x[j] + ... + x[j+a-1]``, carried from factor to factor.
+
+    The MDEV term at factor ``m`` is a second difference of ``A_m`` at lag ``m``
+    (Eq. (14) [SP1065]: ``sum_{i=j}^{j+m-1} (x[i+2m] - 2 x[i+m] + x[i]) =
+    A_m[j+2m] - 2 A_m[j+m] + A_m[j]``), and ``A`` follows the binary digits of
+    ``m``: ``A_{2a}[j] = A_a[j] + A_a[j+a]`` and ``A_{a+1}[j] = A_a[j] + x[j+a]``,
+    one vectorised addition each (``A_1 = x``). Octave factors double ``a``
+    each time: one addition per tau and no cumulative sum (a cumulative sum
+    is sequential, about eight additions' time). The sums are of at most
+    ``m`` phase points, added pairwise as the doublings go: their rounding
+    errors are those of the phase values (times about log2 m), never those
+    of a cumulated phase.
+    ``work`` is two float64 buffers of ``len(x)`` samples (ping-pong).
+    """
+
+    def __init__(self, x: np.ndarray, work: tuple[np.ndarray, np.ndarray]):
+        self.x, self.work = x, work
+        self.a, self.sums, self.spare = 1, x, 0
+
+    def passes(self, m: int) -> int:
+        """Additions to reach factor ``m`` from the current one (or from ``A_1``)."""
+        return min(_steps(self.a, m), _steps(1, m))
+
+    def reach(self, m: int) -> np.ndarray:
+        """``A_m`` (its first ``len(x) - m + 1`` values are valid)."""
+        if _steps(1, m) < _steps(self.a, m):
+            self.a, self.sums = 1, self.x
+        shift = m.bit_length() - self.a.bit_length()
+        for bit in reversed(range(shift)):
+            self._add(double=True)  # A_{2a}
+            if (m >> bit) & 1:
+                self._add(double=False)  # A_{a + 1}: the next phase point
+        return self.sums
+
+    def reset(self) -> None:
+        """Back to ``A_1 = x`` (the buffers were used for something else)."""
+        self.a, self.sums = 1, self.x
+
+    def _add(self, *, double: bool) -> None:
+        """``A_a`` plus ``A_a`` (double) or ``x`` shifted by ``a``, into the spare buffer."""
+        other, step = (self.sums, self.a) if double else (self.x, 1)
+        n = len(self.x) - (self.a + step) + 1
+        out = self.work[self.spare][:n]
+        np.add(self.sums[:n], other[self.a:self.a + n], out=out)
+        self.sums, self.spare, self.a = out, 1 - self.spare, self.a + step
+
+
+def _steps(a: int, m: int) -> int:
+    """Additions from ``A_a`` to ``A_m`` along ``m``'s binary digits (huge: ``a`` does not lead)."""
+    shift = m.bit_length() - a.bit_length()
+    if shift < 0 or (m >> shift) != a:
+        return 1 << 30
+    return shift + bin(m & ((1 << shift) - 1)).count("1")
+
+
 def mdev_sumsq_bounded(x, m: int, chunk: int = CHUNK) -> tuple[float, int]:
     """:func:`mdev_sumsq` in memory bounded by ``chunk`` samples (``x`` may be a memmap).
 
@@ -236,6 +301,8 @@ def _fill(x, m_values, kind, out, progress) -> None:
     sums, counts = out
     npts = len(x)
     work = (np.empty(npts + 1), np.empty(npts + 1)) if kind == "mdev" else None
+    chain = MovingSums(x, work) if kind == "mdev" else None
+    chunk = (np.empty(min(CHUNK, npts)), None) if kind == "mdev" else None
     pad = int(max(m_values)) if kind == "totdev" else 0
     ext = reflected(x, pad) if kind == "totdev" else None
     for k, m in enumerate(int(v) for v in m_values):
@@ -249,8 +316,12 @@ def _fill(x, m_values, kind, out, progress) -> None:
         elif kind == "ohdev":
             counts[k] = npts - 3 * m
             sums[k] = lag_sumsq(x, 0, counts[k], m, 3)
+        elif kind == "mdev" and chain.passes(m) <= CHAIN_PASSES:
+            counts[k] = npts - 3 * m + 1  # Eq. (14) [SP1065]: second differences of A_m
+            sums[k] = _chunked(chain.reach(m), 0, counts[k], m, 2, buffers=chunk)
         elif kind == "mdev":
             sums[k], counts[k] = mdev_sumsq(x, m, work)
+            chain.reset()
         else:  # totdev: centred second differences at the interior points 1..N-2
             counts[k] = npts - 2
             sums[k] = lag_sumsq(ext, pad + 1 - m, counts[k], m, 2)
