@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from accelcal import work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.response import ResponseRecord
 from accelcal.physics.response import transfer
@@ -272,6 +273,9 @@ class ResponseRig:
             raise AccelcalError(f"the steps would hold {samples:.3g} samples per channel, more "
                                 f"than {MAX_SAMPLES:g}: fewer periods or a lower rate",
                                 parameter="periods")
+        work.simulated("response", f"{f.size} steps of {self.periods} periods at "
+                       f"{self.sample_rate:g} Hz", samples, parameter="periods",
+                       hint="give fewer periods or a lower rate")
         if not 0 <= self.noise <= 1e6:
             raise AccelcalError("must be >= 0 (V rms)", parameter="noise")
         self.reference.sensitivity(f)  # the band is covered
