@@ -72,32 +72,45 @@ tumble (``--points 100000 --repeats 10``: 1e6, 1.2 s), dividing-head (``--positi
 _FORCED = contextvars.ContextVar("accelcal_work_forced", default=False)
 """Whether the command running asked for ``--force`` (see :func:`forcing`)."""
 
+_ANNOUNCE = contextvars.ContextVar("accelcal_work_announce", default=None)
+"""Where :func:`simulated` tells of a long run (see :func:`forcing`), or None."""
+
 
 @contextlib.contextmanager
-def forcing(force: bool):
+def forcing(force: bool, announce=None):
     """Within the block, :func:`check` runs past the time bound when ``force`` is true.
 
     The command line wraps a simulator's call in it with its ``--force``; the
     simulators then call :func:`simulated` where they size their work.
+    ``announce(estimate)``, when given, is called for a run estimated over
+    :data:`PROGRESS_AFTER_S` (the command line prints the estimate: most of a
+    simulator's time is in whole-array steps and the record's write, which
+    have no loop to report progress from).
     """
-    token = _FORCED.set(bool(force))
+    tokens = _FORCED.set(bool(force)), _ANNOUNCE.set(announce)
     try:
         yield
     finally:
-        _FORCED.reset(token)
+        _FORCED.reset(tokens[0])
+        _ANNOUNCE.reset(tokens[1])
 
 
 def simulated(family: str, what: str, samples: float, *, parameter: str | None = None,
               hint: str = "") -> "Estimate":
     """Check a simulation of ``samples`` samples by ``family``'s cost; return its estimate.
 
-    Refused past :data:`MAX_SECONDS` unless inside :func:`forcing` (``--force``).
+    Refused past :data:`MAX_SECONDS` unless inside :func:`forcing` (``--force``);
+    a long run is announced to :func:`forcing`'s ``announce``.
     """
-    return check(estimate(f"{what} ({float(samples):.3g} samples)", samples,
-                          SECONDS_PER_SAMPLE_SIMULATED[family],
-                          basis=f"{SECONDS_PER_SAMPLE_SIMULATED[family]:.2g} s per sample "
-                                f"of {family} simulate"),
-                 parameter=parameter, hint=hint)
+    est = check(estimate(f"{what} ({float(samples):.3g} samples)", samples,
+                         SECONDS_PER_SAMPLE_SIMULATED[family],
+                         basis=f"{SECONDS_PER_SAMPLE_SIMULATED[family]:.2g} s per sample "
+                               f"of {family} simulate"),
+                parameter=parameter, hint=hint)
+    announce = _ANNOUNCE.get()
+    if est.long and announce is not None:
+        announce(est)
+    return est
 
 
 @dataclass(frozen=True)

@@ -63,3 +63,25 @@ def test_the_default_run_of_each_simulator_is_within_the_bound():
     for family, cost in work.SECONDS_PER_SAMPLE_SIMULATED.items():
         assert work.simulated(family, "a run", 1e6).seconds == pytest.approx(1e6 * cost)
         assert cost * 1e6 < 60
+
+
+def test_a_long_simulation_is_announced_with_its_estimate(monkeypatch, tmp_path, capsys):
+    monkeypatch.setattr(work, "PROGRESS_AFTER_S", 0.0)  # every run is 'long'
+    code, _, err = run_cli(["tumble", "simulate", "--points", "8", "--out",
+                            tmp_path / "t.csv"], capsys)
+    assert code == 0, err
+    assert "accelcal: progress: 8 tumble positions x 1 readings (8 samples): about" in err
+    monkeypatch.setattr(work, "PROGRESS_AFTER_S", 10.0)
+    code, _, err = run_cli(["tumble", "simulate", "--points", "8", "--out",
+                            tmp_path / "v.csv"], capsys)
+    assert code == 0, err
+    assert "progress" not in err  # a short run says nothing
+
+
+def test_stepped_response_reports_each_step():
+    from accelcal.rigs.shaker_response import ResponseRig
+
+    seen = []
+    rig = ResponseRig(frequencies=(100.0, 200.0, 400.0), periods=2, sample_rate=5000.0)
+    rig.simulate(progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(1, 3), (2, 3), (3, 3)]

@@ -161,7 +161,14 @@ def simulate(
     else:
         raise AccelcalError(f"--excitation {excitation!r} is not one of stepped, random, "
                             "swept, laser, gravity")
-    response_format.write(out, rig.simulate(dut, seed=seed, unit=unit))
+    if excitation == "stepped":  # a loop of steps: progress when the run is long
+        from accelcal.cli.progress import DelayedProgress
+
+        with DelayedProgress("response simulate steps") as progress:
+            record = rig.simulate(dut, seed=seed, unit=unit, progress=progress)
+    else:
+        record = rig.simulate(dut, seed=seed, unit=unit)
+    response_format.write(out, record)
     typer.echo(f"wrote {out}")
 
 

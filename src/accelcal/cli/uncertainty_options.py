@@ -25,7 +25,9 @@ def forced(command):
     """Run ``command`` (a command with a ``force`` parameter) inside :func:`accelcal.work.forcing`.
 
     The simulators check their work with :func:`accelcal.work.simulated`, which
-    sees the command's ``--force`` this way.
+    sees the command's ``--force`` this way; a run estimated over
+    :data:`accelcal.work.PROGRESS_AFTER_S` is announced on standard error with
+    its estimate.
     """
     import functools
 
@@ -33,10 +35,18 @@ def forced(command):
     def run(*args, **kwargs):
         from accelcal import work
 
-        with work.forcing(kwargs.get("force", False)):
+        with work.forcing(kwargs.get("force", False), announce=_announce):
             return command(*args, **kwargs)
 
     return run
+
+
+def _announce(est) -> None:
+    """Tell of a long simulation on standard error, with its estimate."""
+    from accelcal.work import shown_seconds
+
+    typer.echo(f"accelcal: progress: {est.what}: about {shown_seconds(est.seconds)} "
+               f"({est.basis})", err=True)
 
 
 def check(kind: str, trials: int, seed: int) -> bool:

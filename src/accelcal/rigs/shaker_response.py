@@ -306,7 +306,7 @@ class ResponseRig:
         return ref, out
 
     def simulate(self, dut: DutResponse | None = None, *, seed=0, unit: str = "V",
-                 metadata: dict | None = None) -> ResponseRecord:
+                 metadata: dict | None = None, progress=None) -> ResponseRecord:
         """A stepped-sine record of ``dut`` (default :class:`DutResponse`).
 
         Parameters
@@ -319,6 +319,8 @@ class ResponseRig:
             The DUT channel's unit (``V``, ``mV``, ``mA``; S0 is in it per g).
         metadata : dict, optional
             Further metadata (laboratory fields).
+        progress : callable, optional
+            Called as ``progress(steps done, steps)`` after each step.
 
         Returns
         -------
@@ -342,6 +344,8 @@ class ResponseRig:
             for name, v in (("step", np.full(n, k)), ("frequency", np.full(n, float(f))),
                             ("t", t), ("ref", ref), ("dut", out)):
                 cols[name].append(v)
+            if progress is not None:
+                progress(k + 1, len(amps))
         meta = {"amplitudes_g": [float(a) for a in amps], "reference": self.reference.to_dict(),
                 "daq": {"gain_ratio": float(self.gain_ratio), "delay_s": float(self.delay_s)},
                 "true": dut.to_dict(), "noise_v": float(self.noise),
