@@ -20,8 +20,18 @@ bounds:
 
 A run estimated to take over :data:`PROGRESS_AFTER_S` shows progress on
 standard error (:class:`accelcal.cli.progress.DelayedProgress`).
+
+The in-memory simulators (``tumble``, ``dividing-head``, ``triad``,
+``thermal``, ``centrifuge``, ``vre``, ``response`` and ``acceptance
+simulate``) check their sample count with :func:`simulated` where they size
+their arrays, at the cost per sample measured for that simulator
+(:data:`SECONDS_PER_SAMPLE_SIMULATED`); the command line's ``--force``
+reaches them through :func:`forcing`, so a simulator's signature does not
+carry it.
 """
 
+import contextlib
+import contextvars
 import math
 import shutil
 from dataclasses import dataclass
@@ -43,6 +53,64 @@ took 13 s as CSV and 8.4 s as Parquet on 2 cores (2026-11)."""
 BYTES_PER_SAMPLE_STREAMED = {"csv": 23.0, "parquet": 8.0}
 """Bytes one sample of a streamed record takes on disk, by output format: the same
 run wrote 457 MB of CSV (a double's ``repr`` and its newline) and 161 MB of Parquet."""
+
+SECONDS_PER_SAMPLE_SIMULATED = {
+    "response": 1.0e-6, "triad": 8.0e-7, "vre": 9.0e-7, "tumble": 3.0e-7,
+    "dividing-head": 3.3e-7, "centrifuge": 2.0e-5, "thermal": 3.0e-6, "acceptance": 5.1e-7,
+}
+"""Time to simulate and write one sample (one row of the record: a reading, a step, a
+sample of every channel) by simulator, s: ``accelcal <family> simulate`` runs written as
+CSV on 2 cores (2026-11), their wall time less the 0.9 s start-up divided by the samples
+the simulator counts: response (stepped, ``--sample-rate 100000 --periods 240``: 4.89e6
+samples, 6.1 s; ``--periods 2400``, 4.9e7 samples, took 42 s), triad (``--rate 1000
+--dwell 500``: 3.04e6, 3.3 s), vre (``--sample-rate 100000 --duration 10``: 1.8e7, 16.7 s),
+tumble (``--points 100000 --repeats 10``: 1e6, 1.2 s), dividing-head (``--positions
+100000 --repeats 10``: 4e6 readings of the 4 sensors, 2.2 s), centrifuge (``--readings
+10000``: 7e5 readings, 14.8 s; ``--readings 30000``: 2.1e6, 39 s), thermal (``--step
+0.1``: 5.83e5 steps, 2.7 s), acceptance (``--rate 10000 --dwell 10``: 5.5e6, 3.7 s)."""
+
+_FORCED = contextvars.ContextVar("accelcal_work_forced", default=False)
+"""Whether the command running asked for ``--force`` (see :func:`forcing`)."""
+
+_ANNOUNCE = contextvars.ContextVar("accelcal_work_announce", default=None)
+"""Where :func:`simulated` tells of a long run (see :func:`forcing`), or None."""
+
+
+@contextlib.contextmanager
+def forcing(force: bool, announce=None):
+    """Within the block, :func:`check` runs past the time bound when ``force`` is true.
+
+    The command line wraps a simulator's call in it with its ``--force``; the
+    simulators then call :func:`simulated` where they size their work.
+    ``announce(estimate)``, when given, is called for a run estimated over
+    :data:`PROGRESS_AFTER_S` (the command line prints the estimate: most of a
+    simulator's time is in whole-array steps and the record's write, which
+    have no loop to report progress from).
+    """
+    tokens = _FORCED.set(bool(force)), _ANNOUNCE.set(announce)
+    try:
+        yield
+    finally:
+        _FORCED.reset(tokens[0])
+        _ANNOUNCE.reset(tokens[1])
+
+
+def simulated(family: str, what: str, samples: float, *, parameter: str | None = None,
+              hint: str = "") -> "Estimate":
+    """Check a simulation of ``samples`` samples by ``family``'s cost; return its estimate.
+
+    Refused past :data:`MAX_SECONDS` unless inside :func:`forcing` (``--force``);
+    a long run is announced to :func:`forcing`'s ``announce``.
+    """
+    est = check(estimate(f"{what} ({float(samples):.3g} samples)", samples,
+                         SECONDS_PER_SAMPLE_SIMULATED[family],
+                         basis=f"{SECONDS_PER_SAMPLE_SIMULATED[family]:.2g} s per sample "
+                               f"of {family} simulate"),
+                parameter=parameter, hint=hint)
+    announce = _ANNOUNCE.get()
+    if est.long and announce is not None:
+        announce(est)
+    return est
 
 
 @dataclass(frozen=True)
@@ -111,7 +179,8 @@ def check(est: Estimate, *, force: bool = False, parameter: str | None = None,
     ----------
     est : Estimate
     force : bool
-        Run past the time bound (not past the memory or the free disk).
+        Run past the time bound (not past the memory or the free disk); also
+        true inside :func:`forcing`.
     parameter : str, optional
         The parameter (option) that sets the work, named in the error.
     hint : str
@@ -128,6 +197,7 @@ def check(est: Estimate, *, force: bool = False, parameter: str | None = None,
     """
     from accelcal.resources import MEMORY_SHARE, available_memory, shown_bytes
 
+    force = force or _FORCED.get()
     bound = MAX_SECONDS if bound is None else bound
     basis = f" ({est.basis})" if est.basis else ""
     shrink = f"{hint}, or" if hint else "shrink it, or"

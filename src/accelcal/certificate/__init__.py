@@ -51,7 +51,8 @@ def to_json(document: dict) -> str:
 def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, xml=None,
           spec_path=None, rule: str | None = None, number: str | None = None,
           item: Item | None = None, allow_expired: bool = False, keep_budgets: bool = False,
-          country: str = "", search=(), budgets=None, phase_at=()) -> Issued:
+          country: str = "", search=(), budgets=None, phase_at=(), store=None,
+          allow_unverified: bool = False) -> Issued:
     """Issue a certificate: read, check, build, then write every file asked for.
 
     Parameters
@@ -92,6 +93,15 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
         Write the budgets, the lab file's hash and the standards used into
         each record file (atomically), so that the records (and a store that
         keeps them) hold what the certificate was issued from.
+    store : str or path-like, optional
+        A records store (``--db``): each record file is looked up in it by
+        its content hash and its hash chain verified
+        (:func:`accelcal.certificate.provenance.store_provenance`); the
+        certificate's ``records_chain`` says the outcome. A record not found
+        or a chain broken refuses the certificate unless ``allow_unverified``
+        (it then says ``NOT verified`` and why).
+    allow_unverified : bool
+        Issue although the store did not verify the records.
 
     Returns
     -------
@@ -116,6 +126,15 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
                                 "holding the records' input files", parameter="data")
     lab = load_lab(lab_path)
     records = [CalibrationRecord.load(p) for p in record_paths]
+    chain = {}
+    if store is not None:
+        from accelcal.certificate.provenance import store_provenance
+
+        found = store_provenance(records, [shown_path(p) for p in record_paths], store)
+        if not found.verified and not allow_unverified:
+            raise AccelcalError(f"records {found.statement}; --allow-unverified issues the "
+                                "certificate with this statement", parameter="db")
+        chain["records_chain"] = found.statement
     spec = None
     if spec_path is not None:
         from accelcal.conformity import load_spec
@@ -130,7 +149,7 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
     document = build(records, lab, issued=issued, number=number, item=item or Item(), spec=spec,
                      rule=rule, allow_expired=allow_expired,
                      software=f"accelcal {__version__}", country=country, budgets=fresh,
-                     phase_at=phase_at)
+                     phase_at=phase_at, **chain)
     html = render_html(document)
     written = []
     if pdf is not None:

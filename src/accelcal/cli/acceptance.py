@@ -6,6 +6,7 @@ import typer
 
 from accelcal.cli.common import check_format, check_writable, emit
 from accelcal.cli.input_options import GAPS, MAX_FILL, print_reduction_repairs
+from accelcal.cli.uncertainty_options import FORCE, forced
 from accelcal.errors import AccelcalError
 
 app = typer.Typer(
@@ -33,6 +34,7 @@ _RULE_HELP = ("Decision rule with --spec: simple or guarded (guard band w = U un
 
 
 @app.command("simulate")
+@forced
 def simulate(
     *,
     out: Path = typer.Option(..., "--out", help="Step record to write (CSV or .parquet); "
@@ -87,6 +89,7 @@ def simulate(
     fields: str = typer.Option("-1,-0.5,0.5,1", "--fields",
                                help="Magnetic test: field steps along each axis, mT."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the random generator."),
+    force: bool = FORCE,
 ) -> None:
     """Write a simulated step test (its metadata: the true threshold, resolution or hysteresis)."""
     from accelcal.io.formats import acceptance as steps_format

@@ -7,6 +7,7 @@ import typer
 
 from accelcal.cli import record_options
 from accelcal.cli.common import check_format, emit, load_model, parse_grid, parse_number
+from accelcal.cli.uncertainty_options import FORCE, forced
 from accelcal.errors import AccelcalError
 
 app = typer.Typer(
@@ -63,6 +64,7 @@ def _small(value: float, option: str, limit: float) -> float:
 
 
 @app.command("simulate")
+@forced
 def simulate(
     *,
     out: Path = typer.Option(..., "--out", help="Record file to write (kind centrifuge)."),
@@ -96,6 +98,7 @@ def simulate(
     spinup: int = typer.Option(0, "--spinup", help="Spin-up readings before each step (marked, "
                                "excluded by the reduction)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random generator."),
+    force: bool = FORCE,
 ) -> None:
     """Write a simulated centrifuge record: one row per reading, rig and truth in its metadata."""
     import numpy as np

@@ -54,6 +54,16 @@ def certificate(
         False, "--keep-budgets", help="Write the budgets, the lab file's SHA-256 and the "
         "standards used into each record file, so the records (and the store) keep them and "
         "the certificate can be reissued from them."),
+    db: str | None = typer.Option(
+        None, "--db", help="A records store (SQLite path or database URL, as the records "
+        "commands take it; only when given: $ACCELCAL_DB alone does not make a certificate "
+        "depend on a store): each record file is looked up in "
+        "it by its content hash and the store's hash chain verified; the certificate says "
+        "'verified in store ... (n records, chain intact)'. A record not found or a chain "
+        "broken refuses the certificate (one line) unless --allow-unverified."),
+    allow_unverified: bool = typer.Option(
+        False, "--allow-unverified", help="With --db: issue although the store did not "
+        "verify the records; the certificate then says 'NOT verified' and why."),
 ) -> None:
     """Issue a calibration certificate (ISO/IEC 17025 7.8): HTML, and PDF, JSON or DCC XML.
 
@@ -78,7 +88,9 @@ def certificate(
                    issued=issued or dt.datetime.now(dt.UTC).date().isoformat(),
                    item=Item(make, model, received), allow_expired=allow_expired,
                    keep_budgets=keep_budgets, country=country, search=data,
-                   phase_at=parse_grid(phase_at, "--phase-at") if phase_at else ())
+                   phase_at=parse_grid(phase_at, "--phase-at") if phase_at else (),
+                   store=db,
+                   allow_unverified=allow_unverified)
     doc = result.document
     typer.echo(f"certificate {doc['number']} issued {doc['issued']}: "
                f"{', '.join(i['serial'] for i in doc['items'])}")

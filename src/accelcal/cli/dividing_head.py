@@ -8,6 +8,7 @@ import typer
 from accelcal.cli import record_options, uncertainty_options
 from accelcal.cli.common import check_format, emit, parse_grid, parse_number
 from accelcal.cli.input_options import GAPS, MAX_FILL, print_reduction_repairs
+from accelcal.cli.uncertainty_options import FORCE, forced
 from accelcal.errors import AccelcalError
 from accelcal.validation import shown, shown_name
 
@@ -166,6 +167,7 @@ def _rig(*, positions, mounts, angle_error, first_harmonic, noise, eta, models, 
 
 
 @app.command("simulate")
+@forced
 def simulate_cmd(
     *,
     out: Path = typer.Option(..., "--out", help="Record file to write (CSV with JSON metadata)."),
@@ -183,6 +185,7 @@ def simulate_cmd(
         help="Also record simulated autocollimator readings of the head error with this "
              "standard deviation, arcsec.",
     ),
+    force: bool = FORCE,
 ) -> None:
     """Simulate an indexing-head record; the truth is kept in its metadata."""
     import json

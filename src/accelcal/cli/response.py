@@ -21,6 +21,7 @@ import typer
 from accelcal.cli import record_options
 from accelcal.cli.common import check_format, check_writable, emit, parse_grid
 from accelcal.cli.input_options import GAPS, MAX_FILL, print_reduction_repairs
+from accelcal.cli.uncertainty_options import FORCE, forced
 
 app = typer.Typer(
     help="Frequency response of an accelerometer: by comparison with a reference on a shaker "
@@ -61,6 +62,7 @@ def _save(result, info, record_out, files) -> None:
 
 
 @app.command("simulate")
+@forced
 def simulate(
     *,
     out: Path = typer.Option(..., "--out", help="Response record to write (CSV or .parquet)."),
@@ -108,6 +110,7 @@ def simulate(
                                           help="Broadband: record length, s (default 20)."),
     displacement: float | None = typer.Option(
         None, "--displacement", help="Laser: displacement amplitude, m (default 2e-6)."),
+    force: bool = FORCE,
 ) -> None:
     """Write a simulated frequency-response record (the truth in its metadata)."""
     from accelcal.errors import AccelcalError
@@ -158,7 +161,14 @@ def simulate(
     else:
         raise AccelcalError(f"--excitation {excitation!r} is not one of stepped, random, "
                             "swept, laser, gravity")
-    response_format.write(out, rig.simulate(dut, seed=seed, unit=unit))
+    if excitation == "stepped":  # a loop of steps: progress when the run is long
+        from accelcal.cli.progress import DelayedProgress
+
+        with DelayedProgress("response simulate steps") as progress:
+            record = rig.simulate(dut, seed=seed, unit=unit, progress=progress)
+    else:
+        record = rig.simulate(dut, seed=seed, unit=unit)
+    response_format.write(out, record)
     typer.echo(f"wrote {out}")
 
 

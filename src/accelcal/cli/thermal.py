@@ -21,6 +21,7 @@ from accelcal.cli.input_options import (
     print_repairs,
     repair_options,
 )
+from accelcal.cli.uncertainty_options import FORCE, forced
 from accelcal.errors import AccelcalError
 
 app = typer.Typer(
@@ -32,6 +33,7 @@ app = typer.Typer(
 
 
 @app.command("simulate")
+@forced
 def simulate(
     *,
     out: Path = typer.Option(..., "--out", help="Thermal record to write (CSV or .parquet)."),
@@ -66,6 +68,7 @@ def simulate(
         20.0, "--rate-sensitivity", help="Bias per rate of the sensor temperature, "
                                          "ug per degC/min."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the random generator."),
+    force: bool = FORCE,
 ) -> None:
     """Write a simulated thermal-chamber test (the truth in its metadata)."""
     from accelcal.io.formats import thermal as thermal_format

@@ -27,6 +27,7 @@ from accelcal.cli.input_options import (
     repair_options,
     static_rails,
 )
+from accelcal.cli.uncertainty_options import FORCE, forced
 from accelcal.errors import AccelcalError
 from accelcal.formatting import unit_squared
 
@@ -354,6 +355,7 @@ def apply(
 
 
 @app.command("simulate")
+@forced
 def simulate(
     *,
     out: Path = typer.Option(..., "--out", help="Triad record file to write (CSV or .parquet)."),
@@ -375,6 +377,7 @@ def simulate(
         help="Simulate each axis as a pendulous accelerometer: default (the embedded default "
              "accelerometer's K2, K3, cross-coupling, odd-input and asymmetry terms on every "
              "axis) or a model file; default: the triad model alone."),
+    force: bool = FORCE,
 ) -> None:
     """Write a simulated triad recording (true calibration, positions and noise in its metadata)."""
     from accelcal.io.formats import triad as triad_format

@@ -5,6 +5,7 @@ from pathlib import Path
 import typer
 
 from accelcal.cli.common import check_format, emit, load_model, parse_grid
+from accelcal.cli.uncertainty_options import FORCE, forced
 from accelcal.errors import AccelcalError
 
 app = typer.Typer(
@@ -100,6 +101,7 @@ def identify(
 
 
 @app.command("simulate")
+@forced
 def simulate(
     *,
     out: Path = typer.Option(..., "--out", help="Record file to write (CSV, kind tumble)."),
@@ -116,6 +118,7 @@ def simulate(
     ),
     repeats: int = typer.Option(1, "--repeats", help="Readings per position (averaged)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random generator."),
+    force: bool = FORCE,
 ) -> None:
     """Write a simulated tumble record (true model and noise in its metadata)."""
     import numpy as np

@@ -16,8 +16,37 @@ TRIALS = typer.Option(
 SEED = typer.Option(0, "--seed", help="Seed of the Monte Carlo generator (integer >= 0).")
 FORCE = typer.Option(
     False, "--force",
-    help="Run Monte Carlo trials estimated to take more than an hour (the first task is "
-         "timed; refused otherwise, with the estimate).")
+    help="Run work estimated to take more than an hour: Monte Carlo trials (the first task "
+         "is timed) or a simulation (samples x the simulator's measured cost per sample); "
+         "refused otherwise, with the estimate. Memory and disk bounds still hold.")
+
+
+def forced(command):
+    """Run ``command`` (a command with a ``force`` parameter) inside :func:`accelcal.work.forcing`.
+
+    The simulators check their work with :func:`accelcal.work.simulated`, which
+    sees the command's ``--force`` this way; a run estimated over
+    :data:`accelcal.work.PROGRESS_AFTER_S` is announced on standard error with
+    its estimate.
+    """
+    import functools
+
+    @functools.wraps(command)
+    def run(*args, **kwargs):
+        from accelcal import work
+
+        with work.forcing(kwargs.get("force", False), announce=_announce):
+            return command(*args, **kwargs)
+
+    return run
+
+
+def _announce(est) -> None:
+    """Tell of a long simulation on standard error, with its estimate."""
+    from accelcal.work import shown_seconds
+
+    typer.echo(f"accelcal: progress: {est.what}: about {shown_seconds(est.seconds)} "
+               f"({est.basis})", err=True)
 
 
 def check(kind: str, trials: int, seed: int) -> bool:

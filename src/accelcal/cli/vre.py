@@ -8,6 +8,7 @@ import typer
 
 from accelcal.cli import record_options, uncertainty_options
 from accelcal.cli.common import check_format, emit, load_model, parse_grid, parse_number
+from accelcal.cli.uncertainty_options import FORCE, forced
 from accelcal.errors import AccelcalError
 
 app = typer.Typer(
@@ -78,6 +79,7 @@ def table(
 
 
 @app.command("simulate")
+@forced
 def simulate(
     *,
     out: Path = typer.Option(..., "--out", help="Record file to write (kind vibrafuge, CSV)."),
@@ -103,6 +105,7 @@ def simulate(
         help="integrating (mean over each sample interval) or point (instantaneous).",
     ),
     seed: int = typer.Option(0, "--seed", help="Seed of the noise generator (integer)."),
+    force: bool = FORCE,
 ) -> None:
     """Simulate static and vibrating records for every (overload, amplitude) pair."""
     import numpy as np

@@ -47,6 +47,7 @@ References
 
 import numpy as np
 
+from accelcal import work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.acceptance import TESTS, StepRecord
 from accelcal.resources import generator
@@ -156,6 +157,10 @@ def simulate(test: str = "threshold", *, scale_factor: float = 1.0, bias: float 
             MAX_SAMPLES:
         raise AccelcalError(f"the test would take more than {MAX_SAMPLES:g} samples: shorten "
                             "the dwell, the rate or the ladder")
+    work.simulated("acceptance", f"the {test} test at {rate:g} Hz",
+                   float(angles_count(test, increments.size, reversals, cycle_step))
+                   * round(dwell * rate), parameter="dwell",
+                   hint="shorten the dwell, the rate or the ladder")
     angles = programme(test, set_point=theta0, increments=increments, reversals=reversals,
                        cycle_step=cycle_step)
     applied = np.sin(np.radians(angles))

@@ -32,6 +32,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from accelcal import work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.centrifuge import (
     MAX_LEVEL,
@@ -265,6 +266,9 @@ def simulate(model: ErrorModel, positions: Sequence, levels, *, rig: CentrifugeR
     per_step = readings + spinup
     check_memory(float(n_steps) * per_step, 2 * 64, 4,
                  f"{n_steps} steps of {per_step} readings", parameter="readings")
+    work.simulated("centrifuge", f"{n_steps} steps of {per_step} readings",
+                   float(n_steps) * per_step, parameter="readings",
+                   hint="give fewer readings, spin-up readings or levels")
     rng = generator(seed)
     pos = np.repeat(np.arange(len(specs)), lev.size)
     level = np.tile(lev, len(specs))

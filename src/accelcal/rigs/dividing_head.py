@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from accelcal import work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.dividing_head import MAX_ANGLE_ERROR_RAD, MAX_OUTPUT, check_positions
 from accelcal.model import ErrorModel
@@ -369,6 +370,11 @@ def simulate(rig: DividingHeadRig, seed=None, *, trials: int | None = None) -> S
     if t < 1:
         raise AccelcalError(f"trials must be >= 1, got {trials}")
     require_simulation_memory(rig.positions.size, rig.n_sensors, rig.repeats, trials=t)
+    if trials is None:  # a study's trials are estimated by the study
+        work.simulated("dividing-head", f"{rig.positions.size} positions x {rig.n_sensors} "
+                       f"sensors x {rig.repeats} repeat(s)",
+                       float(rig.positions.size) * rig.n_sensors * rig.repeats,
+                       parameter="positions", hint="give fewer positions or repeats")
     d = rig.angle_errors(t, rng)
     out = rig.outputs(d, rng)
     if trials is None:

@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from accelcal import work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.response import ResponseRecord
 from accelcal.resources import generator
@@ -139,6 +140,9 @@ class BroadbandRig:
         if not 16 <= n <= MAX_SAMPLES:
             raise AccelcalError(f"the record would hold {n:.3g} samples per channel: give "
                                 f"16 to {MAX_SAMPLES:g}", parameter="duration")
+        work.simulated("response", f"a {self.kind} record of {self.duration_s:g} s at "
+                       f"{self.sample_rate:g} Hz", n, parameter="duration",
+                       hint="give a shorter duration or a lower rate")
         _check_daq(self.gain_ratio, self.delay_s, self.noise)
         _check_daq(1.0, 0.0, self.ref_noise)
 
@@ -211,6 +215,8 @@ def _stepped_checks(frequencies, periods, sample_rate, top) -> np.ndarray:
         raise AccelcalError(f"the steps would hold {samples:.3g} samples per channel, more "
                             f"than {MAX_SAMPLES:g}: fewer periods or a lower rate",
                             parameter="periods")
+    work.simulated("response", f"{f.size} steps of {periods} periods at {sample_rate:g} Hz",
+                   samples, parameter="periods", hint="give fewer periods or a lower rate")
     return f
 
 

@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from accelcal import work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.response import ResponseRecord
 from accelcal.physics.response import transfer
@@ -272,6 +273,9 @@ class ResponseRig:
             raise AccelcalError(f"the steps would hold {samples:.3g} samples per channel, more "
                                 f"than {MAX_SAMPLES:g}: fewer periods or a lower rate",
                                 parameter="periods")
+        work.simulated("response", f"{f.size} steps of {self.periods} periods at "
+                       f"{self.sample_rate:g} Hz", samples, parameter="periods",
+                       hint="give fewer periods or a lower rate")
         if not 0 <= self.noise <= 1e6:
             raise AccelcalError("must be >= 0 (V rms)", parameter="noise")
         self.reference.sensitivity(f)  # the band is covered
@@ -302,7 +306,7 @@ class ResponseRig:
         return ref, out
 
     def simulate(self, dut: DutResponse | None = None, *, seed=0, unit: str = "V",
-                 metadata: dict | None = None) -> ResponseRecord:
+                 metadata: dict | None = None, progress=None) -> ResponseRecord:
         """A stepped-sine record of ``dut`` (default :class:`DutResponse`).
 
         Parameters
@@ -315,6 +319,8 @@ class ResponseRig:
             The DUT channel's unit (``V``, ``mV``, ``mA``; S0 is in it per g).
         metadata : dict, optional
             Further metadata (laboratory fields).
+        progress : callable, optional
+            Called as ``progress(steps done, steps)`` after each step.
 
         Returns
         -------
@@ -338,6 +344,8 @@ class ResponseRig:
             for name, v in (("step", np.full(n, k)), ("frequency", np.full(n, float(f))),
                             ("t", t), ("ref", ref), ("dut", out)):
                 cols[name].append(v)
+            if progress is not None:
+                progress(k + 1, len(amps))
         meta = {"amplitudes_g": [float(a) for a in amps], "reference": self.reference.to_dict(),
                 "daq": {"gain_ratio": float(self.gain_ratio), "delay_s": float(self.delay_s)},
                 "true": dut.to_dict(), "noise_v": float(self.noise),

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from accelcal import work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.thermal import PHASES, ThermalRecord
 from accelcal.model import ErrorModel
@@ -151,6 +152,8 @@ class Programme:
         chamber = np.concatenate([[self.start]] + [p[0] for p in pieces])
         steps = chamber.size - 1
         check_memory(steps, 1, MEMORY_FACTOR, f"{steps} simulation steps", parameter="step")
+        work.simulated("thermal", "the thermal programme", steps, parameter="step",
+                       hint="give a longer step or fewer plateaus")
 
         def per_step(k):
             return np.concatenate([np.broadcast_to(p[k], p[0].shape) for p in pieces])

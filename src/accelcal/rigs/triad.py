@@ -25,6 +25,7 @@ References
 
 import numpy as np
 
+from accelcal import work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.triad import MAX_VALUE, TriadRecord
 from accelcal.resources import check_memory, generator
@@ -203,6 +204,8 @@ def simulate(calibration, up, *, rate: float = 100.0, dwell: float = 5.0, motion
     if total > MAX_SAMPLES:
         raise AccelcalError(f"{total} samples are more than a record holds ({MAX_SAMPLES}); "
                             "lower the rate, the dwell or the positions", parameter="rate")
+    work.simulated("triad", f"a triad recording at {rate:g} Hz", total, parameter="rate",
+                   hint="lower the rate, the dwell or the positions")
     check_memory(total, 3, MEMORY_FACTOR, f"a triad recording of {total} samples",
                  parameter="rate")
     force, positions, start = [], [], 0

@@ -19,6 +19,7 @@ References
 
 import numpy as np
 
+from accelcal import work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.tumble import MAX_ANGLE, MAX_OUTPUT, TumbleRecord
 from accelcal.model import ErrorModel
@@ -134,6 +135,9 @@ def simulate(
                             parameter="position_sd")
     check_memory(positions.size, repeats, MEMORY_FACTOR,
                  f"{positions.size} tumble positions x {repeats} readings", parameter="repeats")
+    work.simulated("tumble", f"{positions.size} tumble positions x {repeats} readings",
+                   float(positions.size) * repeats, parameter="points",
+                   hint="give fewer points or repeats")
     rng = generator(seed)
     model = model.replace(sigma=noise / abs(model.K1))
     true = positions

@@ -37,6 +37,7 @@ References
 
 import numpy as np
 
+from accelcal import work
 from accelcal.errors import AccelcalError
 from accelcal.io.formats.vibrafuge import MAX_MAGNITUDE, VibrafugeRun
 from accelcal.model import MAX_SPECIFIC_FORCE_G, ErrorModel
@@ -233,6 +234,9 @@ def simulate(
     check_memory(samples, A.size, MEMORY_FACTOR,
                  f"{A.size} vibrafuge points of {T:g} s at {fs:g} Hz",
                  hint="shorten the duration, lower the sample rate or test fewer points")
+    work.simulated("vre", f"{A.size} vibrafuge points of {T:g} s at {fs:g} Hz",
+                   float(samples) * A.size, parameter="duration",
+                   hint="shorten the duration, lower the sample rate or test fewer points")
     _recordable(fs, "sample_rate", "Hz")  # after the memory check: its message says more
     n = round(samples)
     if n < 1:

@@ -379,6 +379,19 @@ class Store:
             stored.update(conn.execute(sa.select(uid).where(uid.in_(chunk))).scalars())
         return next((i for i, uids in enumerate(known) if stored.intersection(uids)), None)
 
+    def stored_ids(self, records: Sequence[CalibrationRecord]) -> list[int | None]:
+        """The stored id of each record, by its content hash (uid); None where not stored."""
+        import sqlalchemy as sa
+
+        cal = self._tables["calibrations"]
+        known = [(row["uid"], *former_uids(row)) for row in map(calibration_row, records)]
+        if self._absent:
+            return [None] * len(known)
+        with self._errors("read"), self.engine.connect() as conn:
+            found = dict(conn.execute(sa.select(cal.c.uid, cal.c.id).where(
+                cal.c.uid.in_([u for uids in known for u in uids]))).all())
+        return [next((int(found[u]) for u in uids if u in found), None) for uids in known]
+
     def calibrations(self, serial: str | None = None) -> list[dict]:
         """Stored calibrations, oldest first.
 
