@@ -15,9 +15,8 @@ Tables (:mod:`accelcal.store.schema`): ``calibrations``, one row per record
 stored once; ``serial``, ``method``, ``date`` in UTC, ``software``,
 ``record_json``, ``simulated``) and ``coefficients``, one row per
 coefficient (a complex one as its magnitude, with its real and imaginary
-parts beside; its full covariance is in the record's JSON). Listing reads
-only the columns it shows, and :meth:`Store.stats` reads the columns of its
-statistics once.
+parts beside; its full covariance is in the record's JSON). Listing and
+:meth:`Store.stats` read only the columns they show, once.
 
 References
 ----------
@@ -32,9 +31,8 @@ from collections.abc import Iterable, Sequence
 from accelcal.errors import AccelcalError
 from accelcal.io.calibration_record import CalibrationRecord
 from accelcal.method_ids import spellings
-from accelcal.store.chain import ChainReport, append, check_supersedable, journal_entries
-from accelcal.store.chain import corrections as chain_corrections
-from accelcal.store.chain import report as chain_report
+from accelcal.store import chain
+from accelcal.store.chain import ChainReport
 from accelcal.store.checks import HISTORY_COLUMNS, LIST_SPEC, READ_SPECS, RowChecker, date_problem
 from accelcal.store.history import plain_names
 from accelcal.store.location import (
@@ -52,7 +50,6 @@ from accelcal.store.location import connect as connect_sqlite
 from accelcal.store.rows import (
     calibration_row,
     coefficient_rows,
-    former_uids,
     labels,
     method_today,
     none_added,
@@ -68,10 +65,6 @@ from accelcal.validation import check_label, shown, shown_path
 
 __all__ = ["DEFAULT_DB_ENV", "SCHEMA_VERSION", "ChainReport", "CoefficientStats", "Store",
            "default_url", "verify_chain"]
-
-_CHUNK = 500
-"""Values per ``IN (...)`` look-up: far below every database's parameter limit."""
-
 
 class Store:
     """A records store at a database URL or SQLite path.
@@ -336,7 +329,7 @@ class Store:
                 if conn.dialect.name == "postgresql":
                     conn.execute(sa.text(f"SELECT pg_advisory_xact_lock({WRITE_LOCK})"))
                 if correction is not None:
-                    check_supersedable(conn, self._tables, correction[0])
+                    chain.check_supersedable(conn, self._tables, correction[0])
                 stored = self._first_stored(conn, rows)
                 if stored is None:
                     ids = dict(conn.execute(sa.insert(cal).returning(cal.c.uid, cal.c.id),
@@ -345,8 +338,8 @@ class Store:
                     per_record = [coefficient_rows(ids[row["uid"]], record, parts=parts)
                                   for row, record in zip(rows, records, strict=True)]
                     conn.execute(sa.insert(coef), [c for cs in per_record for c in cs])
-                    append(conn, self._tables, journal_entries(rows, ids, per_record,
-                                                               correction))
+                    entries = chain.journal_entries(rows, ids, per_record, correction)
+                    chain.append(conn, self._tables, entries)
         except sa.exc.IntegrityError:
             # Another writer stored one of these records meanwhile (a database without
             # the write lock); the transaction was rolled back.
@@ -368,29 +361,15 @@ class Store:
 
     def _first_stored(self, conn, rows: list[dict]) -> int | None:
         """Index of the first of ``rows`` whose record is in the store already, or None."""
-        import sqlalchemy as sa
-
-        uid = self._tables["calibrations"].c.uid
-        known = [(row["uid"], *former_uids(row)) for row in rows]
-        every = [u for uids in known for u in uids]
-        stored = set()
-        for k in range(0, len(every), _CHUNK):
-            chunk = every[k:k + _CHUNK]
-            stored.update(conn.execute(sa.select(uid).where(uid.in_(chunk))).scalars())
-        return next((i for i, uids in enumerate(known) if stored.intersection(uids)), None)
+        ids = chain.stored_ids(conn, self._tables, rows)
+        return next((i for i, stored in enumerate(ids) if stored is not None), None)
 
     def stored_ids(self, records: Sequence[CalibrationRecord]) -> list[int | None]:
         """The stored id of each record, by its content hash (uid); None where not stored."""
-        import sqlalchemy as sa
-
-        cal = self._tables["calibrations"]
-        known = [(row["uid"], *former_uids(row)) for row in map(calibration_row, records)]
         if self._absent:
-            return [None] * len(known)
+            return [None] * len(records)
         with self._errors("read"), self.engine.connect() as conn:
-            found = dict(conn.execute(sa.select(cal.c.uid, cal.c.id).where(
-                cal.c.uid.in_([u for uids in known for u in uids]))).all())
-        return [next((int(found[u]) for u in uids if u in found), None) for uids in known]
+            return chain.stored_ids(conn, self._tables, [calibration_row(r) for r in records])
 
     def calibrations(self, serial: str | None = None) -> list[dict]:
         """Stored calibrations, oldest first.
@@ -582,7 +561,7 @@ class Store:
         if self._absent or self._version < 5:
             return []
         with self._errors("read"), self.engine.connect() as conn:
-            return chain_corrections(conn, self._tables, serial)
+            return chain.corrections(conn, self._tables, serial)
 
     def verify(self) -> ChainReport:
         """Check the records against the journal's hash chain, and the database itself.
@@ -595,7 +574,7 @@ class Store:
         if self._absent:
             return ChainReport(records=0)
         with self._errors("read"), self.engine.connect() as conn:
-            return chain_report(conn, self._tables, chained=self._version >= 5)
+            return chain.report(conn, self._tables, chained=self._version >= 5)
 
 
 def verify_chain(db=None) -> ChainReport:

@@ -197,6 +197,24 @@ def corrections(conn, tables: dict, serial: str | None = None) -> list[dict]:
     return [dict(r._mapping) for r in conn.execute(query.order_by(journal.c.seq))]
 
 
+def stored_ids(conn, tables: dict, rows: list[dict], chunk: int = 500) -> list[int | None]:
+    """The stored id of each calibration row (by its uid or a former one), or None.
+
+    Looked up ``chunk`` uids at a time (far below every database's parameter limit).
+    """
+    import sqlalchemy as sa
+
+    from accelcal.store.rows import former_uids
+
+    cal = tables["calibrations"]
+    known = [(row["uid"], *former_uids(row)) for row in rows]
+    every, found = [u for uids in known for u in uids], {}
+    for k in range(0, len(every), chunk):
+        found.update(conn.execute(sa.select(cal.c.uid, cal.c.id).where(
+            cal.c.uid.in_(every[k:k + chunk]))).all())
+    return [next((int(found[u]) for u in uids if u in found), None) for uids in known]
+
+
 def stored_records(conn, tables: dict):
     """Every record of a store as (``calibrations`` row, its ``coefficients`` rows), by id.
 
