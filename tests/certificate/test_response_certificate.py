@@ -266,7 +266,9 @@ def test_pdf_of_a_response_certificate(issued, tmp_path):
     reader = pypdf.PdfReader(tmp_path / "c.pdf")
     n = len(reader.pages)
     texts = [p.extract_text() for p in reader.pages]
-    assert 3 <= n <= 10  # the results (a page or two with the figure), then the annex
+    # the results (a page or two with the figure), then the annex: 6 points' magnitude and
+    # phase budgets and the fit's 4, each of the comparison's ~15 inputs, 2-3 to a page
+    assert 3 <= n <= 14
     for i, text in enumerate(texts, 1):
         assert f"Page {i} of {n}" in text
     first = texts[0]

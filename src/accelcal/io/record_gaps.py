@@ -30,6 +30,8 @@ References
    at a nominal sampling interval: a gap breaks it).
 """
 
+import math
+
 import numpy as np
 
 from accelcal.errors import AccelcalError
@@ -110,17 +112,22 @@ def repair_gaps(columns: dict, *, where, keys=(), time: str = "t",
     same = np.ones(t.size - 1, dtype=bool)
     for k in keys:
         same &= columns[k][1:] == columns[k][:-1]
-    steps = np.diff(t)
+    with np.errstate(over="ignore", invalid="ignore"):  # times near the float range
+        steps = np.diff(t)
     if interval is None:
         if not same.any():
             return columns, None
         interval = float(np.median(steps[same]))
+    if not (math.isfinite(interval) and interval > 0):
+        return columns, None  # no regular sampling to measure a gap by: the reader's checks
     gap = same & (steps > GAP_FACTOR * interval)
     if not gap.any():
         return columns, None
     at = np.flatnonzero(gap)
     rows = at + 2  # the data row after each gap (1-based)
-    missing = np.rint(steps[gap] / interval).astype(np.int64) - 1
+    with np.errstate(over="ignore", invalid="ignore"):
+        ratio = np.nan_to_num(steps[gap] / interval, nan=2.0**62, posinf=2.0**62)
+    missing = np.rint(np.minimum(ratio, 2.0**62)).astype(np.int64) - 1
     if gaps == "refuse" or (gaps == "fill" and fillable):
         k = int(at[0])
         run = "".join(f" {c} {columns[c][k]:g}" for c in keys)

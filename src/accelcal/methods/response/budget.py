@@ -97,6 +97,25 @@ def _declared(lab, quantity: str, unit: str, default: float | None = 0.0):
     return default if std is None else std.value_in(unit)
 
 
+def _frequencies(reduction) -> list[float]:
+    """Each point's frequency in Hz: the reduction's, or read from its name ``S(f Hz...)``.
+
+    A reduction rebuilt from a calibration record whose data were not found
+    has its rows but not its observations.
+    """
+    import re
+
+    if "frequency_hz" in reduction.observations:
+        return [float(f) for f in reduction.observations["frequency_hz"]]
+    found = [re.match(r"^S\(([^ ,)]+) Hz", n) for n in reduction.estimate.names]
+    if not all(found):
+        from accelcal.errors import AccelcalError
+
+        raise AccelcalError("a frequency-response record without its observations has a row "
+                            "not named S(f Hz): its frequencies are unknown")
+    return [float(m.group(1)) for m in found]
+
+
 class _Model:
     """What the closed forms need of a reduction and, when at hand, of its records."""
 
@@ -107,8 +126,7 @@ class _Model:
         from accelcal.rigs.shaker_response import ReferenceTable
 
         est = reduction.estimate
-        self.freq = dict(zip(est.names, np.asarray(reduction.observations["frequency_hz"],
-                                                   dtype=float).tolist(), strict=True))
+        self.freq = dict(zip(est.names, _frequencies(reduction), strict=True))
         self.value = dict(zip(est.names, np.asarray(est.values, dtype=complex).tolist(),
                               strict=True))
         own = reduction.assumed("reference") != "given"
