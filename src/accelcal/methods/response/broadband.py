@@ -37,6 +37,15 @@ error. H is unbiased by noise on the DUT's channel; noise on the
 reference's biases it low by ``G_nn / G_xx``, which the coherence does not
 show.
 
+A gap in the record's time column (a step over 1.5 sample intervals,
+:mod:`accelcal.io.record_gaps`) is refused by default; with ``gaps="split"``
+no segment spans it: the averages are taken over the pieces between gaps and
+pooled (:meth:`accelcal.signal.spectra.CrossSpectra.restart`, ``n_d`` the sum
+of the pieces'; the bins' correlation is taken as for one piece of as many
+segments, slightly on the high side), a piece shorter than one segment left
+out and counted. A gap is never filled: interpolated samples of a random or
+swept excitation are not the DUT's response to it, and bias H1.
+
 References
 ----------
 .. [BP2010] Bendat J. S., Piersol A. G., Random Data, 4th ed., 2010,
