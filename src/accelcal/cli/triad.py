@@ -313,6 +313,13 @@ def apply(
                              "acceleration unit is converted to it)."),
     scale: float | None = SCALE, delimiter: str | None = DELIMITER,
     output_unit: str = typer.Option("m/s^2", "--output-unit", help="m/s^2 or g (g_n)."),
+    gaps: str = GAPS, max_fill: int = MAX_FILL, sort: bool = SORT,
+    jitter_tol: float | None = JITTER_TOL, resample: bool = RESAMPLE,
+    rails: str | None = typer.Option(
+        None, "--rails",
+        help="The clipping levels LOW,HIGH (in --unit, after --scale): runs of 3 or more "
+             "samples at or beyond one are clipped: refused, or left out with --gaps split. "
+             "Default: not looked for."),
     out: Path = typer.Option(..., "--out", help="CSV file to write."),
 ) -> None:
     """Correct a recording: one output row per input row, in order (streamed).
@@ -320,12 +327,16 @@ def apply(
     The three channels become acc_x, acc_y, acc_z (calibrated specific force in
     the body frame; the fixture frame for a known-orientation or imucal
     calibration, as imucal gives it); every other column (time, labels, ...) is
-    copied as it is.
+    copied as it is. With a repair (--gaps split or fill, --sort, --jitter-tol,
+    --rails) the rows are the repaired ones: t (s from the first sample) and
+    acc_x, acc_y, acc_z, the other columns not copied; what was found and done
+    is listed as notes.
     """
     from accelcal.io.recordings import describe, iter_blocks
     from accelcal.io.recordings.options import ACCELERATION_UNITS
+    from accelcal.io.recordings.repairs import Repairs
     from accelcal.io.recordings.sources import open_source
-    from accelcal.methods.triad.imucal import apply_stream, read_calibration
+    from accelcal.methods.triad.imucal import apply_repaired, apply_stream, read_calibration
 
     if output_unit not in ("m/s^2", "g"):
         raise AccelcalError(f"--output-unit {output_unit!r} is not m/s^2 or g")
@@ -334,9 +345,12 @@ def apply(
     source = open_source(file, input_format, delimiter)
     if unit is None and source.input_format in ("csv", "parquet", "imu_tk"):
         unit = cal.input_unit
+    rails = None if rails is None or rails.strip().lower() == "none" else rails
+    repaired = gaps != "refuse" or sort or jitter_tol is not None or rails is not None
     opts = input_options(input_format=input_format, columns=columns, time=time,
                          time_unit=time_unit, rate=rate, unit=unit, scale=scale,
-                         delimiter=delimiter)
+                         delimiter=delimiter, rails=rails,
+                         **repair_options(gaps, max_fill, sort, jitter_tol, resample))
     prov, _ = describe(file, opts, channels=3, need_rate=False, what="triad recording",
                        digest=False)
     factor = 1.0
@@ -348,10 +362,30 @@ def apply(
     out_scale = 1.0 / ACCELERATION_UNITS[output_unit]
     channels = prov["columns"]
     frame = "reference" if cal.rotation is not None else "body"
-    blocks = iter_blocks(file, opts, channels=3, need_rate=False, what="triad recording")
-    apply_stream(blocks, source, channels, out,
-                 lambda u: cal.apply(u * factor, frame=frame) * out_scale)
+    repairs = Repairs()
+    blocks = iter_blocks(file, opts, channels=3, need_rate=False, what="triad recording",
+                         repairs=repairs)
+
+    def correct(u):
+        return cal.apply(u * factor, frame=frame) * out_scale
+
+    if repaired:
+        apply_repaired(blocks, out, correct)
+    else:
+        apply_stream(_row_for_row(blocks, repairs, file), source, channels, out, correct)
     typer.echo(f"wrote {out}", err=True)
+    print_repairs(repairs)
+
+
+def _row_for_row(blocks, repairs, file):
+    """The blocks, refused as soon as the reader leaves out a row (the copy would shift)."""
+    for block in blocks:
+        if repairs:
+            first = repairs.notes()[0].removeprefix("note: ")
+            raise AccelcalError(f"{file}: {first}; the other columns can no longer be copied "
+                                "row for row: give a repair option (e.g. --gaps split) to "
+                                "write the repaired rows")
+        yield block
 
 
 @app.command("simulate")

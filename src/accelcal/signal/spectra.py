@@ -21,7 +21,10 @@ and the normalized random errors of ``|H1|`` and of its phase (rad) for
 
 With overlapping segments the averages are not independent: ``n_d`` is the
 equivalent number of independent ones (Welch's variance ratio of the
-window at that overlap [Welch1967]_, ``n_d = K`` without overlap).
+window at that overlap [Welch1967]_, ``n_d = K`` without overlap). A record
+cut at its gaps is averaged over the segments of its pieces
+(:meth:`CrossSpectra.restart`: no segment spans a gap), and ``n_d`` is the
+sum of the pieces' own (segments of different pieces do not overlap).
 
 Those errors are the output noise's. A system whose impulse response lasts
 ``tau`` also leaks [AS2009]_: a segment of ``y`` holds the response to ``x`` from up to
@@ -209,8 +212,27 @@ class CrossSpectra:
         self._zz, self._xz, self._zy = np.zeros(bins), np.zeros(bins, complex), \
             np.zeros(bins, complex)
         self._tail = np.empty((2, 0))
+        self._pieces = []  # segments of each piece closed by :meth:`restart`
         self.segments = 0
         self.samples = 0
+
+    def restart(self) -> int:
+        """Close the record's current piece (a gap follows it); the next samples start anew.
+
+        The samples not yet in a whole segment are dropped (no segment spans
+        a gap), and the pieces' averages are pooled: the sums go on, and
+        ``n_d`` is the sum of each piece's equivalent averages.
+
+        Returns
+        -------
+        int
+            The whole segments the piece closed held (0: it was shorter than
+            a segment, and none of its samples were used).
+        """
+        held = self.segments - sum(self._pieces)
+        self._pieces.append(held)
+        self._tail = np.empty((2, 0))
+        return held
 
     def add(self, x, y) -> None:
         """Add the next samples of both channels (equal lengths)."""
@@ -253,7 +275,8 @@ class CrossSpectra:
         if self.nperseg % 2 == 0:
             one_sided[-1] = 1.0
         k = self.scale * one_sided / self.segments
+        pieces = [*self._pieces, self.segments - sum(self._pieces)]
+        n_d = sum(equivalent_averages(m, self.window, self.step) for m in pieces if m)
         return Spectra(np.fft.rfftfreq(self.nperseg, 1.0 / self.fs), k * self._xx,
-                       k * self._yy, k * self._xy, self.segments,
-                       equivalent_averages(self.segments, self.window, self.step),
+                       k * self._yy, k * self._xy, self.segments, float(n_d),
                        k * self._zz, k * self._xz, k * self._zy)

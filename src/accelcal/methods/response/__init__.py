@@ -200,8 +200,9 @@ def reduce(records, *, method: str | None = None, reference=None, reference_freq
     gaps, max_fill
         A gap inside a step of a file: refused, or cut with ``"split"`` (the
         step's longest piece kept; :func:`accelcal.io.formats.response.read`);
-        the broadband route takes a file's samples as they are (``"refuse"``
-        only). What was done is in the provenance (``repairs``) and notes.
+        broadband: refused, or with ``"split"`` the Welch averages taken over
+        the pieces between gaps and pooled (:func:`reduce_broadband`; never
+        filled). What was done is in the provenance (``repairs``) and notes.
 
     Returns
     -------
@@ -249,12 +250,9 @@ def reduce(records, *, method: str | None = None, reference=None, reference_freq
     if method == "broadband":
         if len(items) != 1:
             raise AccelcalError("a broadband reduction takes one record", parameter="records")
-        if gaps != "refuse":
-            raise AccelcalError("the broadband route streams a record's samples as they are; "
-                                "cut the record at its gaps instead", parameter="gaps")
         extra = {} if min_coherence is None else {"min_coherence": min_coherence}
         return reduce_broadband(items[0], reference, segment=segment,
-                                reference_frequency=reference_frequency, **extra)
+                                reference_frequency=reference_frequency, gaps=gaps, **extra)
     from accelcal.io.record_gaps import merged
     from accelcal.io.recordings.repairs import with_repairs
 

@@ -37,6 +37,15 @@ error. H is unbiased by noise on the DUT's channel; noise on the
 reference's biases it low by ``G_nn / G_xx``, which the coherence does not
 show.
 
+A gap in the record's time column (a step over 1.5 sample intervals,
+:mod:`accelcal.io.record_gaps`) is refused by default; with ``gaps="split"``
+no segment spans it: the averages are taken over the pieces between gaps and
+pooled (:meth:`accelcal.signal.spectra.CrossSpectra.restart`, ``n_d`` the sum
+of the pieces'; the bins' correlation is taken as for one piece of as many
+segments, slightly on the high side), a piece shorter than one segment left
+out and counted. A gap is never filled: interpolated samples of a random or
+swept excitation are not the DUT's response to it, and bias H1.
+
 References
 ----------
 .. [BP2010] Bendat J. S., Piersol A. G., Random Data, 4th ed., 2010,
@@ -87,19 +96,30 @@ def default_segment(fs: float, band, samples: int | None) -> int:
     return n
 
 
+GAPS_FILL = ("--gaps fill does not apply: interpolated samples of a random or swept "
+             "excitation are not the DUT's response to it, and bias H1")
+"""Why a broadband record's gaps are never filled."""
+
+
 def _blocks_of(record):
     for start in range(0, record.ref.size, BLOCK):
-        yield record.ref[start:start + BLOCK], record.dut[start:start + BLOCK]
+        stop = start + BLOCK
+        yield start, record.t[start:stop], record.ref[start:stop], record.dut[start:stop]
 
 
-def stream_file(path):
-    """The metadata of a response record file and its ``(ref, dut)`` blocks, streamed.
+def stream_file(path, gaps: str = "refuse", repairs=None):
+    """The metadata of a response record file and its ``(start, t, ref, dut)`` blocks, streamed.
+
+    ``gaps`` and ``repairs``: as :func:`accelcal.io.recordings.iter_blocks`
+    (with ``split``, rows with a missing cell are dropped and counted; the
+    gaps themselves are found by :func:`reduce_broadband`).
 
     Returns
     -------
     meta : dict
         The record's metadata (``sample_rate_hz``, ``output_unit`` and the rest).
-    blocks : iterator of (numpy.ndarray, numpy.ndarray)
+    blocks : iterator of (int, numpy.ndarray, numpy.ndarray, numpy.ndarray)
+        The first data row's index (0-based), the time column (s) and the channels.
     """
     from accelcal.io.formats.response import KIND, check_header, check_metadata
     from accelcal.io.recordings import InputOptions, iter_blocks
@@ -110,15 +130,88 @@ def stream_file(path):
         raise AccelcalError(f"{path}: kind is {meta.get('kind')!r}, expected {KIND!r}")
     check_header(meta.get("sample_rate_hz"), meta.get("output_unit"), path)
     check_metadata(meta, path, 1)
-    opts = InputOptions(input_format="record", columns=("ref", "dut"),
-                        rate=float(meta["sample_rate_hz"]))
-    blocks = iter_blocks(path, opts, channels=2, what="response record")
-    return meta, ((b.values[:, 0], b.values[:, 1]) for b in blocks)
+    opts = InputOptions(input_format="record", columns=("ref", "dut"), time="t",
+                        gaps="split" if gaps == "split" else "refuse")
+    blocks = iter_blocks(path, opts, channels=2, what="response record", repairs=repairs)
+    return meta, ((b.start, b.time, b.values[:, 0], b.values[:, 1]) for b in blocks)
+
+
+class _Pieces:
+    """The record's gaps found block by block: refused, or the spectra restarted at each.
+
+    A step of the time column over :data:`~accelcal.io.record_gaps.GAP_FACTOR`
+    sample intervals is a gap (:mod:`accelcal.io.record_gaps`).
+    """
+
+    def __init__(self, spectra, fs: float, gaps: str, name: str):
+        self.spectra, self.interval, self.gaps, self.name = spectra, 1.0 / fs, gaps, name
+        self.last = None
+        self.gap_rows, self.short_rows, self.bounds = [], [], [0]
+        self.short_samples = 0
+        self.piece_row = 1  # data row of the current piece's first sample
+
+    def add(self, start: int, t, x, y) -> None:
+        from accelcal.io.record_gaps import GAP_FACTOR
+
+        full = t if self.last is None else np.r_[self.last, t]
+        steps = np.diff(full)
+        head = 1 if self.last is None else 0  # the block's sample after step k is k + head
+        at = np.flatnonzero(steps > GAP_FACTOR * self.interval) + head
+        if at.size and self.gaps != "split":
+            k = int(at[0])
+            step = float(steps[k - head])
+            raise AccelcalError(
+                f"{self.name}: time column 't' jumps {step:.6g} s (about "
+                f"{round(step / self.interval) - 1} samples missing) at data row "
+                f"{start + k + 1}; Welch segments need consecutive samples: give --gaps split "
+                "(the averages taken over the pieces between gaps and pooled, a piece "
+                f"shorter than one segment left out); {GAPS_FILL}")
+        prev = 0
+        for k in at:
+            self.spectra.add(x[prev:k], y[prev:k])
+            if self.spectra.restart() == 0:
+                self.short_rows.append(self.piece_row)
+                self.short_samples += start + int(k) + 1 - self.piece_row
+            self.piece_row = start + int(k) + 1
+            self.gap_rows.append(self.piece_row)
+            self.bounds.append(start + int(k))
+            prev = int(k)
+        self.spectra.add(x[prev:], y[prev:])
+        if t.size:
+            self.last = t[-1]
+
+    def found(self, total: int, io: dict | None) -> dict | None:
+        """What was found and done, as ``Repairs.to_dict()`` (None when nothing was).
+
+        ``total``: the samples read; ``io``: the reader's own findings (or None).
+        Closes the last piece (left out too when shorter than a segment).
+        """
+        from accelcal.io.record_gaps import finding
+
+        if self.gap_rows and self.spectra.restart() == 0:
+            self.short_rows.append(self.piece_row)
+            self.short_samples += total + 1 - self.piece_row
+
+        listed = [f for f in (io or {}).get("found", []) if f["found"] != "gaps"]
+        if self.gap_rows:
+            listed.append(finding("gaps in the time column", "split: Welch averages over "
+                                  "the pieces between gaps, pooled", self.gap_rows))
+        if self.short_rows:
+            listed.append(finding("pieces shorter than one Welch segment",
+                                  f"left out ({self.short_samples} samples)",
+                                  self.short_rows))
+        if not listed:
+            return None
+        out = {"found": listed}
+        if self.gap_rows:
+            out["segments"] = [[a, b] for a, b in zip(self.bounds, [*self.bounds[1:], total],
+                                                       strict=True)]
+        return out
 
 
 def reduce_broadband(source, reference=None, *, segment: int | None = None,
                      min_coherence: float = MIN_COHERENCE, band=None,
-                     reference_frequency: float | None = None):
+                     reference_frequency: float | None = None, gaps: str = "refuse"):
     """The DUT's complex sensitivity at each bin of a broadband record.
 
     Parameters
@@ -137,6 +230,12 @@ def reduce_broadband(source, reference=None, *, segment: int | None = None,
         Frequencies kept, Hz; default the record's excited band.
     reference_frequency : float, optional
         Frequency of the deviations, Hz.
+    gaps : {"refuse", "split"}
+        A gap in the time column (a step over 1.5 sample intervals): refused
+        with the row, or with ``split`` the Welch averages are taken over the
+        pieces between gaps and pooled (a piece shorter than one segment is
+        left out and counted); never filled (:data:`GAPS_FILL`). What was
+        found is in the provenance (``repairs``) and notes.
 
     Returns
     -------
@@ -154,15 +253,23 @@ def reduce_broadband(source, reference=None, *, segment: int | None = None,
     """
     from os import PathLike
 
+    from accelcal.io.record_gaps import check_gap_options
+    from accelcal.io.recordings.repairs import Repairs, with_repairs
     from accelcal.rigs.shaker_response import ReferenceTable
     from accelcal.signal.spectra import CrossSpectra
 
+    check_gap_options(gaps, 5)
+    if gaps == "fill":
+        raise AccelcalError(f"{GAPS_FILL}; give --gaps split")
+    io = Repairs()
     if isinstance(source, str | PathLike):
-        meta, blocks = stream_file(source)
+        meta, blocks = stream_file(source, gaps, io)
         fs, unit, samples = float(meta["sample_rate_hz"]), meta["output_unit"], None
+        name = str(source)
     else:
         meta, blocks = source.metadata, _blocks_of(source)
         fs, unit, samples = source.sample_rate_hz, source.output_unit, source.ref.size
+        name = "the record"
     excitation = meta.get("excitation") or {}
     if excitation.get("kind") not in ("random", "swept"):
         raise AccelcalError(f"a broadband reduction needs a random or swept record, not a "
@@ -190,8 +297,10 @@ def reduce_broadband(source, reference=None, *, segment: int | None = None,
         raise AccelcalError(f"must be a whole number of samples from 16 to {MAX_SEGMENT}, "
                             f"got {segment!r}", parameter="segment")
     spectra = CrossSpectra(fs, nperseg, overlap=OVERLAP)
-    for x, y in blocks:
-        spectra.add(x, y)
+    pieces = _Pieces(spectra, fs, gaps, name)
+    for start, t, x, y in blocks:
+        pieces.add(start, t, x, y)
+    found = pieces.found(spectra.samples, io.to_dict() if io else None)
     sp = spectra.result()
     if sp.n_d < MIN_AVERAGES:
         raise AccelcalError(f"{sp.segments} Welch segment(s) of {nperseg} samples hold "
@@ -239,10 +348,10 @@ def reduce_broadband(source, reference=None, *, segment: int | None = None,
     from dataclasses import replace
 
     est = replace(red.estimate, covariance=_correlated(sd, bins, spectra))
-    return replace(red, sensors=(est,),
-                   observations={**red.observations, "coherence": coherence[keep],
-                                 "flagged_hz": flagged, "kernel": bin_kernel(spectra.window),
-                                 "bin_hz": fs / nperseg})
+    return with_repairs(replace(
+        red, sensors=(est,),
+        observations={**red.observations, "coherence": coherence[keep], "flagged_hz": flagged,
+                      "kernel": bin_kernel(spectra.window), "bin_hz": fs / nperseg}), found)
 
 
 def bin_kernel(window: np.ndarray, lags: int = 3) -> np.ndarray:

@@ -390,6 +390,30 @@ def apply_stream(blocks, source, channels, out, correct) -> None:
             _write_rows(fh, table)
 
 
+def apply_repaired(blocks, out, correct) -> None:
+    """Write a calibrated copy of a repaired recording, streamed: ``t`` and the channels.
+
+    The rows are those the repairs left (rows dropped, sorted, filled or
+    resampled: :mod:`accelcal.io.recordings.repairs`), no longer the file's
+    row for row, so the recording's other columns are not copied: ``t``
+    (s from the first sample; only for a recording with a time column) and
+    ``acc_x, acc_y, acc_z`` from ``correct(rows (k, 3))``. ``out`` (CSV) is
+    written atomically; memory is bounded by a block.
+    """
+    import pyarrow as pa
+    from pyarrow import csv
+
+    from accelcal.io.atomic import atomic_path
+
+    with atomic_path(out) as tmp, open(tmp, "wb") as fh:
+        for k, block in enumerate(blocks):
+            acc = correct(block.values)
+            cols = {} if block.time is None else {"t": block.time}
+            cols |= {name: acc[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}
+            csv.write_csv(pa.table(cols), fh, csv.WriteOptions(include_header=k == 0,
+                                                               quoting_style="none"))
+
+
 _STRUCTURAL = '[,"\r\n]'
 """A character that makes a CSV field need quotes (``csv.writer``'s minimal quoting)."""
 
