@@ -27,6 +27,7 @@ def bode_uri(curves, models) -> str:
     import matplotlib
     import numpy as np
 
+    from accelcal.methods.response.figures import draw_model, finish_axes
     from accelcal.methods.response.model import evaluate
     from accelcal.plotting import new_figure
 
@@ -57,15 +58,8 @@ def bode_uri(curves, models) -> str:
         grid = np.geomspace(lo, hi, 300)
         names = tuple(m["parameters"])
         s = evaluate([m["parameters"][k] for k in names], names, grid)
-        ax_m.plot(grid, np.abs(s), "-", color="tab:red", lw=1, label=f"fit: {m['model']}")
-        ax_p.plot(grid, np.rad2deg(np.unwrap(np.angle(s))), "-", color="tab:red", lw=1)
-    ax_m.set_xscale("log")
-    ax_m.set_ylabel(f"magnitude ({unit})")
-    ax_p.set_ylabel("phase (deg)")
-    ax_p.set_xlabel("frequency (Hz)")
-    for ax in (ax_m, ax_p):
-        ax.grid(True, which="both", alpha=0.3)
-    ax_m.legend(fontsize="small")
+        draw_model(ax_m, ax_p, grid, s, f"fit: {m['model']}")
+    finish_axes(ax_m, ax_p, unit)
     buffer = io.StringIO()
     with matplotlib.rc_context({"svg.hashsalt": SALT, "svg.fonttype": "path"}):
         fig.savefig(buffer, format="svg", metadata={"Date": None}, bbox_inches="tight")

@@ -67,9 +67,21 @@ def figures(reduction, **context) -> list[tuple]:
         grid = np.geomspace(f.min(), f.max(), 400)
         est = fit.estimate
         model = evaluate(np.asarray(est.values, float), est.names, grid)
-        label = f"fit: {fit.assumed('model')}"
-        ax_m.plot(grid, np.abs(model), "-", color="tab:red", lw=1, label=label)
-        ax_p.plot(grid, np.rad2deg(np.unwrap(np.angle(model))), "-", color="tab:red", lw=1)
+        draw_model(ax_m, ax_p, grid, model, f"fit: {fit.assumed('model')}")
+    finish_axes(ax_m, ax_p, unit)
+    return [("response_bode", "Frequency response (Bode)", fig,
+             ("Points: the DUT's complex sensitivity at each step; bands: two standard "
+              "uncertainties of magnitude and phase; line: the fitted transfer function."))]
+
+
+def draw_model(ax_m, ax_p, grid, response, label: str) -> None:
+    """The model's curve, ``response`` (complex) at ``grid`` (Hz), on both axes."""
+    ax_m.plot(grid, np.abs(response), "-", color="tab:red", lw=1, label=label)
+    ax_p.plot(grid, np.rad2deg(np.unwrap(np.angle(response))), "-", color="tab:red", lw=1)
+
+
+def finish_axes(ax_m, ax_p, unit: str) -> None:
+    """A Bode figure's axes: log frequency, labels with units, grids, the legend."""
     ax_m.set_xscale("log")
     ax_m.set_ylabel(f"magnitude ({unit})")
     ax_p.set_ylabel("phase (deg)")
@@ -77,6 +89,3 @@ def figures(reduction, **context) -> list[tuple]:
     for ax in (ax_m, ax_p):
         ax.grid(True, which="both", alpha=0.3)
     ax_m.legend(fontsize="small")
-    return [("response_bode", "Frequency response (Bode)", fig,
-             ("Points: the DUT's complex sensitivity at each step; bands: two standard "
-              "uncertainties of magnitude and phase; line: the fitted transfer function."))]
