@@ -241,7 +241,9 @@ def test_long_recording_streams_in_bounded_memory(tmp_path):
     peak, seen = _import_traced(tmp_path, n, rows)
     whole = n * 4 * 8
     assert peak < whole / 3, peak  # never the whole 38 MB
-    assert peak < 1.15 * half, (half, peak)  # flat in the length
+    # flat in the length: memory growing with it would add half the whole (19 MB) between
+    # the two; measured 0-2.1 MB (a block or so, as threads and the collector time it)
+    assert peak - half < whole / 8, (half, peak)
     assert seen[-1] == (n, n)
     assert [d for d, _ in seen] == list(range(rows, n + 1, rows))
     import pyarrow.parquet as pq
