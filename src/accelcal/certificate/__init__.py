@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from accelcal.certificate.content import (
+    NOT_FROM_A_STORE,
     Item,
     build,
     engine_budgets,
@@ -126,15 +127,16 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
                                 "holding the records' input files", parameter="data")
     lab = load_lab(lab_path)
     records = [CalibrationRecord.load(p) for p in record_paths]
-    chain = {}
+    records_chain = NOT_FROM_A_STORE
     if store is not None:
         from accelcal.certificate.provenance import store_provenance
 
         found = store_provenance(records, [shown_path(p) for p in record_paths], store)
         if not found.verified and not allow_unverified:
-            raise AccelcalError(f"records {found.statement}; --allow-unverified issues the "
-                                "certificate with this statement", parameter="db")
-        chain["records_chain"] = found.statement
+            raise AccelcalError(f"records {found.statement}; --allow-unverified "
+                                "(allow_unverified=True) issues the certificate with this "
+                                "statement", parameter="db")
+        records_chain = found.statement
     spec = None
     if spec_path is not None:
         from accelcal.conformity import load_spec
@@ -149,7 +151,7 @@ def issue(record_paths, lab_path, *, out, issued: str, pdf=None, json_out=None, 
     document = build(records, lab, issued=issued, number=number, item=item or Item(), spec=spec,
                      rule=rule, allow_expired=allow_expired,
                      software=f"accelcal {__version__}", country=country, budgets=fresh,
-                     phase_at=phase_at, **chain)
+                     phase_at=phase_at, records_chain=records_chain)
     html = render_html(document)
     written = []
     if pdf is not None:

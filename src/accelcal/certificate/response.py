@@ -48,7 +48,6 @@ COMMON = ("reference_sensitivity", "daq_gain_mismatch", "sensor_temperature",
 reference's sensitivity and of the channels' gain ratio, ``alpha`` per degC, ``dT`` per
 unit of the coefficient): they cancel in the deviation from the reference frequency."""
 
-_NAME = re.compile(r"^S\((?P<f>[^ ,]+) Hz(?:, (?P<a>[^ ]+) g)?\)$")
 _REFERENCE = re.compile(r"deviations from the sensitivity at (S\(.+\))$")
 
 ROUTES = {
@@ -148,13 +147,15 @@ def _deviation(b_i: dict | None, b_ref: dict | None, ratio: float):
 
 def curve(rec, budgets_of) -> dict:
     """The certificate's points of one complex record (module docs), sorted by frequency."""
+    from accelcal.methods.response.stepped import point_of
+
     pol = rec.polar()
     by_name = {b["coefficient"]: b for b in budgets_of}
     freqs, amps = [], []
     for name in rec.names:
-        m = _NAME.match(name)
-        freqs.append(float(m.group("f")) if m else math.nan)
-        amps.append(float(m.group("a")) if m and m.group("a") else None)
+        f, a = point_of(name) or (math.nan, None)
+        freqs.append(f)
+        amps.append(a)
     i_ref = _reference_index(rec, freqs)
     unit = rec.units.get(rec.names[0], "")
     b_ref = by_name.get(f"{rec.names[i_ref]} magnitude")

@@ -103,17 +103,17 @@ def _frequencies(reduction) -> list[float]:
     A reduction rebuilt from a calibration record whose data were not found
     has its rows but not its observations.
     """
-    import re
+    from accelcal.methods.response.stepped import point_of
 
     if "frequency_hz" in reduction.observations:
         return [float(f) for f in reduction.observations["frequency_hz"]]
-    found = [re.match(r"^S\(([^ ,)]+) Hz", n) for n in reduction.estimate.names]
+    found = [point_of(n) for n in reduction.estimate.names]
     if not all(found):
         from accelcal.errors import AccelcalError
 
         raise AccelcalError("a frequency-response record without its observations has a row "
                             "not named S(f Hz): its frequencies are unknown")
-    return [float(m.group(1)) for m in found]
+    return [f for f, _ in found]
 
 
 class _Model:

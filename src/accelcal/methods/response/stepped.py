@@ -31,6 +31,8 @@ References
    real 2-vectors).
 """
 
+import re
+
 import numpy as np
 
 from accelcal.errors import AccelcalError
@@ -128,6 +130,19 @@ def _names(frequencies, amplitudes) -> tuple[str, ...]:
         raise AccelcalError("two steps share a frequency and an amplitude: give each step once",
                             parameter="records")
     return tuple(names)
+
+
+POINT_NAME = re.compile(r"^S\((?P<f>[^ ,)]+) Hz(?:, (?P<a>[^ )]+) g)?\)")
+"""A point's row name, ``S(f Hz)`` or ``S(f Hz, a g)`` (:func:`_names`): its frequency
+and amplitude; a suffix (a fit's ``#k`` of a repeated frequency) is left unread."""
+
+
+def point_of(name: str) -> tuple[float, float | None] | None:
+    """The frequency (Hz) and amplitude (g, or None) a point's row name states; None if not one."""
+    m = POINT_NAME.match(name)
+    if m is None:
+        return None
+    return float(m.group("f")), float(m.group("a")) if m.group("a") else None
 
 
 def _daq(meta) -> tuple[float, float]:
