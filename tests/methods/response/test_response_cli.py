@@ -1,6 +1,7 @@
 """``accelcal response``: simulate -> reduce -> fit, outputs, and bad input in one line."""
 
 import json
+from datetime import datetime, timezone
 
 import numpy as np
 import pytest
@@ -193,8 +194,9 @@ def test_records_of_the_response_and_its_fit_make_a_certificate(record, tmp_path
                            capsys)
     assert code == 0, err
     out = tmp_path / "c.json"
+    issued = datetime.now(timezone.utc).date().isoformat()  # the records are dated today
     code, stdout, err = run_cli(["certificate", comparison, fit, "--lab", LAB, "--out",
-                                 tmp_path / "c.html", "--json", out, "--issued", "2026-11-26",
+                                 tmp_path / "c.html", "--json", out, "--issued", issued,
                                  "--phase-at", "80,315"], capsys)
     assert code == 0, err
     assert "FR-2" in stdout
