@@ -151,6 +151,27 @@ def test_harness_tells_honest_from_dishonest(stated, estimated, honest):
     assert within is honest, c
 
 
+@pytest.mark.parametrize("kind", ["equal", "varying with the truth", "estimated, 4 dof"])
+def test_sd_ratio_standard_error_matches_its_scatter(kind):
+    # stated SDs that vary with the truth (up to 6x, as the tumble's K3 with K1) make the
+    # errors heteroscedastic; SDs estimated from 4 dof scatter about a fixed truth: in each
+    # case the stated SE of the ratio must match its scatter over 3000 repeated runs of 400
+    # honest experiments (relative SE of an SD of 3000: 1.3 %; 5 % is 4 of them)
+    rng = np.random.default_rng(7)
+    spread = np.exp(rng.uniform(0.0, np.log(6.0), 400))
+    runs = []
+    for _ in range(3000):
+        z = rng.standard_normal(400)
+        if kind == "equal":
+            runs.append(harness.sd_ratio(z, np.ones(400)))
+        elif kind == "varying with the truth":
+            runs.append(harness.sd_ratio(spread * z, spread))
+        else:
+            runs.append(harness.sd_ratio(z, np.sqrt(rng.chisquare(4, 400) / 4)))
+    ratios, ses = np.array(runs).T
+    assert np.mean(ses) == pytest.approx(np.std(ratios), rel=0.05)
+
+
 def test_harness_reports_failed_experiments():
     class Broken(_Mean):
         def reduce(self, data):
