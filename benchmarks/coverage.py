@@ -7,6 +7,7 @@ Run from the repository root::
     python benchmarks/coverage.py -k vre -k tumble    # cases whose name contains a word
     python benchmarks/coverage.py --markdown table.md
     python benchmarks/coverage.py --update-docs       # the table of docs/coverage.md
+    python benchmarks/coverage.py -k head --update-docs   # only those cases' rows of it
 
 For each case (every ReductionContract subclass of tests/methods/*/test_*_contract.py
 and the extra cases of tests/helpers/coverage.py) it runs N simulated
@@ -76,9 +77,24 @@ def main(argv=None) -> int:
     if args.update_docs:
         text = DOCS.read_text(encoding="utf-8")
         head = text[:text.index(MARKER) + len(MARKER)]
+        if args.keyword:  # the cases run replace their rows; the others' rows stay
+            table = merged(text[len(head):], table, [r.case for r in results])
         DOCS.write_text(f"{head}\n\n{table}", encoding="utf-8")
         print(f"\nupdated {DOCS}")
     return 0
+
+
+def merged(old: str, new: str, cases: list[str]) -> str:
+    """The docs' table with the rows of ``cases`` from ``new``, in the harness's case order."""
+    def rows(table: str) -> list[str]:
+        return [line for line in table.splitlines() if line.startswith("| ")][1:]
+
+    order = list(harness.cases())
+    kept = [r for r in rows(old) if r.split(" | ")[0][2:] not in cases]
+    both = sorted(kept + rows(new), key=lambda r: order.index(r.split(" | ")[0][2:])
+                  if r.split(" | ")[0][2:] in order else len(order))
+    head = new.splitlines()[:2]
+    return "\n".join([*head, *both]) + "\n"
 
 
 def intervals(kinds: list[str], trials: int) -> int:

@@ -429,10 +429,11 @@ def coverage_band(experiments: int) -> tuple[float, float]:
 def sd_ratio_band(c: CoefficientCoverage) -> tuple[float, float]:
     """Band of the measured SD ratio: the target 0.9-1.1 widened by one standard error.
 
-    The standard error is the run's own (``c.sd_ratio_se``): at least
-    ``1 / sqrt(2 (N - 1))`` (0.035 at N = 400, Gaussian errors and equal
-    stated SDs), so an honest method (ratio 1) fails with probability ~1e-4
-    (> 3.8 SE) and one at 0.8 or 1.2 fails.
+    The standard error is the run's own (``c.sd_ratio_se``): about
+    ``1 / sqrt(2N)`` (0.035 at N = 400) for Gaussian errors and equal
+    stated SDs, more where they vary or the errors have heavy tails, so an
+    honest method (ratio 1) fails with probability ~1e-4 (> 3.8 SE) and one
+    at 0.8 or 1.2 fails.
     """
     return SD_RATIO_TARGET[0] - c.sd_ratio_se, SD_RATIO_TARGET[1] + c.sd_ratio_se
 
