@@ -210,6 +210,8 @@ def sd_ratio(errors: np.ndarray, stds: np.ndarray) -> tuple[float, float]:
     n = errors.size
     e2, s2 = (errors - np.mean(errors)) ** 2 * n / (n - 1), stds**2
     r2 = float(np.mean(e2) / np.mean(s2))  # Eq. (6.9) [Cochran]: a ratio estimator's variance
+    if r2 == 0.0:  # every error zero: an exact result (a decided ladder increment)
+        return 0.0, 0.0
     var_r2 = float(np.var(e2 - r2 * s2, ddof=1) / (n * np.mean(s2) ** 2))
     return math.sqrt(r2), math.sqrt(var_r2) / (2.0 * math.sqrt(r2))
 
