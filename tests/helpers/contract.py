@@ -93,10 +93,11 @@ class ReductionContract:
     DEFAULT_K = 1.0
     """Stated SDs within which the default accelerometer's rows must equal their truths."""
 
-    NOISE_FREE_K = 1.0
-    """Stated SDs within which noise-free rows must equal their truths with ``TYPE_B``
-    (more where the truths draw the bounded terms at random: the error is then a draw
-    from the stated distribution)."""
+    NOISE_FREE_K = 3.0
+    """Stated SDs within which noise-free rows must equal their truths with ``TYPE_B``: the
+    truths draw the bounded terms within a factor 2 of the default's magnitude
+    (:func:`spread_terms`), so the error is a draw from the stated Type B distribution
+    (one term alone reaches at most sqrt(3) of its contribution; several rarely 3)."""
 
     # ------------------------------------------------------- supplied by a method
     def truth(self, rng):  # pragma: no cover - supplied by subclasses

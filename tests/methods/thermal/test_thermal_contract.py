@@ -19,7 +19,7 @@ from accelcal import ErrorModel
 from accelcal.methods.thermal import reduce_thermal
 from accelcal.rigs.thermal import Programme, simulate
 from accelcal.terms import TemperatureTerms
-from helpers.contract import ReductionContract, default_terms, true_value
+from helpers.contract import ReductionContract, spread_terms, true_value
 
 PROGRAMME = Programme(setpoints=(-40.0, -25.0, -10.0, 5.0, 20.0, 35.0, 50.0, 70.0,
                                  60.0, 45.0, 30.0, 15.0, 0.0, -15.0, -30.0),
@@ -39,7 +39,7 @@ def random_truth(rng, order: int = 2):
              "K3": rng.uniform(-2e-6, 2e-6), "K4": rng.uniform(-1e-6, 1e-6),
              "Kp": rng.uniform(-2e-4, 2e-4), "Kip": rng.uniform(-2e-5, 2e-5)}
     # every term the tumbles take as zero, at the default accelerometer's magnitudes
-    terms |= default_terms(accelcal.default_model(), rng, ("Kpp", "K0_asym", "K1_asym"))
+    terms |= spread_terms(accelcal.default_model(), rng, ("Kpp", "K0_asym", "K1_asym"))
     k1 = rng.uniform(0.5, 3.0) * rng.choice([-1.0, 1.0])
     tc = {n: rng.uniform(-h, h) for n, h in TC_RANGES.items() if int(n[-1]) <= order}
     model = ErrorModel(K1=k1, **terms, temperature=TemperatureTerms(25.0, tc))

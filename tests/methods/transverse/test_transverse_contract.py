@@ -11,7 +11,7 @@ import accelcal
 from accelcal.methods.transverse import identify
 from accelcal.model import ErrorModel
 from accelcal.rigs.shaker import ShakerRig
-from helpers.contract import ReductionContract, default_terms
+from helpers.contract import ReductionContract, spread_terms
 
 THETA = np.deg2rad(np.arange(0.0, 360.0, 30.0))
 NAMES = ("Ko", "Kp", "Koo", "Kpp", "Kop")
@@ -31,7 +31,7 @@ class TestContract(ReductionContract):
         # every other term non-zero too, at the default accelerometer's magnitudes
         return ErrorModel.from_guantang(k_i=1000.0, k_0=4e-5, k_o=ko, k_p=kp, k_oo=koo,
                                         k_pp=kpp, k_op=kop, output_unit="mV").replace(
-            **default_terms(accelcal.default_model(), rng, UNFITTED))
+            **spread_terms(accelcal.default_model(), rng, UNFITTED))
 
     def simulate(self, truth, rng, noisy: bool):
         # gravity along the vibration (vertical shaker) and the output at rest:

@@ -201,9 +201,6 @@ class _EveryTermContract(_TriadContract):
 
     TYPE_B = True
     terms = staticmethod(spread_terms)
-    NOISE_FREE_K = 3.0
-    """Noise-free, the rows still carry the random draw of every axis's terms (and the
-    tilts): an error of up to 3 stated SDs is a draw, not a defect."""
     TILT = 0.0
     """SD of each known position's orientation error about each horizontal axis, rad."""
 

@@ -21,7 +21,7 @@ from accelcal.io.formats import tumble as tumble_format
 from accelcal.io.records import write_record
 from accelcal.methods.tumble import DEFAULT_TERMS, reduce_tumble
 from accelcal.rigs.tumble import simulate, uniform_positions
-from helpers.contract import ReductionContract, default_terms, true_value
+from helpers.contract import ReductionContract, spread_terms, true_value
 
 REL, ABS = 1e-12, 1e-13
 """As in test_tumble.py: rounding of ~K1 outputs through sums of <= 24 terms with
@@ -33,7 +33,7 @@ def random_model(rng, axis, output_unit="V", *, every_term=False):
     asymmetry, at the default accelerometer's magnitudes with random signs."""
     small = [t for t in DEFAULT_TERMS[axis] if t != "K1"]
     k1 = rng.uniform(0.5, 3.0) * rng.choice([-1.0, 1.0])
-    extra = default_terms(accelcal.default_model(), rng, (CROSS[axis], "K0_asym", "K1_asym")) \
+    extra = spread_terms(accelcal.default_model(), rng, (CROSS[axis], "K0_asym", "K1_asym")) \
         if every_term else {}
     return ErrorModel(K1=k1, output_unit=output_unit,
                       **{t: rng.uniform(-2e-3, 2e-3) for t in small}, **extra)

@@ -10,7 +10,7 @@ import accelcal
 from accelcal import ErrorModel
 from accelcal.methods.vre import along_ia, identify, reduce_run, vector_vre
 from accelcal.rigs.vibrafuge import simulate
-from helpers.contract import ReductionContract, default_terms, true_value
+from helpers.contract import ReductionContract, spread_terms, true_value
 
 PAPER_B = np.repeat([1.0, 2.0, 4.0], 6)
 PAPER_A = np.tile(np.arange(5.0, 11.0), 3)
@@ -32,7 +32,7 @@ class TestContract(ReductionContract):
         fitted = {name: value * rng.uniform(0.3, 3.0) * rng.choice([-1.0, 1.0])
                   for name, value in PAPER_TRUTH.items()}
         return ErrorModel(**fitted, K1=1.3,
-                          **default_terms(accelcal.default_model(), rng, UNFITTED))
+                          **spread_terms(accelcal.default_model(), rng, UNFITTED))
 
     def simulate(self, truth, rng, noisy: bool):
         return simulate(truth, PAPER_B, PAPER_A, frequency=50.0, sample_rate=1000.0,
