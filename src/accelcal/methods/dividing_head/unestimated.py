@@ -60,11 +60,13 @@ are therefore taken as independent, each of either sign equally likely
 (``s_j s_j'`` of mean zero): the pair's covariance is the mean of the
 opposite-sign and equal-sign cases, so whichever holds, each row's share
 from the pair is stated as half of what that row would get in the case
-worse for it (with the misalignment dominating, as for most sensors on a
+worse for it. With the misalignment dominating, as for most sensors on a
 head, K_F and K_II are stated that share while their true one is zero,
-and K_O half of its true one: a share a few tenths of the rows' variance,
-docs/coverage.md). ``sensor_terms="equal"`` adds the two in the worst sign
-as well (every row gets the worse case).
+and K_O half of its true one: on the tumble route (24 positions, the
+contract's truths, signs always opposite) K_F and K_II then have SD ratio
+0.92 (0.87 and 0.88 in the worst sign) and K_O 1.00 (docs/coverage.md).
+``sensor_terms="equal"`` adds the two in the worst sign as well (every
+row gets the worse case).
 
 References
 ----------
