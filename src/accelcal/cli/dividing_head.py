@@ -267,6 +267,13 @@ def reduce_cmd(
              "accelerometer's magnitude, rectangular), propagated as Type B; none (state only "
              "how much each would move each row).",
     ),
+    sensor_terms: str = typer.Option(
+        "independent", "--sensor-terms",
+        help="How the sensors' priors are correlated: independent (default: separate "
+             "instruments, GUM 5.2; the signs of K0'/2 where a_i = 0 independent too) or equal "
+             "(each row also bounded with every sensor's terms equal, in the worst sign: "
+             "sensors sharing a design bias; conservative otherwise).",
+    ),
     gaps: str = GAPS, max_fill: int = MAX_FILL,
     fmt: str = typer.Option("table", "--format", help="Output format: table, csv or json."),
     plot: Path | None = typer.Option(
@@ -312,7 +319,8 @@ def reduce_cmd(
         first_harmonic=None if first_harmonic is None else _pair(first_harmonic,
                                                                  "--first-harmonic"),
         first_harmonic_sd=first_harmonic_sd)
-    result = with_repairs(reduce(data, method, priors=priors, **options), record.repairs)
+    result = with_repairs(reduce(data, method, priors=priors, sensor_terms=sensor_terms, **options),
+                          record.repairs)
     print_reduction_repairs(result)
     rows = result.rows()
     if monte_carlo:

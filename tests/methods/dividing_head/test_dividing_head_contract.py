@@ -78,6 +78,18 @@ class _HeadContract(ReductionContract):
         truth = {"models": (model,) * 4, "eta": np.zeros(4), "profile": AngleErrorProfile()}
         return self.simulate(truth, None, noisy=False), self.expected(truth)
 
+    def test_default_accelerometer_rows_equal_their_truths(self, monkeypatch):
+        # four copies of one accelerometer: their terms are equal, the setting of
+        # sensor_terms="equal" (every row within 1 stated SD)
+        monkeypatch.setattr(self, "OPTIONS", {**self.OPTIONS, "sensor_terms": "equal"})
+        super().test_default_accelerometer_rows_equal_their_truths()
+
+    def test_default_accelerometer_independent_terms_within_two_sd(self, monkeypatch):
+        # the default takes the sensors' terms as independent, which four identical sensors
+        # are not: four's and joint's K_O then err by up to 1.7 of the stated SD (measured)
+        monkeypatch.setattr(self, "DEFAULT_K", 2.0)
+        super().test_default_accelerometer_rows_equal_their_truths()
+
     def noise_free_tolerance(self, name, value):
         # Every reduction is linear in the head error and misalignment eps = |d| + |eta|
         # <= ~2e-5 rad; the neglected second-order terms are at most

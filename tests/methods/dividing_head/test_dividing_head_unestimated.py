@@ -1,6 +1,7 @@
 """The indexing head's unestimated terms: aliases that predict the error, Type B that bounds it."""
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -51,11 +52,16 @@ def test_aliases_predict_the_error_of_each_term(method, term):
                    if a.term == term)
 
 
+@pytest.mark.parametrize("sensor_terms", [None, "independent", "equal"])
 @pytest.mark.parametrize("method", METHODS)
-def test_default_priors_add_their_itemised_type_b(method):
+def test_default_priors_add_their_itemised_type_b(method, sensor_terms):
     data, _ = _data(K3=1e-7, K0_asym=2e-6, K1_asym=1e-6)
     plain = reduce(data, method, priors="none")
-    red = reduce(data, method)
+    red = reduce(data, method, sensor_terms=sensor_terms)
+    # independent (the default): no part for the sensors' terms equal; equal: K_I gets one
+    has_equal = any(c.input == EQUAL for c in red.type_b)
+    assert has_equal is (sensor_terms == "equal")
+    assert any(f"sensor terms {sensor_terms or 'independent'}:" in n for n in red.notes)
     assert not plain.type_b
     assert plain.aliases
     assert {p.name for p in red.priors} >= {"K3", "K0_asym", "K1_asym"}
@@ -82,6 +88,43 @@ def test_positions_where_a_i_is_zero_carry_k0_of_unknown_sign():
     terms = {c.input for c in red.type_b if c.sensor == 0}
     assert {"K0_asym@0deg", "K0_asym@180deg"} <= terms
     assert not any("@" in c.input for c in reduce(data, "single").type_b)
+
+
+@pytest.mark.parametrize("method", ["four", "joint"])
+def test_sensor_terms_equal_bound_k_i_through_the_shared_head_error(method):
+    # the separated head error moves each sensor's K_I with every sensor's K0': taken equal
+    # (in the worst sign) the four add linearly, independent in quadrature, so the stated SD
+    # of K_I with equal terms is larger (by 1.27x here; at most 2x: four alike sensors, one sign)
+    data, _ = _data(K0_asym=2e-6)
+    indep = reduce(data, method)
+    equal = reduce(data, method, sensor_terms="equal")
+    plain = reduce(data, method, priors="none")
+    for a, b, c in zip(indep.sensors, equal.sensors, plain.sensors, strict=True):
+        type_b = [np.sqrt(e.std_of("K_I") ** 2 - c.std_of("K_I") ** 2) for e in (a, b)]
+        assert 1.1 * type_b[0] < type_b[1] <= 2.0 * type_b[0] * (1 + 1e-9)
+    with pytest.raises(accelcal.AccelcalError, match="sensor terms") as exc:
+        reduce(data, method, sensor_terms="alike")
+    assert exc.value.parameter == "sensor_terms"
+
+
+def test_signs_where_a_i_is_zero_independent_by_default():
+    # the two zeros of a_i of a sensor (beta = 0, pi): with a misalignment larger than the
+    # head error the signs are opposite and cancel in K_F; with a larger head error they
+    # may be equal and add: taken independent, K_F's part from the pair is the quadrature
+    # sum of the two (half the variance of their worst-sign sum, which "equal" states)
+    data, _ = _data(K0_asym=2e-6)
+    at_zero = HeadData.build(data.positions - np.radians(7.5), data.outputs, data.mounts)
+    for sensor_terms, share in (("independent", 0.5), ("equal", 1.0)):
+        red = reduce(at_zero, "tumble", sensor_terms=sensor_terms)
+        pair = [c.contribution for c in red.type_b
+                if c.sensor == 0 and c.row.startswith("K_F") and "@" in c.input]
+        assert len(pair) == 2
+        bare = reduce(at_zero, "tumble", priors="none").sensors[0]
+        rest = [c.contribution for c in red.type_b if c.sensor == 0
+                and c.row.startswith("K_F") and "@" not in c.input and c.input != EQUAL]
+        stated = red.sensors[0].std_of("K_F") ** 2 - bare.std_of("K_F") ** 2 - sum(
+            x**2 for x in rest)
+        assert stated == pytest.approx(share * sum(pair) ** 2, rel=1e-6)
 
 
 def test_direct_method_call_has_no_type_b():
@@ -111,6 +154,24 @@ def test_cli_priors_option(tmp_path, capsys):
                   choice, "--format", "json"])
         assert exc.value.code == 0
         capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        main(["dividing-head", "reduce", str(path), "--sensor-terms", "alike"])
+    _out, err = capsys.readouterr()
+    assert exc.value.code == 2
+    assert "alike" in err
+    assert "independent" in err
+    assert len(err.strip().splitlines()) == 1
+    stds = {}
+    for choice in ("independent", "equal"):
+        with pytest.raises(SystemExit) as exc:
+            main(["dividing-head", "reduce", str(path), "--method", "four", "--sensor-terms",
+                  choice, "--format", "json"])
+        assert exc.value.code == 0
+        out = json.loads(capsys.readouterr().out)
+        rows = out["rows"] if isinstance(out, dict) else out
+        stds[choice] = [r["std"] for r in rows if r["coefficient"] == "K_I"]
+    assert len(stds["equal"]) == 4
+    assert all(e > 1.1 * i for e, i in zip(stds["equal"], stds["independent"], strict=True))
 
 
 @pytest.mark.parametrize(("method", "options"), [

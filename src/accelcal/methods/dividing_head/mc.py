@@ -21,9 +21,10 @@ Synthetic data sets are drawn from the fitted coefficients of every sensor
   :mod:`~accelcal.methods.dividing_head.unestimated`): each sensor's term
   drawn from its prior as declared (rectangular, normal or two-point),
   independently between sensors, and its output column added, so that
-  the interval includes them as the formal Type B does. (The formal path
-  also takes the sensors' terms equal where that is larger; the Monte Carlo
-  draws them independent, as the priors state them.)
+  the interval includes them as the formal Type B does by default. (With
+  ``sensor_terms="equal"`` the formal path also takes the sensors' terms
+  equal where that is larger; the Monte Carlo draws them independent, as
+  the priors state them.)
 
 Each data set is reduced by the same linear operators as the measured data
 (:func:`~accelcal.methods.dividing_head.single.single_pinv`,

@@ -29,7 +29,11 @@ from accelcal.methods.dividing_head.response import response
 from accelcal.methods.dividing_head.result import K_O_STAR, head_reduction
 from accelcal.methods.dividing_head.single import single
 from accelcal.methods.dividing_head.theory import COEFFICIENTS, METHODS, coefficient_units, psi
-from accelcal.methods.dividing_head.unestimated import PRIOR_CHOICES, with_type_b
+from accelcal.methods.dividing_head.unestimated import (
+    PRIOR_CHOICES,
+    check_sensor_terms,
+    with_type_b,
+)
 from accelcal.results import Estimate, Reduction
 from accelcal.validation import shown
 
@@ -78,7 +82,10 @@ def reduce(data, method: str = "joint", *, gaps: str = "refuse", max_fill: int =
     method ``priors`` (``"default"``: the terms Dong2014 eq. (5) leaves out
     bounded by the embedded default priors and propagated as Type B,
     :mod:`~accelcal.methods.dividing_head.unestimated`; ``"none"``: only
-    their aliases listed). ``tumble``
+    their aliases listed) and ``sensor_terms`` (``"independent"``, the
+    default: the sensors' terms uncorrelated, GUM 5.2; ``"equal"``: each
+    row also bounded with the sensors' terms equal in the worst sign, for
+    sensors sharing a design bias). ``tumble``
     uses the IEEE 1293 multipoint Fourier reduction of
     :mod:`accelcal.methods.tumble` on each sensor, with the head axis along
     PA. ``gaps``, ``max_fill``: a record file's incomplete repeats
@@ -114,15 +121,17 @@ def _reduced(data, method: str, options: dict) -> Reduction:
     if priors not in PRIOR_CHOICES:
         raise AccelcalError(f"{shown(priors)} is not one of {', '.join(PRIOR_CHOICES)}",
                             parameter="priors")
+    sensor_terms = check_sensor_terms(options.pop("sensor_terms", None) or "independent")
     given = check_options(method, options)
     if method == "tumble":
         red = tumble(data)
         return with_type_b(data, red, tumble, terms=(), priors=priors,
-                           linear=response("tumble", data, red, given))
+                           linear=response("tumble", data, red, given),
+                           sensor_terms=sensor_terms)
     run = {"single": single, "four": four, "joint": joint}[method]
     red = run(data, **given)
     return with_type_b(data, red, lambda d: run(d, **given), priors=priors,
-                       linear=response(method, data, red, given))
+                       linear=response(method, data, red, given), sensor_terms=sensor_terms)
 
 
 def lab_options(record: HeadRecord, method: str, **given) -> dict:

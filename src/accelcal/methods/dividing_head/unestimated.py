@@ -19,17 +19,61 @@ not linear in the normalised outputs (``joint`` with autocollimator
 readings or Gauss-Newton iterations), by central differences of two more
 reductions per column. This is the first-order alias; the shared head
 error lets a term of one sensor move the others' rows. Each term of each
-sensor is bounded by its prior (independent between sensors) and
-propagated as a Type B covariance ``A u^2 A'``, itemised in
-``Reduction.type_b``; terms without a prior are listed in
-``Reduction.aliases`` with the rows they would move per unit.
+sensor is bounded by its prior and propagated as a Type B covariance
+``A u^2 A'``, itemised in ``Reduction.type_b``; terms without a prior are
+listed in ``Reduction.aliases`` with the rows they would move per unit.
+
+How the sensors' terms are correlated (``sensor_terms``): by default
+(``"independent"``) every sensor's terms are uncorrelated with the
+others', the GUM's default for the unknown errors of separate instruments
+([GUM] 5.2; the Monte Carlo of :mod:`~accelcal.methods.dividing_head.mc`
+draws them so): the covariance is ``sum_z A_z u_z^2 A_z'`` over every
+sensor's terms. A lab whose sensors share a design bias (one production
+lot, the same K0' in every unit) chooses ``"equal"``: each row then gets
+the larger of that variance and the one of the sensors' terms equal, in
+the worst sign, where the contributions of one kind add linearly,
+``(sum_m |a_m| u)^2`` ([GUM] 5.2.2, ``|r| <= 1``; input name
+:data:`EQUAL`). On a head whose reduction separates a shared head error
+(``four``, ``joint``) K_I moves with every sensor's K0', so the choice
+matters there most.
+
+The positions where a_i = 0. The sensor's input-axis component is
+``a_i = sin(beta + d_j + eta_k)`` (head error d_j at position j, the
+sensor's misalignment eta_k about the head axis). At the two nominal zeros
+of a sensor, beta = 0 at position j and beta = pi at position j' half a
+turn on, to first order ::
+
+    a_i(j) = +(eta_k + d_j),    a_i(j') = -(eta_k + d_j'),
+
+so ``sgn(a_i) K0'/2`` is ``s_j K0'/2`` and ``s_j' K0'/2`` with
+``s_j = sgn(eta_k + d_j)`` and ``s_j' = -sgn(eta_k + d_j')``. When
+``|eta_k|`` exceeds both ``|d_j|`` and ``|d_j'|`` the signs are opposite,
+``s_j' = -s_j``: one unknown sign with opposite effect, which moves the
+rows odd in beta (K_O, by ``K_I K0' / (n/2)`` in the worst case for n
+positions per turn) and cancels in the rows even in beta (K_F, K_II);
+when the head error exceeds the misalignment at either position the two
+signs are unrelated and may be equal, which moves K_F and K_II and
+cancels in K_O. No reduction here can tell the two apart: eta_k is
+inseparable from K_O (only ``K_O* = K_O + K_I eta`` is identifiable) and
+``single`` and ``tumble`` do not separate the head error. The two signs
+are therefore taken as independent, each of either sign equally likely
+(``s_j s_j'`` of mean zero): the pair's covariance is the mean of the
+opposite-sign and equal-sign cases, so whichever holds, each row's share
+from the pair is stated as half of what that row would get in the case
+worse for it. With the misalignment dominating, as for most sensors on a
+head, K_F and K_II are stated that share while their true one is zero,
+and K_O half of its true one: on the tumble route (24 positions, the
+contract's truths, signs always opposite) K_F and K_II then have SD ratio
+0.92 (0.87 and 0.88 in the worst sign) and K_O 1.00 (docs/coverage.md).
+``sensor_terms="equal"`` adds the two in the worst sign as well (every
+row gets the worse case).
 
 References
 ----------
 .. [Dong2014] Dong C., Liu Q., Ren S., Test methods of four integrated
    accelerometers on an indexing head, 2014, eq. (5).
 .. [Guan2021] Guan et al., the asymmetry terms, eq. (3).
-.. [GUM] JCGM 100:2008, secs. 4.3.7, 5.1.2.
+.. [GUM] JCGM 100:2008, secs. 4.3.7, 5.1.2, 5.2.
 .. [Montgomery] Montgomery D. C., Design and Analysis of Experiments, 8th
    ed., Wiley, 2013, sec. 10.3 (alias matrix).
 """
@@ -67,8 +111,13 @@ PRIOR_CHOICES = ("default", "none")
 """``priors`` of :func:`with_type_b`: the embedded default accelerometer's, or none (the
 aliases only)."""
 
+SENSOR_TERMS = ("independent", "equal")
+"""``sensor_terms`` of :func:`with_type_b`: how the sensors' unestimated terms (and the
+signs of K0'/2 where a_i = 0) are correlated; the first is the default (module docstring)."""
 
-def with_type_b(data, red, method, terms=TERMS, priors="default", *, linear=None):
+
+def with_type_b(data, red, method, terms=TERMS, priors="default", *, linear=None,
+                sensor_terms="independent"):
     """``red`` with the unestimated terms' Type B covariance, contributions and aliases.
 
     Parameters
@@ -89,6 +138,12 @@ def with_type_b(data, red, method, terms=TERMS, priors="default", *, linear=None
         The reduction's linear response, ``columns -> A``
         (:func:`~accelcal.methods.dividing_head.response.response`); without
         it the alias matrix is taken by central differences of ``method``.
+    sensor_terms : {"independent", "equal"}
+        ``"independent"``: the sensors' terms uncorrelated, and the signs
+        of K0'/2 at the positions where a_i = 0 independent ([GUM] 5.2);
+        ``"equal"``: each row gets the larger of that and the sensors'
+        terms equal, in the worst sign (a lab whose sensors share a design
+        bias). The note says which.
 
     Returns
     -------
@@ -100,6 +155,7 @@ def with_type_b(data, red, method, terms=TERMS, priors="default", *, linear=None
     if priors not in PRIOR_CHOICES:
         raise AccelcalError(f"priors {shown(priors)} is not one of {', '.join(PRIOR_CHOICES)}",
                             parameter="priors")
+    check_sensor_terms(sensor_terms)
     use = priors == "default"
     priors = default_priors(terms, data.output_unit) if use else {}
     n_sens = len(red.sensors)
@@ -117,9 +173,10 @@ def with_type_b(data, red, method, terms=TERMS, priors="default", *, linear=None
     for i, (_, term) in enumerate(names):
         if term in priors:
             cov_all += np.outer(a[:, i], a[:, i]) * priors[term].standard**2
-    worst = _sensors_equal(a, names, priors)
-    excess = np.maximum(worst - np.diagonal(cov_all), 0.0)
-    cov_all += np.diag(excess)
+    excess = np.zeros(n_sens * p)
+    if sensor_terms == "equal":
+        excess = np.maximum(_sensors_equal(a, names, priors) - np.diagonal(cov_all), 0.0)
+        cov_all += np.diag(excess)
     type_b, entries = [], []
     for k, est in enumerate(red.sensors):
         rows = tuple(est.label(n) for n in est.names)
@@ -153,10 +210,13 @@ def with_type_b(data, red, method, terms=TERMS, priors="default", *, linear=None
         covariance[:n_sens * p, :n_sens * p] += cov_all
     bounds = [f"{pr.name} +-{pr.value:.3g} {pr.unit}" for pr in priors.values()
               if "@" not in pr.name]
+    how = ({"independent": "each sensor's terms independent of the others' (GUM 5.2) and "
+                           "the signs at the positions where a_i = 0 independent",
+            "equal": "the larger of the sensors' terms independent and equal in the worst "
+                     "sign, the signs where a_i = 0 worst too"}[sensor_terms])
     note = ("terms the reduction leaves out bounded by the embedded default priors, "
-            "propagated as Type B to the rows they move (the larger of the sensors' terms "
-            "independent and equal): " + ", ".join(
-                [*bounds, "K0'/2 of unknown sign at each position where a_i = 0"]))
+            f"propagated as Type B to the rows they move (sensor terms {sensor_terms}: {how}): "
+            + ", ".join([*bounds, "K0'/2 of unknown sign at each position where a_i = 0"]))
     free = sorted({e.term.split("@")[0].split("[")[0] for e in entries})
     if not use:
         note = "priors none: no Type B propagated"
@@ -167,6 +227,20 @@ def with_type_b(data, red, method, terms=TERMS, priors="default", *, linear=None
                                type_b=(*red.type_b, *type_b), aliases=(*red.aliases, *entries),
                                priors=(*red.priors, *priors.values()),
                                notes=(*red.notes, note))
+
+
+def check_sensor_terms(sensor_terms) -> str:
+    """``sensor_terms`` when it is one of :data:`SENSOR_TERMS`.
+
+    Raises
+    ------
+    AccelcalError
+        Otherwise (parameter ``sensor_terms``).
+    """
+    if sensor_terms not in SENSOR_TERMS:
+        raise AccelcalError(f"sensor terms {shown(sensor_terms)} is not one of "
+                            f"{', '.join(SENSOR_TERMS)}", parameter="sensor_terms")
+    return sensor_terms
 
 
 def central_differences(data, method, changes) -> np.ndarray:
