@@ -58,9 +58,15 @@ def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
     (every engineering unit: a list of ``{"estimate", "std", "unit"}``).
     Values not determined are NaN. A complex coefficient's ``estimate`` and
     ``std`` are its magnitude's, its row adds :data:`COMPLEX_KEYS`
-    (:func:`complex_columns`), and it has no engineering units.
+    (:func:`complex_columns`), and it has no engineering units. Every row
+    of a reduction with Type B contributions has ``coverage_under_priors``
+    after ``plain``: what the row's stated 95 % interval covers with the
+    unestimated terms following their priors
+    (:meth:`~accelcal.results.Reduction.coverage_under_priors`; NaN for a
+    row without Type B).
     """
     rows = []
+    covered = coverage_columns(reduction)
     for k, (name, est) in enumerate(zip(reduction.sensor_names, reduction.sensors, strict=True)):
         k1 = reduction.scale_factor(k)
         if est.is_complex:
@@ -70,34 +76,48 @@ def reduction_rows(reduction, *, engineering: bool = True) -> list[dict]:
             unit = est.units.get(c, "")
             row = {"sensor": name, "coefficient": est.label(c), "estimate": float(v),
                    "std": float(s), "unit": unit, "status": reduction.status(c, k),
-                   "dof": int(est.dof), "plain": c}
+                   "dof": int(est.dof), "plain": c, **covered(k, est.label(c))}
             if engineering:
                 row.update(_engineering_columns(reduction, c, float(v), float(s), unit, k1, k))
             rows.append(row)
         for c, v in reduction.fixed.items():
             unit = _fixed_unit(c, est)
             row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": 0.0,
-                   "unit": unit, "status": "fixed", "dof": int(est.dof), "plain": c}
+                   "unit": unit, "status": "fixed", "dof": int(est.dof), "plain": c,
+                   **covered(k, None)}
             if engineering:
                 row.update(_engineering_columns(reduction, c, float(v), 0.0, unit, k1, k))
             rows.append(row)
     return rows
 
 
+def coverage_columns(reduction):
+    """``(sensor, row name) -> {"coverage_under_priors": p}`` for the rows of a reduction.
+
+    Empty for every row of a reduction without Type B (no column); NaN for
+    a row without Type B in a reduction with some.
+    """
+    if not reduction.type_b:
+        return lambda k, row: {}
+    found = {(rc.sensor, rc.row): rc.probability for rc in reduction.coverage_under_priors()}
+    return lambda k, row: {"coverage_under_priors": found.get((k, row), math.nan)}
+
+
 def _complex_rows(reduction, k, name, est, engineering) -> list[dict]:
     """The rows of a complex estimate (its fixed coefficients are real, as any)."""
-    rows = []
+    rows, covered = [], coverage_columns(reduction)
     for c, columns in zip(est.names, complex_columns(est), strict=True):
         row = {"sensor": name, "coefficient": c, "estimate": columns["estimate"],
                "std": columns["std"], "unit": est.units.get(c, ""),
                "status": reduction.status(c, k), "dof": int(est.dof),
-               **{key: columns[key] for key in COMPLEX_KEYS}}
+               **{key: columns[key] for key in COMPLEX_KEYS}, **covered(k, None)}
         if engineering:
             row.update(eng_estimate=math.nan, eng_std=math.nan, eng_unit="", engineering=[])
         rows.append(row)
     for c, v in reduction.fixed.items():
         row = {"sensor": name, "coefficient": c, "estimate": float(v), "std": 0.0,
-               "unit": _fixed_unit(c, est), "status": "fixed", "dof": int(est.dof)}
+               "unit": _fixed_unit(c, est), "status": "fixed", "dof": int(est.dof),
+               **covered(k, None)}
         if engineering:
             row.update(eng_estimate=math.nan, eng_std=math.nan, eng_unit="", engineering=[])
         rows.append(row)
@@ -136,7 +156,7 @@ def _complex_num(x) -> dict | None:
         else None
 
 
-def _estimate_dict(est, name: str | None = None) -> dict:
+def _estimate_dict(est, name: str | None = None, covered=None) -> dict:
     if est.is_complex:
         out = {
             "complex": True,
@@ -155,7 +175,9 @@ def _estimate_dict(est, name: str | None = None) -> dict:
     out = {
         "coefficients": [
             {"name": est.label(c), "unit": est.units.get(c, ""), "estimate": _num(v),
-             "std": _num(s), **({"plain": c} if est.label(c) != c else {})}
+             "std": _num(s), **({"plain": c} if est.label(c) != c else {}),
+             **{key: _num(p) for key, p in (covered or {}).get(est.label(c), {}).items()
+                if math.isfinite(p)}}
             for c, v, s in zip(est.names, est.values, est.std, strict=True)
         ],
         "covariance": _matrix(est.covariance),
@@ -174,7 +196,10 @@ def to_dict(reduction) -> dict:
     condition numbers, identifiable, not identifiable, tolerance; or None),
     ``assumptions``, ``fixed``, ``provenance``, ``notes``, ``type_b`` (the
     itemised Type B contributions), ``aliases`` (the alias-matrix entries of
-    the unestimated terms) and ``priors`` (:mod:`accelcal.aliasing`).
+    the unestimated terms) and ``priors`` (:mod:`accelcal.aliasing`). A
+    coefficient with Type B has ``coverage_under_priors``
+    (:meth:`~accelcal.results.Reduction.coverage_under_priors`): derived from
+    the other fields, it is not read back but computed again.
 
     A complex estimate has ``"complex": true``; each of its coefficients
     gives ``estimate`` as ``{"re": .., "im": ..}``, ``std`` (the
@@ -184,8 +209,11 @@ def to_dict(reduction) -> dict:
     """
     rows = reduction_rows(reduction)
     sensors = []
-    for name, est in zip(reduction.sensor_names, reduction.sensors, strict=True):
-        d = _estimate_dict(est, name)
+    covered = coverage_columns(reduction)
+    for k, (name, est) in enumerate(zip(reduction.sensor_names, reduction.sensors,
+                                        strict=True)):
+        d = _estimate_dict(est, name, {est.label(c): covered(k, est.label(c))
+                                       for c in est.names})
         d["engineering"] = {r["plain"]: r["engineering"] for r in rows
                             if r["sensor"] == name and r["engineering"]}
         sensors.append(d)
@@ -413,9 +441,13 @@ def describe(reduction) -> list[str]:
     """Sentences for people: assumptions, fixed terms, identifiability, combinations, notes.
 
     Built from the fields (the assumptions' ``text``), in that order, without
-    repeats; calibration records and reports carry these.
+    repeats; calibration records and reports carry these. After the Type B
+    lines, one per row whose stated 95 % interval covers outside 93-97 %
+    with the unestimated terms following their priors
+    (:func:`accelcal.interval.statements`).
     """
     from accelcal.formatting import format_std, format_value
+    from accelcal.interval import statements
 
     lines = [a.text for a in reduction.assumptions if a.text]
     lines += [f"{name} held fixed at {value:.6g}" for name, value in reduction.fixed.items()]
@@ -428,6 +460,7 @@ def describe(reduction) -> list[str]:
         lines.append(f"determined combination {c.label} = {format_value(c.value, c.std)} "
                      f"+- {format_std(c.std)} {c.unit}".rstrip())
     lines += _type_b_lines(reduction)
+    lines += statements(reduction)
     lines += list(reduction.notes)
     return list(dict.fromkeys(lines))
 

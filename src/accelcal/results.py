@@ -353,6 +353,7 @@ class Reduction:
     type_b: tuple[Contribution, ...] = ()
     aliases: tuple[Alias, ...] = ()
     priors: tuple[Prior, ...] = ()
+    _coverages: list = field(default_factory=list, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         sensors = tuple(self.sensors)
@@ -461,11 +462,29 @@ class Reduction:
         var_a = max(self.std(row, sensor) ** 2 - sum(c.contribution**2 for c in parts), 0.0)
         return welch_satterthwaite(var_a, self.dof if self.dof > 0 else np.inf, parts)
 
+    def coverage_under_priors(self) -> tuple:
+        """What each row's stated 95 % interval covers with the terms following their priors.
+
+        One :class:`accelcal.interval.RowCoverage` per real row with Type B
+        (none for the others): the probability, computed without random
+        draws, that ``estimate +- k u_c`` (``k`` of the row's :meth:`dof_eff`)
+        holds the truth when each prior's term follows the prior's own
+        distribution and the Type A part is a t with the reduction's dof.
+        Computed once per reduction; it states, it never alters ``k`` or ``u_c``.
+        """
+        if not self._coverages:
+            from accelcal.interval import coverages
+
+            self._coverages.append(tuple(coverages(self)))
+        return self._coverages[0]
+
     # ------------------------------------------------------------- outputs
     def rows(self, *, engineering: bool = True) -> list[dict]:
         """One row per sensor and coefficient (and per fixed coefficient).
 
-        Keys: ``sensor, coefficient, estimate, std, unit, status, dof`` and,
+        Keys: ``sensor, coefficient, estimate, std, unit, status, dof``;
+        where the reduction has Type B, ``coverage_under_priors`` (NaN for a
+        row without: :meth:`coverage_under_priors`) and,
         where a coefficient has engineering units (:mod:`accelcal.engineering`),
         ``eng_estimate, eng_std, eng_unit`` (the first of them) and
         ``engineering`` (all of them, as a list of dicts). A complex

@@ -135,9 +135,10 @@ def _rig_rows(result) -> list[dict]:
     if est is None:
         return []
     nan = float("nan")
+    covered = {"coverage_under_priors": nan} if result.type_b else {}  # the sensor rows' keys
     return [{"sensor": "rig", "coefficient": n, "estimate": float(v), "std": float(s),
              "unit": est.units.get(n, ""), "status": "fitted", "dof": int(result.dof), "plain": n,
-             "eng_estimate": nan, "eng_std": nan, "eng_unit": "", "engineering": []}
+             **covered, "eng_estimate": nan, "eng_std": nan, "eng_unit": "", "engineering": []}
             for n, v, s in zip(est.names, est.values, est.std, strict=True)]
 
 
