@@ -143,6 +143,9 @@ def coverage_probability(half_width: float, type_a: float, dof_a: float, terms) 
     if span <= 1e-12 * (half_width + scale):
         return float(inside(0.0)) if scale > 0.0 else float(half_width >= 0.0)
     h = span / CELLS
+    widest = max((v for d, v in grid if d == "rectangular"), default=0.0)
+    if widest > 0.0:  # cell edges at the widest bound's ends: its masses are exact
+        h = widest / (max(round(widest / h - 0.5), 0) + 0.5)
     masses = np.ones(1)
     for d, v in grid:
         masses = np.clip(fftconvolve(masses, _cell_masses(d, v, h)), 0.0, None)
@@ -216,9 +219,10 @@ def row_coverage(reduction, row: str, sensor: int = 0) -> RowCoverage | None:
     """:class:`RowCoverage` of one row of a reduction; None for a row without Type B.
 
     The row's Type B inputs are its contributions (``Reduction.contributions``),
-    those of one input added linearly with their signs; the Type A part is
-    what ``Reduction.dof_eff`` takes it to be (the variance less the Type B
-    contributions, the reduction's dof).
+    those of one input added linearly with their signs (one term: the
+    covariance ``A u^2 A'`` adds them so); the Type A part is the row's
+    variance less theirs, with the reduction's dof; ``k`` is that of the
+    row's ``Reduction.dof_eff``.
     """
     parts = reduction.contributions(row, sensor)
     if not parts or reduction.sensors[sensor].is_complex:
@@ -238,7 +242,7 @@ def row_coverage(reduction, row: str, sensor: int = 0) -> RowCoverage | None:
         ratio = 1.0 if dist == "normal" else prior.value / prior.standard
         terms.append((dist, abs(s) * ratio))
         shares[name] = (s**2 / u_c**2, dist)
-    var_a = max(u_c**2 - sum(c.contribution**2 for c in parts), 0.0)
+    var_a = max(u_c**2 - sum(s**2 for s in signed.values()), 0.0)
     dof_a = reduction.dof if reduction.dof > 0 else math.inf
     k = coverage_factor(reduction.dof_eff(row, sensor))
     p = coverage_probability(k * u_c, math.sqrt(var_a), dof_a, terms)
