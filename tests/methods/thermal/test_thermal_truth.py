@@ -73,3 +73,21 @@ def test_plateau_temperature_uncertainty_widens_the_temperature_coefficient(defa
     wide = reduce_thermal(rec, order=1, temperature_sd=0.5)
     assert wide.provenance["temperature_sd"] == [0.5] * 8
     assert wide.std("K0_T1") > plain.std("K0_T1")
+
+
+def test_rows_of_a_kept_plateau_covariance_are_said_conservative():
+    # at order 2 the plateaus' noise carries the drift during each tumble: where the Birge
+    # ratio keeps their covariance, the note names every row of that polynomial and why
+    rec = simulate(accelcal.default_model(), PROGRAMME, tau=600.0, noise=2e-5,
+                   temperature_noise=0.01, seed=4)
+    red = reduce_thermal(rec, order=2)
+    (note,) = [n for n in red.notes if "95 % intervals conservative" in n]
+    rows = note.split(":")[0].split(", ")
+    birge = red.provenance["birge_ratio"]
+    kept = [b for b, r in birge.items() if r <= 1.0]
+    assert kept
+    for b in birge:
+        mine = {red.estimate.label(b), f"{b}_T1", f"{b}_T2"}
+        assert mine <= set(rows) if b in kept else not mine & set(rows)
+    assert "Birge ratio scales it up only" in note
+    assert "drift" in note
