@@ -144,8 +144,8 @@ def coverage_probability(half_width: float, type_a: float, dof_a: float, terms) 
         return float(inside(0.0)) if scale > 0.0 else float(half_width >= 0.0)
     h = span / CELLS
     widest = max((v for d, v in grid if d == "rectangular"), default=0.0)
-    if widest > 0.0:  # cell edges at the widest bound's ends: its masses are exact
-        h = widest / (max(round(widest / h - 0.5), 0) + 0.5)
+    if widest >= h:  # cell edges at the widest bound's ends: its masses are exact
+        h = widest / (max(round(widest / h - 0.5), 1) + 0.5)
     masses = np.ones(1)
     for d, v in grid:
         masses = np.clip(fftconvolve(masses, _cell_masses(d, v, h)), 0.0, None)
