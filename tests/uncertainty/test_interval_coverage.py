@@ -176,3 +176,10 @@ def test_head_single_states_k_i_conservative_in_rows_notes_and_records(head_sing
     assert all("conservative" in n and "K0_asym uniform within its bound" in n for n in lines)
     records = red.to_records(LabInfo(("A", "B", "C", "D"), "op", "2026-01-02T03:04:05+00:00"))
     assert any(n.startswith("K_I (U1): 95 % interval") for n in records[0].notes)
+
+
+def test_a_bound_narrower_than_a_cell_leaves_the_grid_as_it_is():
+    # (a bound of 1e-9 beside a sign term of 1 once made the cells 2e-9 wide: 1e9 of them)
+    got = coverage_probability(1.2, 0.3, 20, [("two-point", 1.0), ("rectangular", 1e-9)])
+    assert got == pytest.approx(coverage_probability(1.2, 0.3, 20, [("two-point", 1.0)]),
+                                abs=1e-6)
