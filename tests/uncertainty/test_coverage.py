@@ -48,8 +48,9 @@ KNOWN_MISSES: dict[tuple[str, str], str] = {
         "800-1199), as the Fourier route's K3 (docs/coverage.md)",
     ("test_thermal_contract.TestContractOrder2", "*"):
         "conservative (SD ratio 0.83-0.90, coverage 0.97-0.99): the Birge ratio scales the "
-        "plateaus' covariance up only, and their noise carries the drift during each tumble "
-        "(docs/coverage.md, docs/thermal.md)",
+        "plateaus' covariance up only, and their noise carries the drift during each tumble; "
+        "the output's note names the rows of every polynomial whose plateau covariance is "
+        "kept ('95 % intervals conservative', docs/coverage.md, docs/thermal.md)",
     ("test_acceptance_contract.TestThresholdContract", "threshold"):
         "a ladder increment decided by the 50 % rule: exact unless a decision errs, at the "
         "stated error probability (test_acceptance_decision.py); its SD is the ladder's spacing",
