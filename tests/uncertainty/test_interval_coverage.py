@@ -183,3 +183,24 @@ def test_a_bound_narrower_than_a_cell_leaves_the_grid_as_it_is():
     got = coverage_probability(1.2, 0.3, 20, [("two-point", 1.0), ("rectangular", 1e-9)])
     assert got == pytest.approx(coverage_probability(1.2, 0.3, 20, [("two-point", 1.0)]),
                                 abs=1e-6)
+
+
+def test_the_command_line_prints_the_statement_and_the_column(tmp_path, capsys):
+    from helpers.cli import run_cli
+
+    path = tmp_path / "head.csv"
+    code, _, err = run_cli(["dividing-head", "simulate", "--positions", "24", "--noise", "1e-7",
+                            "--angle-error", "none",
+                            "--seed", "1", "--out", path], capsys)
+    assert code == 0, err
+    code, out, err = run_cli(["dividing-head", "reduce", path, "--method", "single",
+                              "--format", "json"], capsys)
+    assert code == 0, err
+    rows = json.loads(out)  # the notes go to standard error: the JSON stays whole
+    k_i = [r for r in rows if r["plain"] == "K_I"]
+    assert all(r["coverage_under_priors"] > BAND[1] for r in k_i)
+    assert "note: K_I (U1): 95 % interval" in err
+    code, out, _ = run_cli(["dividing-head", "reduce", path, "--method", "single"], capsys)
+    assert code == 0
+    assert "coverage_under_priors" in out
+    assert "conservative: covers" in out

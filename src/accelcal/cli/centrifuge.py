@@ -197,8 +197,10 @@ def reduce(
             typer.echo(f"wrote {p}", err=True)
     emit(result.rows() + _rig_rows(result), fmt,
          title=f"{file}: {result.method} (coefficients in g/g^n, K1 in {record.output_unit}/g)")
+    from accelcal.interval import statements
+
     stream = sys.stdout if fmt == "table" else sys.stderr
-    for note in result.notes:
+    for note in (*result.notes, *statements(result)):
         print(f"note: {note}", file=stream)
 
 

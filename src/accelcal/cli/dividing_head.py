@@ -344,6 +344,10 @@ def reduce_cmd(
     emit(rows, fmt,
          title=f"{file}: method {method} (coefficients in {record.output_unit}, "
                f"{record.output_unit}/g, {record.output_unit}/g^2)")
+    from accelcal.interval import statements
+
+    for note in statements(result):  # where a 95 % interval covers outside 93-97 %
+        typer.echo(f"note: {note}", err=fmt != "table")
 
 
 def _true_angle_error(record):

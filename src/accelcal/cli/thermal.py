@@ -172,8 +172,10 @@ def reduce(
             typer.echo(f"wrote {p}", err=True)
     emit(red.rows(), fmt, title=f"Thermal reduction ({red.method}, orders "
                                 f"{red.assumed('orders')}, dof {red.dof}), {file}")
+    from accelcal.interval import statements
+
     stream = sys.stdout if fmt == "table" else sys.stderr
-    for note in (*red.estimate.notes, red.assumption("order_selection").text):
+    for note in (*red.estimate.notes, *statements(red), red.assumption("order_selection").text):
         print(f"note: {note}", file=stream)
 
 

@@ -295,7 +295,9 @@ def _print_calibration(lab, rows, *, fmt: str, file: Path) -> None:
     if sweep:
         emit(sweep, "table", title="threshold factor sweep (Tedaldi)")
     typer.echo(f"condition number {summary['condition_number']:.3g}")
-    for note in red.notes:
+    from accelcal.interval import statements
+
+    for note in (*red.notes, *statements(red)):
         typer.echo(f"note: {note}")
 
 

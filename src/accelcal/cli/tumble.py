@@ -182,7 +182,9 @@ def reduce(  # noqa: PLR0917 - one parameter per command-line option
         f"combination {tumble.combination_label(c)} = {c.value:.10g} +- {c.std:.3g} {c.unit}"
         for c in result.combinations
     ]
-    lines += [f"note: {n}" for n in result.estimate.notes]
+    from accelcal.interval import statements
+
+    lines += [f"note: {n}" for n in (*result.estimate.notes, *statements(result))]
     lines += [f"note: {n}" for n in alias_text(
         a for a in result.aliases if a.term not in {p.name for p in result.priors})]
     stream = sys.stdout if fmt == "table" else sys.stderr
