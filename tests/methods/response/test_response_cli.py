@@ -1,7 +1,7 @@
 """``accelcal response``: simulate -> reduce -> fit, outputs, and bad input in one line."""
 
 import json
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import numpy as np
 import pytest
@@ -194,7 +194,7 @@ def test_records_of_the_response_and_its_fit_make_a_certificate(record, tmp_path
                            capsys)
     assert code == 0, err
     out = tmp_path / "c.json"
-    issued = datetime.now(timezone.utc).date().isoformat()  # the records are dated today
+    issued = datetime.now(UTC).date().isoformat()  # the records are dated today
     code, stdout, err = run_cli(["certificate", comparison, fit, "--lab", LAB, "--out",
                                  tmp_path / "c.html", "--json", out, "--issued", issued,
                                  "--phase-at", "80,315"], capsys)
