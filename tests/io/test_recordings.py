@@ -14,7 +14,13 @@ import pandas as pd
 import pytest
 
 from accelcal.errors import AccelcalError
-from accelcal.io.recordings import InputOptions, describe, iter_blocks, read_recording
+from accelcal.io.recordings import (
+    InputOptions,
+    describe,
+    iter_blocks,
+    open_stream,
+    read_recording,
+)
 from accelcal.io.records import write_record
 from accelcal.units import STANDARD_GRAVITY
 from helpers.paths import REAL_IMUCAL
@@ -117,6 +123,26 @@ def test_streamed_blocks_equal_the_whole(tmp_path):
     prov, rate = describe(path, opts)
     assert rate == whole.rate
     assert prov["sha256"] == whole.provenance["sha256"]
+
+
+def test_blocks_in_column_order_and_an_opened_stream_give_the_same_values(tmp_path):
+    df = table(n=1003)
+    path = tmp_path / "daq.csv"
+    df.to_csv(path, index=False)
+    opts = InputOptions(columns=("X", "Y", "Z"), time="time_ms", time_unit="ms", unit="g",
+                        scale=2.0)
+    rows_first = list(iter_blocks(path, opts, rows=100))
+    stream = open_stream(path, opts, digest=False)
+    columns_first = list(stream.blocks(100, order="F"))
+    assert [b.start for b in columns_first] == [b.start for b in rows_first]
+    for a, b in zip(rows_first, columns_first, strict=True):
+        assert a.values.flags.c_contiguous
+        assert b.values.flags.f_contiguous
+        np.testing.assert_array_equal(b.values, a.values)
+        np.testing.assert_array_equal(b.time, a.time)
+    assert (stream.provenance, stream.rate) == describe(path, opts, digest=False)
+    with pytest.raises(ValueError, match="order"):
+        next(iter_blocks(path, opts, order="A"))
 
 
 def test_accelcal_record_is_read_with_its_metadata(tmp_path):
