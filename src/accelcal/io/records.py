@@ -414,22 +414,33 @@ def _read_parquet(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
 PARQUET_CODEC = "lz4"
 """Compression of the Parquet records accelcal writes.
 
-Noise-like float channels barely compress, so the codec is chosen for speed;
+Noise-like float channels barely compress, so the codec is chosen for speed
+(on such channels LZ4 costs a few per cent of the write; it is kept because
+raw ADC counts stored as float64, and time columns, do compress);
 dictionary encoding, pyarrow's default, spent most of an import's write on
 float columns whose values never repeat (``benchmarks/import.py`` times the
 import beside one read of the same file)."""
+
+PARQUET_BATCH = 1 << 16
+"""Values the Parquet writer encodes at a time (pyarrow's default, 1,024, spent a tenth
+of a float record's write on per-batch work; a page may exceed its 1 MiB target by up
+to one batch, 512 KiB of float64)."""
 
 
 def parquet_options(schema) -> dict:
     """Writer options of a record's Parquet file: no dictionary on float channels, LZ4.
 
     A dictionary only pays on columns of few distinct values (a point index,
-    text); float samples get none (:data:`PARQUET_CODEC`).
+    text); float samples get none (:data:`PARQUET_CODEC`). Values are
+    encoded :data:`PARQUET_BATCH` at a time. Column statistics (each row
+    group's minimum and maximum) are kept: a reader that selects a time
+    range skips row groups by them.
     """
     import pyarrow as pa
 
     keep = [f.name for f in schema if not pa.types.is_floating(f.type)]
-    return {"use_dictionary": keep or False, "compression": PARQUET_CODEC}
+    return {"use_dictionary": keep or False, "compression": PARQUET_CODEC,
+            "write_batch_size": PARQUET_BATCH}
 
 
 def _write_parquet(path, header: dict, columns: dict[str, np.ndarray]) -> None:
