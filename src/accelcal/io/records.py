@@ -67,7 +67,8 @@ _MAX_HEADER_BYTES = 64 * 1024
 _FINITE_NUMBER = r"^\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\s*$"
 
 
-def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray]) -> None:
+def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray], *,
+                 flush: bool = True) -> None:
     """Write a record file atomically.
 
     Parameters
@@ -81,6 +82,10 @@ def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray]
     columns : dict of str to array_like
         Equal-length 1-D columns, written in this order with full precision
         (every float reads back bit for bit).
+    flush : bool
+        Flush the file to the disk before it is moved into place
+        (:func:`~accelcal.io.atomic.atomic_path`); False for a scratch record
+        read back at once and removed.
 
     Raises
     ------
@@ -100,10 +105,10 @@ def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray]
     check_units(units, names, "record metadata")
     header = {"format_version": FORMAT_VERSION, "kind": kind, **metadata}
     if _is_parquet(path):
-        _write_parquet(path, header, dict(zip(names, arrays, strict=True)))
+        _write_parquet(path, header, dict(zip(names, arrays, strict=True)), flush=flush)
         return
     preamble = f"{MARKER}\n# {json.dumps(header, allow_nan=False)}\n{','.join(names)}\n"
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+    with atomic_path(path, flush=flush) as tmp, open(tmp, "wb") as fh:
         fh.write(preamble.encode("utf-8"))
         if names:
             write_rows(fh, names, arrays)
@@ -443,14 +448,15 @@ def parquet_options(schema) -> dict:
             "write_batch_size": PARQUET_BATCH}
 
 
-def _write_parquet(path, header: dict, columns: dict[str, np.ndarray]) -> None:
+def _write_parquet(path, header: dict, columns: dict[str, np.ndarray], *,
+                   flush: bool = True) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     table = pa.table(columns).replace_schema_metadata(
         {"accelcal": json.dumps(header, allow_nan=False)}
     )
-    with atomic_path(path) as tmp:
+    with atomic_path(path, flush=flush) as tmp:
         pq.write_table(table, tmp, **parquet_options(table.schema))
 
 

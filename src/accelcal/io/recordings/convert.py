@@ -411,7 +411,8 @@ def _validate_long(staged: Path, plan: Layout, samples: int, rows: int, first: d
     # a short name beside the staged record (its own name may take a file name's 255 bytes)
     probe = staged.with_name(("p" if staged.stem != "p" else "q") + staged.suffix)
     write_record(probe, plan.kind, {k: v for k, v in meta.items()
-                                    if k not in ("format_version", "kind")}, first)
+                                    if k not in ("format_version", "kind")}, first,
+                 flush=False)  # a scratch file, read at once and removed
     validator(plan.kind)(probe)
     probe.unlink()
     if staged.suffix.lower() == ".parquet":
