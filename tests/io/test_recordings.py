@@ -238,3 +238,16 @@ def test_time_that_overflows_is_refused(tmp_path):
     path.write_text("t,a,b,c\n-1e308,1,2,3\n1e308,1,2,3\n")
     with pytest.raises(AccelcalError, match="data row 2, is empty or not a finite"):
         read_recording(path, InputOptions(columns=("a", "b", "c"), time="t", unit="g"))
+
+
+def test_the_finite_check_passes_a_sum_that_overflows_and_finds_a_nan_among_large_values():
+    from accelcal.io.recordings.checks import check_values
+
+    large = np.full((20, 2), 1e308)  # finite samples whose sum overflows
+    check_values(large, ("a", "b"), 0, "f.csv")
+    large[13, 1] = np.nan
+    with pytest.raises(AccelcalError, match=r"column b, data row 14,"):
+        check_values(large, ("a", "b"), 0, "f.csv")
+    pair = np.array([[np.inf, 1.0], [-np.inf, 1.0]])  # the sum is NaN: searched, found
+    with pytest.raises(AccelcalError, match=r"column a, data row 1,"):
+        check_values(pair, ("a", "b"), 0, "f.csv")
