@@ -21,7 +21,8 @@ g, written once by pyarrow) is, in the section ``speed``,
   SHA-256 of the source, Parquet row groups, the record streamed back to
   validate it).
 
-The same section then writes the four channels to a TDMS file (npTDMS,
+The same section then writes, for each of ``--tdms-rows`` sizes (default 2
+and 8 million rows), the four channels to a TDMS file (npTDMS,
 segments of 65,536 rows, ``wf_increment`` 1 ms, no time column) and times,
 interleaved, ``nptdms.TdmsFile.read`` of the four channels (the floor: the
 file read whole into arrays, no checks); the parts of the least an import
@@ -30,7 +31,9 @@ Parquet write of the arrays (read once beforehand) with the record's
 options, in the same blocks; the three in one run; ``iter_blocks`` of it
 and ``import -> parquet`` of it, in the same blocks. The summary gives the
 import against the read (the target: at most 3x) and the parts against
-the read, so that a floor above the target shows as such.
+the read, so that a floor above the target shows as such, and says which.
+The read whole costs more per row as the file grows (it allocates every
+channel at once), the streamed import does not: hence two sizes.
 
 Each figure is the median of ``--repeats`` runs (default 5; ``--repeat`` is
 the same option) timed interleaved by :func:`common.interleaved` (A, B, C,
@@ -233,7 +236,20 @@ def bench_tdms(report: common.Report, src: Path, rows: int, block_rows: int,
         ("import -> parquet / (read + SHA-256 + Parquet write), median wall (CPU) times",
          (f"{common.median(runs[imported]) / common.median(runs[least]):.2f} "
          f"({cpu(imported) / cpu(least):.2f})")),
-    ], "TDMS import speed: summary"))
+        ("the target (import at most 3x the read, wall)", _verdict(
+            by_name[imported].ratio, by_name[floor].ratio + by_name[parquet].ratio, parts)),
+    ], f"TDMS import speed, {rows:,} rows: summary"))
+
+
+def _verdict(ratio: float, overlapped: float, parts: float) -> str:
+    """Whether the import is within 3x of the read, and if not, whether the floor is."""
+    if ratio <= 3:
+        return f"met ({ratio:.2f})"
+    if overlapped > 3:
+        return (f"not met ({ratio:.2f}); not reachable here: the read and the Parquet write "
+                f"alone take {overlapped:.2f}x the read ({parts:.2f}x with the SHA-256)")
+    return (f"not met ({ratio:.2f}); the read and the Parquet write alone take "
+            f"{overlapped:.2f}x the read ({parts:.2f}x with the SHA-256)")
 
 
 _CHILD = """
@@ -373,6 +389,8 @@ def main(argv=None) -> None:
     parser.add_argument("sections", nargs="*", choices=["speed", "memory", "detect", []],
                         default=[])
     parser.add_argument("--rows", type=int, default=2_000_000)
+    parser.add_argument("--tdms-rows", type=float, nargs="+", default=[2e6, 8e6],
+                        help="speed: rows of each TDMS file (default 2e6 and 8e6)")
     parser.add_argument("--repeats", "--repeat", type=int, default=5,
                         help="speed: interleaved repeats (>= 5)")
     parser.add_argument("--block-rows", type=int, default=1 << 20)
@@ -389,9 +407,11 @@ def main(argv=None) -> None:
             write_csv(src, args.rows)
             if "speed" in sections:
                 bench_speed(report, src, args.rows, args.block_rows, args.repeats)
-                tdms = Path(tmp) / "daq.tdms"
-                write_tdms(tdms, args.rows)
-                bench_tdms(report, tdms, args.rows, args.block_rows, args.repeats)
+                for tdms_rows in args.tdms_rows:
+                    tdms = Path(tmp) / "daq.tdms"
+                    write_tdms(tdms, int(tdms_rows))
+                    bench_tdms(report, tdms, int(tdms_rows), args.block_rows, args.repeats)
+                    tdms.unlink()
             if "memory" in sections:
                 bench_memory(report, src, args.rows, args.block_rows)
             report.finish(args.update_docs)
