@@ -104,7 +104,9 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
     spec = declared(kind)
     timed = spec.stream or spec.time
     opts = dataclasses.replace(options, columns=tuple(channels.values()), refuse_gaps=timed)
-    stream = open_stream(path, opts, need_rate=timed, what=f"{kind} record", digest=False)
+    repairs = Repairs()
+    stream = open_stream(path, opts, need_rate=timed, what=f"{kind} record", digest=False,
+                         repairs=repairs, order="F")  # the rate's block is the stream's first
     digest = _Digest(path)  # read on another core while the record is written
     prov, rate = dict(stream.provenance), stream.rate
     prov = {"file": prov.pop("file"), "sha256": None, **prov}
@@ -125,7 +127,6 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
     try:
         with temp_directory(out.parent, "import") as stage:
             staged = stage / out.name
-            repairs = Repairs()
             samples, stats, first = _write(staged, header, plan,
                                            stream.blocks(rows, repairs=repairs, order="F"),
                                            rate=rate, progress=progress,

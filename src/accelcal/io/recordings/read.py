@@ -25,7 +25,9 @@ References
    with the data: here, the file's identity and how it was read).
 """
 
+import copy
 import hashlib
+import itertools
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
@@ -214,47 +216,66 @@ def iter_blocks(path, options: InputOptions | None = None, *, rows: int = DEFAUL
     yield from _blocks(plan, rows, options, repairs, order)
 
 
-@dataclass(frozen=True)
 class Stream:
     """A recording opened once for streaming (:func:`open_stream`).
 
-    Its ``provenance`` and ``rate`` (as :func:`describe` gives them) and its
-    :meth:`blocks`, read with the same settled plan (the file's layout is
-    not read again).
+    Its ``plan``, ``provenance`` and ``rate`` (as :func:`describe` gives
+    them) and its :meth:`blocks`, read with the same settled plan (the
+    file's layout is not read again).
     """
 
-    plan: Plan
-    options: InputOptions
-    provenance: dict
-    rate: float | None
+    def __init__(self, plan: Plan, options: InputOptions, provenance: dict,
+                 rate: float | None, opened: tuple | None = None):
+        self.plan, self.options, self.provenance, self.rate = plan, options, provenance, rate
+        self._opened = opened  # (rows, repairs, order, repairs before), first block, rest
 
     def blocks(self, rows: int = DEFAULT_BLOCK_ROWS, *, repairs: Repairs | None = None,
                order: str = "C") -> Iterator[Block]:
-        """The blocks, as :func:`iter_blocks` yields them."""
+        """The blocks, as :func:`iter_blocks` yields them.
+
+        The first call with the ``rows``, ``repairs`` and ``order`` the
+        stream was opened with goes on from the block read for the rate (it
+        is not read twice); any other call reads the file from its start.
+        """
         _check_order(order)
+        opened, self._opened = self._opened, None
+        if opened is not None:
+            (o_rows, o_repairs, o_order, before), first, rest = opened
+            if (o_rows, o_order) == (rows, order) and o_repairs is repairs:
+                return itertools.chain((first,), rest)
+            rest.close()
+            if o_repairs is not None:  # what the unused block found is forgotten
+                o_repairs.findings, o_repairs.segments = before.findings, before.segments
         return _blocks(self.plan, rows, self.options, repairs, order)
 
 
 def open_stream(path, options: InputOptions | None = None, *, channels: int | None = None,
                 need_rate: bool = True, what: str = "recording", digest: bool = True,
-                rows: int = DEFAULT_BLOCK_ROWS) -> Stream:
+                rows: int = DEFAULT_BLOCK_ROWS, repairs: Repairs | None = None,
+                order: str = "C") -> Stream:
     """Open a recording for streaming: its provenance and rate, then its blocks.
 
     The parameters are those of :func:`describe` (the rate is read from a
     first block of ``rows`` rows when the file has a time column and no
     stated rate); :meth:`Stream.blocks` then streams it as
-    :func:`iter_blocks` does, with the same checks.
+    :func:`iter_blocks` does, with the same checks. That first block is
+    read with ``repairs`` and ``order`` and kept for the stream's first
+    :meth:`~Stream.blocks` with the same ``rows``, ``repairs`` and ``order``.
     """
+    _check_order(order)
     options = options or InputOptions()
     plan = make_plan(path, options, channels, need_rate, what)
-    rate = plan.rate
+    rate, opened = plan.rate, None
     if rate is None and plan.time is not None:
-        first = next(_blocks(plan, rows, options), None)
+        before = copy.deepcopy(repairs)
+        blocks = _blocks(plan, rows, options, repairs, order)
+        first = next(blocks, None)
         if first is None or first.time is None or first.time.size < 2:
             raise AccelcalError(f"{shown_name(plan.source.path.name)}: too few samples to "
                                 "tell the sample rate from the time column", parameter="rate")
         rate = _rate_of(first.time, plan)
-    return Stream(plan, options, provenance(plan, rate, None, digest=digest), rate)
+        opened = ((rows, repairs, order, before), first, blocks)
+    return Stream(plan, options, provenance(plan, rate, None, digest=digest), rate, opened)
 
 
 def describe(path, options: InputOptions | None = None, *, channels: int | None = None,
