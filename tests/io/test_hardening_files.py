@@ -78,6 +78,28 @@ def test_a_full_disk_found_at_flush_is_reported(tmp_path, monkeypatch):
     assert leftovers(tmp_path) == []
 
 
+def test_a_scratch_record_is_not_flushed_and_an_imported_record_is(tmp_path, monkeypatch):
+    # The import's probe record (read back at once and removed) skips the flush to disk;
+    # every record that stays, the imported one included, is flushed before it appears.
+    from accelcal.io.recordings import InputOptions
+    from accelcal.io.recordings.convert import import_recording
+
+    flushed = []
+    monkeypatch.setattr(os, "fsync", lambda fd: flushed.append(os.fstat(fd).st_size))
+    write_record(tmp_path / "s.parquet", "demo", {"units": UNITS}, {"t": [0.0], "u": [1.0]},
+                 flush=False)
+    assert flushed == []
+    write_record(tmp_path / "k.parquet", "demo", {"units": UNITS}, {"t": [0.0], "u": [1.0]})
+    assert flushed == [(tmp_path / "k.parquet").stat().st_size]
+    n = 70_000  # more than the probe's 2^16 rows: the probe record is written
+    src = tmp_path / "daq.csv"
+    src.write_text("acc\n" + "\n".join(str(k % 7 * 1e-3) for k in range(n)) + "\n")
+    flushed.clear()
+    import_recording(src, InputOptions(rate=100.0, unit="g"), kind="noise",
+                     channels={"acc": "acc"}, out=tmp_path / "n.parquet", rows=1 << 15)
+    assert flushed == [(tmp_path / "n.parquet").stat().st_size]
+
+
 def test_unwritable_directory_is_reported(tmp_path, monkeypatch):
     real_open = os.open
 

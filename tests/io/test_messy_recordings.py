@@ -235,3 +235,36 @@ def test_clipped_runs_refused_or_left_out_of_the_allan_deviation(tmp_path, capsy
     assert (int(row["n"]), float(row["dev"])) == (count, pytest.approx(dev, rel=1e-9))
     assert "note: 30 clipped samples (runs of 3 or more at a rail) (data rows 201, 202" in err
     refused([*base[:-2], "--rails", "2,1"], capsys, "low below high")
+
+
+def test_an_opened_stream_goes_on_from_its_rate_block_and_forgets_it_when_read_anew(
+        tmp_path, monkeypatch):
+    from accelcal.io.recordings import open_stream, sources
+    from accelcal.io.recordings.repairs import Repairs
+
+    t = np.array([0, 1, 2, 2, 3, 3, 4, 5, 6, 7]) / RATE  # rows 4 and 6 repeat the row before
+    path = _csv(tmp_path / "dup.csv", t, np.array([1, 2, 3, 3, 4, 4, 5, 6, 7, 8.0]))
+    opts = InputOptions(time="t", columns=("c0",), unit="g")
+    whole = _read(path)
+    batches, read = sources.batches, []
+
+    def counted(*args, **kwargs):
+        for batch in batches(*args, **kwargs):
+            read.append(len(batch["t"]))
+            yield batch
+
+    monkeypatch.setattr(sources, "batches", counted)
+    repairs = Repairs()
+    stream = open_stream(path, opts, rows=4, repairs=repairs, order="F")
+    assert stream.rate == pytest.approx(RATE)
+    values = np.concatenate([b.values for b in stream.blocks(4, repairs=repairs, order="F")])
+    np.testing.assert_array_equal(values, whole.values)
+    assert read == [4, 4, 2]  # the rate's block is the stream's first: each row read once
+    assert repairs.to_dict() == whole.repairs.to_dict()
+    repairs, read[:] = Repairs(), []
+    stream = open_stream(path, opts, rows=4, repairs=repairs)
+    values = np.concatenate([b.values for b in stream.blocks(3, repairs=repairs)])
+    np.testing.assert_array_equal(values, whole.values)
+    assert read == [4, 3, 3, 3, 1]  # other blocks: read anew from the start
+    dup = repairs.findings["duplicated rows (same time, same values)"]
+    assert (dup.count, dup.rows) == (2, [4, 6])  # not counted twice

@@ -14,7 +14,13 @@ import pandas as pd
 import pytest
 
 from accelcal.errors import AccelcalError
-from accelcal.io.recordings import InputOptions, describe, iter_blocks, read_recording
+from accelcal.io.recordings import (
+    InputOptions,
+    describe,
+    iter_blocks,
+    open_stream,
+    read_recording,
+)
 from accelcal.io.records import write_record
 from accelcal.units import STANDARD_GRAVITY
 from helpers.paths import REAL_IMUCAL
@@ -119,6 +125,26 @@ def test_streamed_blocks_equal_the_whole(tmp_path):
     assert prov["sha256"] == whole.provenance["sha256"]
 
 
+def test_blocks_in_column_order_and_an_opened_stream_give_the_same_values(tmp_path):
+    df = table(n=1003)
+    path = tmp_path / "daq.csv"
+    df.to_csv(path, index=False)
+    opts = InputOptions(columns=("X", "Y", "Z"), time="time_ms", time_unit="ms", unit="g",
+                        scale=2.0)
+    rows_first = list(iter_blocks(path, opts, rows=100))
+    stream = open_stream(path, opts, digest=False)
+    columns_first = list(stream.blocks(100, order="F"))
+    assert [b.start for b in columns_first] == [b.start for b in rows_first]
+    for a, b in zip(rows_first, columns_first, strict=True):
+        assert a.values.flags.c_contiguous
+        assert b.values.flags.f_contiguous
+        np.testing.assert_array_equal(b.values, a.values)
+        np.testing.assert_array_equal(b.time, a.time)
+    assert (stream.provenance, stream.rate) == describe(path, opts, digest=False)
+    with pytest.raises(ValueError, match="order"):
+        next(iter_blocks(path, opts, order="A"))
+
+
 def test_accelcal_record_is_read_with_its_metadata(tmp_path):
     t = np.arange(50) / 200.0
     path = tmp_path / "triad.csv"
@@ -212,3 +238,16 @@ def test_time_that_overflows_is_refused(tmp_path):
     path.write_text("t,a,b,c\n-1e308,1,2,3\n1e308,1,2,3\n")
     with pytest.raises(AccelcalError, match="data row 2, is empty or not a finite"):
         read_recording(path, InputOptions(columns=("a", "b", "c"), time="t", unit="g"))
+
+
+def test_the_finite_check_passes_a_sum_that_overflows_and_finds_a_nan_among_large_values():
+    from accelcal.io.recordings.checks import check_values
+
+    large = np.full((20, 2), 1e308)  # finite samples whose sum overflows
+    check_values(large, ("a", "b"), 0, "f.csv")
+    large[13, 1] = np.nan
+    with pytest.raises(AccelcalError, match=r"column b, data row 14,"):
+        check_values(large, ("a", "b"), 0, "f.csv")
+    pair = np.array([[np.inf, 1.0], [-np.inf, 1.0]])  # the sum is NaN: searched, found
+    with pytest.raises(AccelcalError, match=r"column a, data row 1,"):
+        check_values(pair, ("a", "b"), 0, "f.csv")

@@ -182,11 +182,12 @@ def temp_directory(parent, name: str):
 
 
 @contextlib.contextmanager
-def atomic_path(path):
+def atomic_path(path, *, flush: bool = True):
     """Yield a temporary path beside ``path``; move it into place on success.
 
     The block writes the temporary file (it exists, empty); when the block
-    ends normally the file is flushed to the disk and renamed to ``path``.
+    ends normally the file is flushed to the disk (not with ``flush=False``:
+    a scratch file read back at once and removed) and renamed to ``path``.
     If anything fails the temporary file is removed, so a failed write
     leaves nothing on disk and an existing ``path`` unchanged. A ``path``
     that exists and is not a regular file (a directory, a FIFO, a device,
@@ -209,7 +210,8 @@ def atomic_path(path):
         sweep(target.parent)
         tmp = _create_beside(target)
         yield tmp
-        _flush_to_disk(tmp)
+        if flush:
+            _flush_to_disk(tmp)
         os.replace(tmp, target)
         LIVE.discard(tmp)
     except OSError as exc:

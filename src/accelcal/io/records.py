@@ -67,7 +67,8 @@ _MAX_HEADER_BYTES = 64 * 1024
 _FINITE_NUMBER = r"^\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\s*$"
 
 
-def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray]) -> None:
+def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray], *,
+                 flush: bool = True) -> None:
     """Write a record file atomically.
 
     Parameters
@@ -81,6 +82,10 @@ def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray]
     columns : dict of str to array_like
         Equal-length 1-D columns, written in this order with full precision
         (every float reads back bit for bit).
+    flush : bool
+        Flush the file to the disk before it is moved into place
+        (:func:`~accelcal.io.atomic.atomic_path`); False for a scratch record
+        read back at once and removed.
 
     Raises
     ------
@@ -100,10 +105,10 @@ def write_record(path, kind: str, metadata: dict, columns: dict[str, np.ndarray]
     check_units(units, names, "record metadata")
     header = {"format_version": FORMAT_VERSION, "kind": kind, **metadata}
     if _is_parquet(path):
-        _write_parquet(path, header, dict(zip(names, arrays, strict=True)))
+        _write_parquet(path, header, dict(zip(names, arrays, strict=True)), flush=flush)
         return
     preamble = f"{MARKER}\n# {json.dumps(header, allow_nan=False)}\n{','.join(names)}\n"
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+    with atomic_path(path, flush=flush) as tmp, open(tmp, "wb") as fh:
         fh.write(preamble.encode("utf-8"))
         if names:
             write_rows(fh, names, arrays)
@@ -414,32 +419,44 @@ def _read_parquet(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
 PARQUET_CODEC = "lz4"
 """Compression of the Parquet records accelcal writes.
 
-Noise-like float channels barely compress, so the codec is chosen for speed;
+Noise-like float channels barely compress, so the codec is chosen for speed
+(on such channels LZ4 costs a few per cent of the write; it is kept because
+raw ADC counts stored as float64, and time columns, do compress);
 dictionary encoding, pyarrow's default, spent most of an import's write on
 float columns whose values never repeat (``benchmarks/import.py`` times the
 import beside one read of the same file)."""
+
+PARQUET_BATCH = 1 << 16
+"""Values the Parquet writer encodes at a time (pyarrow's default, 1,024, spent a tenth
+of a float record's write on per-batch work; a page may exceed its 1 MiB target by up
+to one batch, 512 KiB of float64)."""
 
 
 def parquet_options(schema) -> dict:
     """Writer options of a record's Parquet file: no dictionary on float channels, LZ4.
 
     A dictionary only pays on columns of few distinct values (a point index,
-    text); float samples get none (:data:`PARQUET_CODEC`).
+    text); float samples get none (:data:`PARQUET_CODEC`). Values are
+    encoded :data:`PARQUET_BATCH` at a time. Column statistics (each row
+    group's minimum and maximum) are kept: a reader that selects a time
+    range skips row groups by them.
     """
     import pyarrow as pa
 
     keep = [f.name for f in schema if not pa.types.is_floating(f.type)]
-    return {"use_dictionary": keep or False, "compression": PARQUET_CODEC}
+    return {"use_dictionary": keep or False, "compression": PARQUET_CODEC,
+            "write_batch_size": PARQUET_BATCH}
 
 
-def _write_parquet(path, header: dict, columns: dict[str, np.ndarray]) -> None:
+def _write_parquet(path, header: dict, columns: dict[str, np.ndarray], *,
+                   flush: bool = True) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     table = pa.table(columns).replace_schema_metadata(
         {"accelcal": json.dumps(header, allow_nan=False)}
     )
-    with atomic_path(path) as tmp:
+    with atomic_path(path, flush=flush) as tmp:
         pq.write_table(table, tmp, **parquet_options(table.schema))
 
 

@@ -11,7 +11,8 @@
 - :mod:`~accelcal.io.recordings.plan`, :mod:`~accelcal.io.recordings.checks`:
   what is read and the checks every block passes;
 - :mod:`~accelcal.io.recordings.read`: :func:`read_recording` (whole) and
-  :func:`iter_blocks` (streamed), with the same checks;
+  :func:`iter_blocks` (streamed; :func:`open_stream` gives the provenance and rate first),
+  with the same checks;
 - :mod:`~accelcal.io.recordings.convert`, :mod:`~accelcal.io.recordings.kinds`,
   :mod:`~accelcal.io.recordings.mapping`: a recording made into a record file
   of a kind (``accelcal import``), and the mapping file of a DAQ layout;
@@ -35,8 +36,10 @@ from accelcal.io.recordings.options import (
 from accelcal.io.recordings.read import (
     Block,
     Recording,
+    Stream,
     describe,
     iter_blocks,
+    open_stream,
     read_recording,
     sha256,
 )
@@ -52,8 +55,10 @@ __all__ = [
     "Block",
     "InputOptions",
     "Recording",
+    "Stream",
     "describe",
     "iter_blocks",
+    "open_stream",
     "read_recording",
     "sha256",
 ]

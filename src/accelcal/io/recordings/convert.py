@@ -1,7 +1,9 @@
 """A lab's recording converted into an accelcal record file of one kind (``accelcal import``).
 
-:func:`import_recording` streams the recording (:func:`~accelcal.io.recordings.iter_blocks`,
-one block at a time) into a record of the kind asked for
+:func:`import_recording` opens the recording once
+(:func:`~accelcal.io.recordings.open_stream`) and streams it one block at a
+time, each channel's samples contiguous (``order="F"``: a column in the
+record's unit is handed to the writer without a copy), into a record of the kind asked for
 (:mod:`~accelcal.io.recordings.kinds`): Parquet when the name ends in
 ``.parquet``, one row group per block, written with
 :class:`pyarrow.parquet.ParquetWriter`; otherwise the CSV record layout,
@@ -38,7 +40,7 @@ import numpy as np
 from accelcal.errors import AccelcalError
 from accelcal.io.recordings.kinds import Layout, declared, layout, validator
 from accelcal.io.recordings.options import TEMPERATURE_UNITS, InputOptions
-from accelcal.io.recordings.read import DEFAULT_BLOCK_ROWS, describe, iter_blocks
+from accelcal.io.recordings.read import DEFAULT_BLOCK_ROWS, describe, iter_blocks, open_stream
 from accelcal.io.recordings.repairs import Repairs
 from accelcal.validation import check_label, shown, shown_name, shown_path
 
@@ -102,8 +104,11 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
     spec = declared(kind)
     timed = spec.stream or spec.time
     opts = dataclasses.replace(options, columns=tuple(channels.values()), refuse_gaps=timed)
-    prov, rate = describe(path, opts, need_rate=timed, what=f"{kind} record", digest=False)
+    repairs = Repairs()
+    stream = open_stream(path, opts, need_rate=timed, what=f"{kind} record", digest=False,
+                         repairs=repairs, order="F")  # the rate's block is the stream's first
     digest = _Digest(path)  # read on another core while the record is written
+    prov, rate = dict(stream.provenance), stream.rate
     prov = {"file": prov.pop("file"), "sha256": None, **prov}
 
     def complete() -> None:
@@ -122,17 +127,14 @@ def import_recording(path, options: InputOptions, *, kind: str, channels: dict, 
     try:
         with temp_directory(out.parent, "import") as stage:
             staged = stage / out.name
-            repairs = Repairs()
             samples, stats, first = _write(staged, header, plan,
-                                           iter_blocks(path, opts, rows=rows, need_rate=timed,
-                                                       repairs=repairs),
+                                           stream.blocks(rows, repairs=repairs, order="F"),
                                            rate=rate, progress=progress,
                                            infos=prov.get("channels", {}), complete=complete)
             if repairs:  # known at the end: written again with them in the provenance
                 prov["repairs"] = repairs.to_dict()
                 samples, stats, first = _write(staged, header, plan,
-                                               iter_blocks(path, opts, rows=rows,
-                                                           need_rate=timed),
+                                               stream.blocks(rows, order="F"),
                                                rate=rate, progress=progress,
                                                infos=prov.get("channels", {}),
                                                complete=complete)
@@ -211,7 +213,11 @@ def _columns(plan: Layout, block, rate, state: dict) -> dict:
     out = {}
     for col, source in plan.columns.items():
         if source is not None:
-            out[col] = block.values[:, sources.index(source)] * plan.factors[col]
+            column = block.values[:, sources.index(source)]
+            # a factor of 1 changes no value: the block's column is taken as it is (a
+            # contiguous view of an "F" block, which Arrow takes without a copy)
+            out[col] = (np.ascontiguousarray(column) if plan.factors[col] == 1.0
+                        else column * plan.factors[col])
     if "t" in plan.columns and plan.columns["t"] is None:
         n = block.values.shape[0]
         row = block.start + np.arange(n)
@@ -406,7 +412,8 @@ def _validate_long(staged: Path, plan: Layout, samples: int, rows: int, first: d
     # a short name beside the staged record (its own name may take a file name's 255 bytes)
     probe = staged.with_name(("p" if staged.stem != "p" else "q") + staged.suffix)
     write_record(probe, plan.kind, {k: v for k, v in meta.items()
-                                    if k not in ("format_version", "kind")}, first)
+                                    if k not in ("format_version", "kind")}, first,
+                 flush=False)  # a scratch file, read at once and removed
     validator(plan.kind)(probe)
     probe.unlink()
     if staged.suffix.lower() == ".parquet":

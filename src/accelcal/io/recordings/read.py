@@ -25,7 +25,9 @@ References
    with the data: here, the file's identity and how it was read).
 """
 
+import copy
 import hashlib
+import itertools
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
@@ -195,17 +197,85 @@ def read_recording(path, options: InputOptions | None = None, *, channels: int |
 
 def iter_blocks(path, options: InputOptions | None = None, *, rows: int = DEFAULT_BLOCK_ROWS,
                 channels: int | None = None, need_rate: bool = True,
-                what: str = "recording", repairs: Repairs | None = None) -> Iterator[Block]:
+                what: str = "recording", repairs: Repairs | None = None,
+                order: str = "C") -> Iterator[Block]:
     """Stream a recording in blocks of at most ``rows`` rows.
 
     The checks of :func:`read_recording`, block by block; memory is bounded
     by one block (a v5 MAT-file excepted: it is read whole, see
     :mod:`~accelcal.io.recordings.matlab`). ``repairs``, when given, collects
     what was found and done (complete once the last block is read).
+    ``order``: the memory layout of each block's ``values`` as numpy names
+    it, ``"C"`` (a sample's channels side by side) or ``"F"`` (each channel's
+    samples contiguous, taken column by column without a copy, as a
+    columnar writer takes them); the values are the same.
     """
+    _check_order(order)
     options = options or InputOptions()
     plan = make_plan(path, options, channels, need_rate, what)
-    yield from _blocks(plan, rows, options, repairs)
+    yield from _blocks(plan, rows, options, repairs, order)
+
+
+class Stream:
+    """A recording opened once for streaming (:func:`open_stream`).
+
+    Its ``plan``, ``provenance`` and ``rate`` (as :func:`describe` gives
+    them) and its :meth:`blocks`, read with the same settled plan (the
+    file's layout is not read again).
+    """
+
+    def __init__(self, plan: Plan, options: InputOptions, provenance: dict,
+                 rate: float | None, opened: tuple | None = None):
+        self.plan, self.options, self.provenance, self.rate = plan, options, provenance, rate
+        self._opened = opened  # (rows, repairs, order, repairs before), first block, rest
+
+    def blocks(self, rows: int = DEFAULT_BLOCK_ROWS, *, repairs: Repairs | None = None,
+               order: str = "C") -> Iterator[Block]:
+        """The blocks, as :func:`iter_blocks` yields them.
+
+        The first call with the ``rows``, ``repairs`` and ``order`` the
+        stream was opened with goes on from the block read for the rate (it
+        is not read twice); any other call reads the file from its start.
+        """
+        _check_order(order)
+        opened, self._opened = self._opened, None
+        if opened is not None:
+            (o_rows, o_repairs, o_order, before), first, rest = opened
+            if (o_rows, o_order) == (rows, order) and o_repairs is repairs:
+                return itertools.chain((first,), rest)
+            rest.close()
+            if o_repairs is not None:  # what the unused block found is forgotten
+                o_repairs.findings, o_repairs.segments = before.findings, before.segments
+        return _blocks(self.plan, rows, self.options, repairs, order)
+
+
+def open_stream(path, options: InputOptions | None = None, *, channels: int | None = None,
+                need_rate: bool = True, what: str = "recording", digest: bool = True,
+                rows: int = DEFAULT_BLOCK_ROWS, repairs: Repairs | None = None,
+                order: str = "C") -> Stream:
+    """Open a recording for streaming: its provenance and rate, then its blocks.
+
+    The parameters are those of :func:`describe` (the rate is read from a
+    first block of ``rows`` rows when the file has a time column and no
+    stated rate); :meth:`Stream.blocks` then streams it as
+    :func:`iter_blocks` does, with the same checks. That first block is
+    read with ``repairs`` and ``order`` and kept for the stream's first
+    :meth:`~Stream.blocks` with the same ``rows``, ``repairs`` and ``order``.
+    """
+    _check_order(order)
+    options = options or InputOptions()
+    plan = make_plan(path, options, channels, need_rate, what)
+    rate, opened = plan.rate, None
+    if rate is None and plan.time is not None:
+        before = copy.deepcopy(repairs)
+        blocks = _blocks(plan, rows, options, repairs, order)
+        first = next(blocks, None)
+        if first is None or first.time is None or first.time.size < 2:
+            raise AccelcalError(f"{shown_name(plan.source.path.name)}: too few samples to "
+                                "tell the sample rate from the time column", parameter="rate")
+        rate = _rate_of(first.time, plan)
+        opened = ((rows, repairs, order, before), first, blocks)
+    return Stream(plan, options, provenance(plan, rate, None, digest=digest), rate, opened)
 
 
 def describe(path, options: InputOptions | None = None, *, channels: int | None = None,
@@ -218,16 +288,14 @@ def describe(path, options: InputOptions | None = None, *, channels: int | None 
     block's rows (give the stream's own, so that the rate is that of the
     stream's first block and no larger block is held than the stream holds).
     """
-    options = options or InputOptions()
-    plan = make_plan(path, options, channels, need_rate, what)
-    rate = plan.rate
-    if rate is None and plan.time is not None:
-        first = next(_blocks(plan, rows, options), None)
-        if first is None or first.time is None or first.time.size < 2:
-            raise AccelcalError(f"{shown_name(plan.source.path.name)}: too few samples to "
-                                "tell the sample rate from the time column", parameter="rate")
-        rate = _rate_of(first.time, plan)
-    return provenance(plan, rate, None, digest=digest), rate
+    stream = open_stream(path, options, channels=channels, need_rate=need_rate, what=what,
+                         digest=digest, rows=rows)
+    return stream.provenance, stream.rate
+
+
+def _check_order(order: str) -> None:
+    if order not in ("C", "F"):
+        raise ValueError(f"order must be 'C' or 'F', not {order!r}")
 
 
 def provenance(plan: Plan, rate: float | None, samples: int | None, *,
@@ -307,7 +375,7 @@ def _declared_rows(plan: Plan) -> int | None:
 
 
 def _blocks(plan: Plan, rows: int, options: InputOptions | None = None,
-            repairs: Repairs | None = None) -> Iterator[Block]:
+            repairs: Repairs | None = None, order: str = "C") -> Iterator[Block]:
     from accelcal.io.recordings.sources import batches
 
     name = shown_name(plan.source.path.name)
@@ -323,7 +391,7 @@ def _blocks(plan: Plan, rows: int, options: InputOptions | None = None,
              else np.array([1.0 if s is None else s for s in plan.scales]))
     start, t0, last, interval, read = 0, None, None, None, 0
     for batch in batches(plan.source, numeric, text, rows):
-        values = np.column_stack([batch[c] for c in plan.channels])
+        values = _stack([batch[c] for c in plan.channels], order)
         first, read = read, read + values.shape[0]
         if strict:
             check_values(values, plan.channels, first, name)
@@ -358,6 +426,16 @@ def _blocks(plan: Plan, rows: int, options: InputOptions | None = None,
         yield Block(values, start, time, labels)
         start += values.shape[0]
     fixer.finish()
+
+
+def _stack(columns: list[np.ndarray], order: str) -> np.ndarray:
+    """The channels' columns as one ``(rows, k)`` float64 array in the memory ``order``."""
+    if order == "C":
+        return np.column_stack(columns)
+    out = np.empty((columns[0].shape[0], len(columns)), np.result_type(*columns), order="F")
+    for k, column in enumerate(columns):
+        out[:, k] = column  # a contiguous copy per channel
+    return out
 
 
 def _median_step(time: np.ndarray, last) -> float | None:
