@@ -42,6 +42,10 @@ KNOWN_MISSES: dict[tuple[str, str], str] = {
         "its prior's +-2a rectangular (variance 3/4 of the stated Type B, which is 44 % of "
         "the biases'): SD ratio 0.85-0.94; the spread truths of the contract meet the target "
         "(docs/coverage.md)"),
+    ("test_noise_contract.TestContract", "N"):
+        "SD ratio 0.869 +- 0.032 at seeds 0-399, at the band's edge (0.868): those seeds' "
+        "fluctuation plus the Birge widening; seeds 400-1199 give 1.007 +- 0.025, coverage "
+        "0.953, checked in the slow tier (test_white_noise_sd_ratio_is_honest_over_more_seeds)",
     ("test_centrifuge_contract.TestContractJoint", "Koo"):
         "coverage 0.990 by sampling of seeds 0-399 (SD ratio 0.913): seeds 400-799 and "
         "800-1199 give SD ratio 1.044 and 1.006, coverage 0.948 and 0.932; Kop's bounded share "

@@ -67,7 +67,7 @@ class TestContract(ReductionContract):
 
 @pytest.mark.slow
 def test_white_noise_sd_ratio_is_honest_over_more_seeds():
-    # The coverage table's N (seeds 0-399) reads SD ratio 0.869 +- 0.034: those seeds'
+    # The coverage table's N (seeds 0-399) reads SD ratio 0.869 +- 0.032: those seeds'
     # fluctuation plus the Birge widening, not a covariance that is wrong. Measured: seeds
     # 400-1199 give 1.007 +- 0.025 (coverage 0.953), the 1200 pooled 0.961 +- 0.020 (0.959),
     # 0.988 without the widening of the 5.7 % of fits whose chi^2 rejects the model; and a
