@@ -60,7 +60,7 @@ _NORMAL_SPAN = 8.0
 def coverage_factor(dof: float, level: float = LEVEL) -> float:
     """``k`` of a two-sided ``level`` interval: Student's t for ``0 < dof < inf``, else normal.
 
-    The coverage harness's rule (``tests/helpers/coverage.py``).
+    The rule of the coverage harness (``tests/helpers/coverage.py``), which calls it.
     """
     from scipy.special import ndtri, stdtrit
 

@@ -21,6 +21,7 @@ References
    of freedom, expanded uncertainty).
 """
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -353,7 +354,6 @@ class Reduction:
     type_b: tuple[Contribution, ...] = ()
     aliases: tuple[Alias, ...] = ()
     priors: tuple[Prior, ...] = ()
-    _coverages: list = field(default_factory=list, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         sensors = tuple(self.sensors)
@@ -472,11 +472,13 @@ class Reduction:
         distribution and the Type A part is a t with the reduction's dof.
         Computed once per reduction; it states, it never alters ``k`` or ``u_c``.
         """
-        if not self._coverages:
-            from accelcal.interval import coverages
+        return self._coverage_rows
 
-            self._coverages.append(tuple(coverages(self)))
-        return self._coverages[0]
+    @functools.cached_property
+    def _coverage_rows(self) -> tuple:
+        from accelcal.interval import coverages
+
+        return tuple(coverages(self))
 
     # ------------------------------------------------------------- outputs
     def rows(self, *, engineering: bool = True) -> list[dict]:

@@ -47,6 +47,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from accelcal.interval import coverage_factor
 from helpers.contract import ReductionContract
 from helpers.paths import TESTS
 
@@ -122,15 +123,6 @@ class CaseCoverage:
     failures: tuple[tuple[int, str], ...]
     """(seed, exception) of experiments whose reduction raised or stated a non-finite or
     non-positive SD: every one is a defect of the method (reported, not ignored)."""
-
-
-def coverage_factor(dof: int, level: float = 0.95) -> float:
-    """``k`` of a two-sided ``level`` interval: Student's t for ``dof > 0``, else normal."""
-    from scipy import stats
-
-    if dof and 0 < dof < math.inf:
-        return float(stats.t.ppf(0.5 + level / 2, dof))
-    return float(stats.norm.ppf(0.5 + level / 2))
 
 
 def coverage(contract: ReductionContract, n: int | None = None, *,
